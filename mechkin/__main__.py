@@ -1,0 +1,3 @@
+from mechkin.cli.app import main
+
+main()

@@ -1,0 +1,48 @@
+"""Error hierarchy. Only ``mechkin.cli`` catches these and maps them to exit codes."""
+
+from __future__ import annotations
+
+
+class MechkinError(Exception):
+    """Root of every error mechkin raises on purpose."""
+
+    exit_code = 2
+
+
+class ConfigError(MechkinError):
+    """Bad input: one or more problems in mechanism or scenario files.
+
+    ``problems`` holds one line per problem, each ``file:line: key.path: message``.
+    """
+
+    exit_code = 2
+
+    def __init__(self, problems: list[str] | str) -> None:
+        if isinstance(problems, str):
+            problems = [problems]
+        self.problems = list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+class ModelError(MechkinError):
+    """A mechanism that cannot be built (topology, cuts, independent joints)."""
+
+    exit_code = 2
+
+
+class SingularityError(MechkinError):
+    """A singular configuration where the caller demanded a regular one."""
+
+    exit_code = 1
+
+
+class ConvergenceError(MechkinError):
+    """A solver that did not converge where the caller demanded convergence."""
+
+    exit_code = 1
+
+
+class OutputError(MechkinError):
+    """An output file could not be written."""
+
+    exit_code = 1

@@ -1,0 +1,138 @@
+"""Rotation matrices, Euler parameters (unit quaternions, scalar first) and Euler angles.
+
+Every function accepts a leading batch shape ``(...)`` where stated; angles in rad.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def rot_x(t: float | np.ndarray) -> np.ndarray:
+    """Rotation about x by ``t``; ``t`` shape (...) -> (..., 3, 3)."""
+    t = np.asarray(t, dtype=np.float64)
+    c, s = np.cos(t), np.sin(t)
+    o, z = np.ones_like(t), np.zeros_like(t)
+    return np.stack([o, z, z, z, c, -s, z, s, c], axis=-1).reshape(t.shape + (3, 3))
+
+
+def rot_y(t: float | np.ndarray) -> np.ndarray:
+    """Rotation about y by ``t``; ``t`` shape (...) -> (..., 3, 3)."""
+    t = np.asarray(t, dtype=np.float64)
+    c, s = np.cos(t), np.sin(t)
+    o, z = np.ones_like(t), np.zeros_like(t)
+    return np.stack([c, z, s, z, o, z, -s, z, c], axis=-1).reshape(t.shape + (3, 3))
+
+
+def rot_z(t: float | np.ndarray) -> np.ndarray:
+    """Rotation about z by ``t``; ``t`` shape (...) -> (..., 3, 3)."""
+    t = np.asarray(t, dtype=np.float64)
+    c, s = np.cos(t), np.sin(t)
+    o, z = np.ones_like(t), np.zeros_like(t)
+    return np.stack([c, -s, z, s, c, z, z, z, o], axis=-1).reshape(t.shape + (3, 3))
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrix ``[v]x``; ``v`` (..., 3) -> (..., 3, 3)."""
+    v = np.asarray(v, dtype=np.float64)
+    z = np.zeros_like(v[..., 0])
+    return np.stack(
+        [z, -v[..., 2], v[..., 1], v[..., 2], z, -v[..., 0], -v[..., 1], v[..., 0], z], axis=-1
+    ).reshape(v.shape[:-1] + (3, 3))
+
+
+def rot_axis(axis: np.ndarray, t: float | np.ndarray) -> np.ndarray:
+    """Rotation by ``t`` about the unit vector ``axis`` (3,) (Rodrigues); ``t`` (...) -> (..., 3, 3)."""
+    k = np.asarray(axis, dtype=np.float64)
+    k = k / np.linalg.norm(k)
+    t = np.asarray(t, dtype=np.float64)
+    K = skew(k)
+    s = np.sin(t)[..., None, None]
+    c = np.cos(t)[..., None, None]
+    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+
+
+def matrix_from_rpy(rpy: np.ndarray) -> np.ndarray:
+    """URDF roll-pitch-yaw (fixed axes x, y, z): ``R = Rz(y) Ry(p) Rx(r)``; (..., 3) -> (..., 3, 3)."""
+    rpy = np.asarray(rpy, dtype=np.float64)
+    return rot_z(rpy[..., 2]) @ rot_y(rpy[..., 1]) @ rot_x(rpy[..., 0])
+
+
+def rpy_from_matrix(R: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`matrix_from_rpy`; (..., 3, 3) -> (..., 3) with pitch in [-pi/2, pi/2]."""
+    R = np.asarray(R, dtype=np.float64)
+    pitch = np.arcsin(np.clip(-R[..., 2, 0], -1.0, 1.0))
+    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    return np.stack([roll, pitch, yaw], axis=-1)
+
+
+def quat_from_matrix(R: np.ndarray) -> np.ndarray:
+    """Euler parameters (e0, e1, e2, e3) of rotation matrices, e0 >= 0; (..., 3, 3) -> (..., 4).
+
+    Shepperd's method: the largest of the four squared parameters picks the branch, so the
+    result is accurate for every rotation (vectorized, no Python loop over the batch).
+    """
+    R = np.asarray(R, dtype=np.float64)
+    shape = R.shape[:-2]
+    R = R.reshape(-1, 3, 3)
+    tr = R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2]
+    d = np.stack([tr, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=-1)
+    k = np.argmax(d, axis=-1)
+    q = np.empty((R.shape[0], 4))
+    # branch 0: e0 largest
+    s0 = np.sqrt(np.maximum(1.0 + tr, 0.0)) * 2.0
+    s1 = np.sqrt(np.maximum(1.0 + R[:, 0, 0] - R[:, 1, 1] - R[:, 2, 2], 0.0)) * 2.0
+    s2 = np.sqrt(np.maximum(1.0 + R[:, 1, 1] - R[:, 0, 0] - R[:, 2, 2], 0.0)) * 2.0
+    s3 = np.sqrt(np.maximum(1.0 + R[:, 2, 2] - R[:, 0, 0] - R[:, 1, 1], 0.0)) * 2.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cand = np.stack(
+            [
+                np.stack(
+                    [0.25 * s0, (R[:, 2, 1] - R[:, 1, 2]) / s0, (R[:, 0, 2] - R[:, 2, 0]) / s0,
+                     (R[:, 1, 0] - R[:, 0, 1]) / s0], axis=-1),
+                np.stack(
+                    [(R[:, 2, 1] - R[:, 1, 2]) / s1, 0.25 * s1, (R[:, 0, 1] + R[:, 1, 0]) / s1,
+                     (R[:, 0, 2] + R[:, 2, 0]) / s1], axis=-1),
+                np.stack(
+                    [(R[:, 0, 2] - R[:, 2, 0]) / s2, (R[:, 0, 1] + R[:, 1, 0]) / s2, 0.25 * s2,
+                     (R[:, 1, 2] + R[:, 2, 1]) / s2], axis=-1),
+                np.stack(
+                    [(R[:, 1, 0] - R[:, 0, 1]) / s3, (R[:, 0, 2] + R[:, 2, 0]) / s3,
+                     (R[:, 1, 2] + R[:, 2, 1]) / s3, 0.25 * s3], axis=-1),
+            ],
+            axis=1,
+        )
+    q = cand[np.arange(R.shape[0]), k]
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    q = np.where(q[:, :1] < 0.0, -q, q)
+    return q.reshape(shape + (4,))
+
+
+def matrix_from_quat(e: np.ndarray) -> np.ndarray:
+    """Rotation matrices from Euler parameters (e0, e1, e2, e3); (..., 4) -> (..., 3, 3)."""
+    e = np.asarray(e, dtype=np.float64)
+    e = e / np.linalg.norm(e, axis=-1, keepdims=True)
+    e0, e1, e2, e3 = e[..., 0], e[..., 1], e[..., 2], e[..., 3]
+    return np.stack(
+        [
+            1 - 2 * (e2 * e2 + e3 * e3), 2 * (e1 * e2 - e0 * e3), 2 * (e1 * e3 + e0 * e2),
+            2 * (e1 * e2 + e0 * e3), 1 - 2 * (e1 * e1 + e3 * e3), 2 * (e2 * e3 - e0 * e1),
+            2 * (e1 * e3 - e0 * e2), 2 * (e2 * e3 + e0 * e1), 1 - 2 * (e1 * e1 + e2 * e2),
+        ],
+        axis=-1,
+    ).reshape(e.shape[:-1] + (3, 3))
+
+
+def euler_vector_from_matrix(R: np.ndarray) -> np.ndarray:
+    """Vector part (e1, e2, e3) of the Euler parameters with e0 >= 0; (..., 3, 3) -> (..., 3).
+
+    kim1995 Eq. (8): the orientation error of {E} relative to a precision point.
+    """
+    return quat_from_matrix(R)[..., 1:]
+
+
+def angle_from_matrix(R: np.ndarray) -> np.ndarray:
+    """Rotation angle in [0, pi] of rotation matrices; (..., 3, 3) -> (...)."""
+    e = quat_from_matrix(R)
+    return 2.0 * np.arctan2(np.linalg.norm(e[..., 1:], axis=-1), e[..., 0])
