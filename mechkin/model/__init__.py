@@ -1,0 +1,25 @@
+"""spec -> immutable Mechanism; batched FK, Jacobians, loop closure (kim1995 §2, §5.1)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from mechkin.model.mechanism import Cut, JointGroup, Mechanism
+
+
+def load_mechanism(path: str | Path) -> Mechanism:
+    """Read, validate and build a mechanism file (raises ConfigError on bad input)."""
+    return _load_cached(str(Path(path).resolve()), Path(path).stat().st_mtime_ns if Path(path).exists() else 0)
+
+
+@lru_cache(maxsize=32)
+def _load_cached(path: str, mtime: int) -> Mechanism:
+    from mechkin.config.mechanism_file import read_mechanism_spec
+    from mechkin.model.build import build_mechanism
+
+    spec, doc = read_mechanism_spec(path)
+    return build_mechanism(spec, doc)
+
+
+__all__ = ["Cut", "JointGroup", "Mechanism", "load_mechanism"]

@@ -1,0 +1,250 @@
+"""Schemas of the files users write (pydantic v2, unknown keys forbidden, numbers finite).
+
+These models describe the files exactly as written (file units); ``mechkin.config.units``
+converts them to SI once. ``mechkin schema mechanism|scenario`` prints their JSON Schemas.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from mechkin.config.load import YamlDoc, format_key_path
+from mechkin.errors import ConfigError
+
+Num = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+PosNum = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0)]
+NonNegNum = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+Vec3 = Annotated[list[Num], Field(min_length=3, max_length=3)]
+Name = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z_][A-Za-z0-9_.\-]*$")]
+AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
+
+
+class Spec(BaseModel):
+    """Base of every file schema: frozen, unknown keys are errors."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Units(Spec):
+    """Units of the numbers in this file; converted to SI (m, rad) once on loading."""
+
+    length: Literal["m", "mm"] = "m"
+    angle: Literal["rad", "deg"] = "rad"
+
+
+class FrameSpec(Spec):
+    """A named frame fixed on a link, placed by xyz + rpy (URDF roll-pitch-yaw) in the link frame."""
+
+    name: Name
+    xyz: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+class InertialSpec(Spec):
+    """Rigid-body parameters of a link, in the link frame.
+
+    ``inertia`` is [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the centre of mass, in kg (length unit)^2.
+    """
+
+    mass: NonNegNum
+    com: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    inertia: Annotated[list[Num], Field(min_length=6, max_length=6)] = Field(
+        default_factory=lambda: [0.0] * 6
+    )
+
+
+class LinkSpec(Spec):
+    name: Name
+    description: str | None = None
+    frames: list[FrameSpec] = Field(default_factory=list)
+    inertial: InertialSpec | None = None
+
+
+class DHSpec(Spec):
+    """D-H parameters of the link the joint drives (convention from the file's ``dh_convention``).
+
+    For a revolute joint ``theta`` is the constant offset added to q; for a prismatic joint ``d``
+    is the offset added to q.
+    """
+
+    a: Num = 0.0
+    alpha: Num = 0.0
+    d: Num = 0.0
+    theta: Num = 0.0
+
+
+class OriginSpec(Spec):
+    """Placement of the joint frame on its parent: translation xyz, then roll-pitch-yaw."""
+
+    xyz: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+Limits = Annotated[list[Num], Field(min_length=2, max_length=2)]
+
+
+class JointSpec(Spec):
+    """A joint between a parent (link or named frame) and a child link.
+
+    ``revolute``/``prismatic`` are 1-DOF; ``universal`` and ``spherical`` expand to 2 and 3
+    revolute joints with concurrent axes (``axes``, successive body axes; default x-y and
+    x-y-z), named ``<name>_1``, ``<name>_2``, ``<name>_3``. For compound joints ``offset``,
+    ``limits`` and ``home`` take one entry per axis.
+    """
+
+    name: Name
+    type: Literal["revolute", "prismatic", "universal", "spherical"]
+    parent: Name
+    child: Name
+    description: str | None = None
+    dh: DHSpec | None = None
+    origin: OriginSpec | None = None
+    axis: Vec3 | None = None
+    axes: list[Vec3] | None = None
+    offset: Num | list[Num] = 0.0
+    limits: Limits | list[Limits] | None = None
+    home: Num | list[Num] = 0.0
+
+    @model_validator(mode="after")
+    def _check_placement(self) -> JointSpec:
+        if self.dh is not None and self.origin is not None:
+            raise ValueError("give either dh or origin, not both")
+        if self.dh is not None and self.type in ("universal", "spherical"):
+            raise ValueError(f"a {self.type} joint is placed by origin, not dh")
+        if self.dh is not None and self.axis is not None:
+            raise ValueError("axis goes with origin; a D-H joint moves about/along z")
+        if self.axes is not None and self.type not in ("universal", "spherical"):
+            raise ValueError("axes is for universal and spherical joints; use axis")
+        if self.axis is not None and self.type in ("universal", "spherical"):
+            raise ValueError("use axes (one per revolute) for universal and spherical joints")
+        n = {"universal": 2, "spherical": 3}.get(self.type, 1)
+        if self.axes is not None and len(self.axes) != n:
+            raise ValueError(f"a {self.type} joint has {n} axes, got {len(self.axes)}")
+        for key in ("offset", "home"):
+            v = getattr(self, key)
+            if n == 1 and isinstance(v, list):
+                raise ValueError(f"{key}: expected one number for a {self.type} joint")
+            if n > 1 and isinstance(v, list) and len(v) != n:
+                raise ValueError(f"{key}: expected {n} numbers for a {self.type} joint")
+        lim = self.limits
+        if lim is not None:
+            pairs = lim if (lim and isinstance(lim[0], list)) else [lim]
+            if len(pairs) != n:
+                raise ValueError(f"limits: expected {n} [lo, hi] pair(s), got {len(pairs)}")
+            for lo_hi in pairs:
+                if not lo_hi[0] < lo_hi[1]:  # type: ignore[index]
+                    raise ValueError(f"limits: expected lo < hi, got {lo_hi}")
+        return self
+
+
+class CutSpec(Spec):
+    """A cut link (kim1995 §2): two frames on two branches of the tree that must coincide.
+
+    Six equations (relative position in frame a, vector part of the relative Euler parameters),
+    or the subset named in ``mask``.
+    """
+
+    name: Name
+    frames: Annotated[list[Name], Field(min_length=2, max_length=2)]
+    mask: list[AxisName] | None = None
+    description: str | None = None
+
+
+class MechanismSpec(Spec):
+    """A mechanism file: links, joints, cuts, independent joints, end effector."""
+
+    name: Name
+    description: str | None = None
+    notes: str | None = None
+    units: Units = Field(default_factory=Units)
+    dh_convention: Literal["standard", "modified"] = "standard"
+    base: Name | None = None
+    links: Annotated[list[LinkSpec], Field(min_length=1)]
+    joints: list[JointSpec] = Field(default_factory=list)
+    cuts: list[CutSpec] = Field(default_factory=list)
+    independent: list[Name] | None = None
+    end_effector: Name | None = None
+    gravity: Vec3 | None = None
+
+
+def pydantic_problems(
+    doc: YamlDoc, exc: ValidationError, prefix: tuple = (), model: type[BaseModel] | None = None
+) -> list[str]:
+    """Turn a pydantic ValidationError into ``file:line: key.path: message`` lines.
+
+    Unions report one error per branch; only the first is kept for each key path.
+    """
+    out: list[str] = []
+    seen_union: set[tuple] = set()
+    for err in exc.errors(include_url=False):
+        raw = err["loc"]
+        tag_at = next((i for i, x in enumerate(raw) if _is_union_tag(x)), None)
+        loc = prefix + tuple(x for x in raw if not _is_union_tag(x))
+        if tag_at is not None:
+            key = prefix + tuple(raw[:tag_at])
+            if key in seen_union:
+                continue
+            seen_union.add(key)
+        msg = err["msg"]
+        typ = err["type"]
+        if typ == "extra_forbidden":
+            msg = "unknown key"
+            keys = _keys_at(model, loc[len(prefix):-1]) if model is not None else []
+            if keys:
+                msg += f" (valid keys: {', '.join(keys)})"
+        elif typ == "missing":
+            msg = "required key is missing"
+        elif "input" in err and typ not in ("value_error", "assertion_error"):
+            s = repr(err["input"])
+            if len(s) > 60:
+                s = s[:57] + "..."
+            msg = f"{msg}, got {s}"
+        if msg.startswith("Value error, "):
+            msg = msg[len("Value error, "):]
+        out.append(f"{doc.path}:{doc.line_of(loc)}: {format_key_path(loc)}: {msg}")
+    return list(dict.fromkeys(out))
+
+
+def _is_union_tag(x: Any) -> bool:
+    return isinstance(x, str) and ("[" in x or x in ("float", "int", "str", "bool"))
+
+
+def _submodels(annotation: Any) -> list[type[BaseModel]]:
+    import typing
+
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    found: list[type[BaseModel]] = []
+    for arg in typing.get_args(annotation):
+        found += _submodels(arg)
+    return found
+
+
+def _keys_at(model: type[BaseModel] | None, path: tuple) -> list[str]:
+    """Valid keys of the mapping at ``path`` inside ``model`` (for 'unknown key' messages)."""
+    current: list[type[BaseModel]] = [model] if model is not None else []
+    for part in path:
+        if isinstance(part, int):
+            continue
+        nxt: list[type[BaseModel]] = []
+        for m in current:
+            f = m.model_fields.get(part)
+            if f is not None:
+                nxt += _submodels(f.annotation)
+        current = nxt
+    return list(current[0].model_fields) if current else []
+
+
+def validate_model(doc: YamlDoc, model: type[Spec], data: Any, prefix: tuple = ()) -> Any:
+    """Validate ``data`` against ``model``; raise ConfigError listing every problem."""
+    if not isinstance(data, dict):
+        raise ConfigError(
+            f"{doc.path}:{doc.line_of(prefix)}: {format_key_path(prefix)}: expected a mapping "
+            f"of keys, got {type(data).__name__}"
+        )
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(pydantic_problems(doc, exc, prefix, model)) from None

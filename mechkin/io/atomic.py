@@ -1,0 +1,270 @@
+"""Atomic file output: every file is written to a hidden temp name and renamed into place.
+
+A reader (or a crash, or an exception half-way through a writer) never sees half a file: the
+final name either holds the previous content or the complete new one. ``os.replace`` is atomic
+on POSIX and Windows when source and target are on the same filesystem, so temp files always
+live in the target's own directory.
+
+:class:`OutputDir` extends this to a whole run: files are staged in a hidden sibling directory
+and moved into the output folder only when the ``with`` block ends without an exception.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import secrets
+import shutil
+import tempfile
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path, PurePosixPath
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+
+from mechkin.errors import OutputError
+
+__all__ = [
+    "OutputDir",
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+]
+
+log = logging.getLogger(__name__)
+
+_STAGING_PREFIX = ".mechkin-staging-"
+
+
+def _temp_name(path: Path) -> Path:
+    # Keep the final suffix last: matplotlib and others pick the format from the extension.
+    return path.with_name(f".{path.name}.{secrets.token_hex(4)}.part{path.suffix}")
+
+
+def _fsync_file(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _remove_quietly(path: Path) -> None:
+    with contextlib.suppress(FileNotFoundError):
+        path.unlink()
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str], *, fsync: bool = True) -> Iterator[Path]:
+    """Yield a temp path beside ``path``; rename it to ``path`` when the block succeeds.
+
+    The temp file is created empty (with the usual umask permissions) in the same directory,
+    named ``.<name>.<random>.part<suffix>``. The caller (or a library such as matplotlib)
+    writes the complete content to it. On normal exit the temp file is flushed to disk and
+    ``os.replace``'d onto ``path``; on an exception it is removed and the exception propagates,
+    so ``path`` keeps its previous content (or stays absent).
+
+    Parameters
+    ----------
+    path : path-like
+        Final file name. Missing parent directories are created.
+    fsync : bool
+        Flush the temp file to disk before the rename (crash safety).
+
+    Yields
+    ------
+    Path
+        The temp path to write to.
+
+    Raises
+    ------
+    OutputError
+        The directory cannot be created or the rename fails.
+
+    Examples
+    --------
+    >>> with atomic_path(out / "q.png") as tmp:   # doctest: +SKIP
+    ...     fig.savefig(tmp)
+    """
+    final = Path(path)
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        tmp = _temp_name(final)
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except OSError as e:
+        raise OutputError(f"{final}: cannot create a temp file: {e.strerror or e}") from e
+    try:
+        yield tmp
+        if not tmp.exists():
+            raise OutputError(f"{final}: the writer removed its temp file {tmp.name}")
+        if fsync:
+            _fsync_file(tmp)
+        os.replace(tmp, final)
+    except BaseException as e:
+        _remove_quietly(tmp)
+        if isinstance(e, OSError):
+            raise OutputError(f"{final}: cannot write: {e.strerror or e}") from e
+        raise
+    log.debug("wrote %s", final)
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool = True) -> Path:
+    """Write ``data`` to ``path`` atomically (temp file + ``os.replace``); return the path."""
+    final = Path(path)
+    with atomic_path(final, fsync=fsync) as tmp, open(tmp, "wb") as f:
+        f.write(data)
+    return final
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str, *, fsync: bool = True) -> Path:
+    """Write ``text`` as UTF-8 (``\\n`` line ends) to ``path`` atomically; return the path."""
+    return atomic_write_bytes(path, text.encode("utf-8"), fsync=fsync)
+
+
+def _check_relative(name: str | os.PathLike[str]) -> str:
+    rel = PurePosixPath(Path(name).as_posix())
+    if rel.is_absolute() or not rel.parts or any(p in ("..", ".", "") for p in rel.parts):
+        raise OutputError(f"output file name {str(name)!r}: expected a relative path without '..'")
+    return rel.as_posix()
+
+
+class OutputDir:
+    """Stage the files of one run and move them into ``path`` only if the run succeeds.
+
+    Files are written under a hidden staging directory created beside ``path`` (same
+    filesystem, so the final moves are ``os.replace`` renames). On normal exit of the ``with``
+    block ``path`` is created if needed and each staged file is renamed into place; files of
+    ``path`` not written in this run are left alone. On an exception the staging directory is
+    removed and nothing appears in ``path``.
+
+    Parameters
+    ----------
+    path : path-like
+        The output folder, e.g. ``outputs/<scenario name>``.
+    fsync : bool
+        Flush every staged file to disk before it is moved into place.
+
+    Attributes
+    ----------
+    path : Path
+        The final output folder.
+    files : list of str
+        Relative (POSIX) names of the files written so far, in first-write order; the
+        ``"files"`` list of summary.json.
+
+    Examples
+    --------
+    >>> with OutputDir("outputs/demo") as od:          # doctest: +SKIP
+    ...     od.write_csv("joints.csv", {"t_s": t, "q1_rad": q[:, 0]})
+    ...     od.write_json("summary.json", {"status": "ok", "files": od.files})
+    """
+
+    def __init__(self, path: str | os.PathLike[str], *, fsync: bool = True) -> None:
+        self.path = Path(path)
+        self._fsync = fsync
+        self._staging: Path | None = None
+        self._files: list[str] = []
+
+    @property
+    def files(self) -> list[str]:
+        """Relative names of the files written so far (a copy)."""
+        return list(self._files)
+
+    @property
+    def staging(self) -> Path:
+        """The hidden staging directory (only inside the ``with`` block)."""
+        if self._staging is None:
+            raise OutputError(f"{self.path}: OutputDir used outside its 'with' block")
+        return self._staging
+
+    def __enter__(self) -> OutputDir:
+        if self._staging is not None:
+            raise OutputError(f"{self.path}: OutputDir entered twice")
+        if self.path.exists() and not self.path.is_dir():
+            raise OutputError(f"{self.path}: expected a directory, got an existing file")
+        parent = self.path.absolute().parent
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+            self._staging = Path(
+                tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}{self.path.name}-", dir=parent)
+            )
+        except OSError as e:
+            raise OutputError(f"{self.path}: cannot create a staging directory: {e}") from e
+        self._files = []
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        staging = self.staging
+        try:
+            if exc_type is None:
+                self._commit(staging)
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)
+            self._staging = None
+
+    def _commit(self, staging: Path) -> None:
+        missing = [n for n in self._files if not (staging / n).is_file()]
+        if missing:
+            raise OutputError(f"{self.path}: files requested but never written: {missing}")
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+            for name in self._files:
+                src = staging / name
+                if self._fsync:
+                    _fsync_file(src)
+                dst = self.path / name
+                dst.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(src, dst)
+        except OSError as e:
+            raise OutputError(f"{self.path}: cannot move outputs into place: {e}") from e
+        log.info("wrote %d file(s) to %s", len(self._files), self.path)
+
+    def path_for(self, name: str | os.PathLike[str]) -> Path:
+        """Register ``name`` (relative, may contain sub-folders) and return its staged path.
+
+        The caller writes the complete file there; it is moved to ``self.path / name`` when the
+        ``with`` block succeeds. Registering the same name twice returns the same path.
+        """
+        rel = _check_relative(name)
+        staged = self.staging / rel
+        staged.parent.mkdir(parents=True, exist_ok=True)
+        if rel not in self._files:
+            self._files.append(rel)
+        return staged
+
+    def final_path(self, name: str | os.PathLike[str]) -> Path:
+        """Where ``name`` will be after a successful exit: ``self.path / name``."""
+        return self.path / _check_relative(name)
+
+    def write_bytes(self, name: str | os.PathLike[str], data: bytes) -> Path:
+        """Stage ``data`` as ``name``; return the staged path."""
+        staged = self.path_for(name)
+        staged.write_bytes(data)
+        return staged
+
+    def write_text(self, name: str | os.PathLike[str], text: str) -> Path:
+        """Stage ``text`` (UTF-8) as ``name``; return the staged path."""
+        return self.write_bytes(name, text.encode("utf-8"))
+
+    def write_json(self, name: str | os.PathLike[str], obj: Any) -> Path:
+        """Stage ``obj`` as JSON via :func:`mechkin.io.summary.summary_json` (NaN refused)."""
+        from mechkin.io.summary import summary_json
+
+        return self.write_text(name, summary_json(obj))
+
+    def write_csv(
+        self,
+        name: str | os.PathLike[str],
+        columns: Mapping[str, np.ndarray | Sequence[Any]],
+    ) -> Path:
+        """Stage a CSV table via :func:`mechkin.io.csv_out.format_csv` (NaN refused)."""
+        from mechkin.io.csv_out import format_csv
+
+        return self.write_text(name, format_csv(columns))

@@ -1,0 +1,410 @@
+"""Mechanism spec (SI) -> immutable Mechanism, with every topology problem reported by file line."""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from mechkin.config.load import YamlDoc
+from mechkin.config.schema import JointSpec, MechanismSpec
+from mechkin.errors import ConfigError
+from mechkin.model.mechanism import AXIS_NAMES, Cut, JointGroup, Mechanism
+from mechkin.spatial.dh import dh_modified, dh_standard
+from mechkin.spatial.rotations import rot_z
+from mechkin.spatial.transforms import T_from, transform_from_xyz_rpy
+
+COMPOUND_AXES = {"universal": ([1, 0, 0], [0, 1, 0]), "spherical": ([1, 0, 0], [0, 1, 0], [0, 0, 1])}
+
+
+def align_z(axis: np.ndarray) -> np.ndarray:
+    """A rotation (3, 3) whose z column is the unit vector ``axis``."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    helper = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 1.0, 0])
+    x = np.cross(helper, a)
+    x /= np.linalg.norm(x)
+    y = np.cross(a, x)
+    R = np.column_stack([x, y, a])
+    if np.allclose(a, [0, 0, 1]):
+        R = np.eye(3)
+    return R
+
+
+def _tz(d: float) -> np.ndarray:
+    T = np.eye(4)
+    T[2, 3] = d
+    return T
+
+
+def _rz(t: float) -> np.ndarray:
+    return T_from(rot_z(t), np.zeros(3))
+
+
+def _dh_AB(conv: str, prismatic: bool, a: float, alpha: float, d: float, theta: float):
+    """Split a D-H transform into A @ Z(q) @ B (q adds to theta, or to d if prismatic)."""
+    if conv == "standard":  # Rz(theta) Tz(d) Tx(a) Rx(alpha)
+        if prismatic:
+            return _rz(theta) @ _tz(d), dh_standard(0.0, 0.0, a, alpha)
+        return _rz(theta), dh_standard(0.0, d, a, alpha)
+    # modified: Rx(alpha) Tx(a) Rz(theta) Tz(d)
+    pre = dh_modified(0.0, 0.0, a, alpha)
+    if prismatic:
+        return pre @ _rz(theta) @ _tz(d), np.eye(4)
+    return pre @ _rz(theta), _tz(d)
+
+
+class _Problems:
+    def __init__(self, doc: YamlDoc | None, name: str) -> None:
+        self.doc = doc
+        self.name = name
+        self.lines: list[str] = []
+
+    def add(self, key_path: tuple, msg: str) -> None:
+        if self.doc is not None:
+            self.lines.append(f"{self.doc.where(key_path)}: {msg}")
+        else:
+            from mechkin.config.load import format_key_path
+
+            self.lines.append(f"{self.name}: {format_key_path(key_path)}: {msg}")
+
+    def raise_if_any(self) -> None:
+        if self.lines:
+            raise ConfigError(self.lines)
+
+
+def _as_list(v, n: int) -> list:
+    if isinstance(v, list):
+        return list(v)
+    return [v] * n
+
+
+def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanism:
+    """Build the Mechanism from an SI spec (see ``config.units.mechanism_to_si``).
+
+    Raises ConfigError with one ``file:line: key.path: message`` line per topology problem:
+    duplicate or missing links and frames, a link with two parent joints (a loop without a cut),
+    links not connected to the base, cut frames on the same branch, unknown independent joints,
+    or a number of independent joints different from the degrees of freedom.
+    """
+    P = _Problems(doc, spec.name)
+    # ---- links and frames ---------------------------------------------------------------------
+    link_names: list[str] = []
+    frame_names: list[str] = []
+    frame_link: list[int] = []
+    frame_offset: list[np.ndarray] = []
+    seen: dict[str, tuple] = {}
+    for i, link in enumerate(spec.links):
+        if link.name in seen:
+            P.add(("links", i, "name"), f"duplicate link {link.name!r}")
+            continue
+        seen[link.name] = ("links", i, "name")
+        link_names.append(link.name)
+    base_name = spec.base or spec.links[0].name
+    if base_name not in link_names:
+        P.add(("base",), f"unknown link {base_name!r} (links: {', '.join(link_names)})")
+        P.raise_if_any()
+    # the base is link 0
+    link_names.remove(base_name)
+    link_names.insert(0, base_name)
+    # virtual links of compound joints are appended below
+    joints: list[tuple[str, int, str, str, np.ndarray, np.ndarray, float, float, float, tuple]] = []
+    groups: list[JointGroup] = []
+    jnames: dict[str, tuple] = {}
+    virtual: list[str] = []
+
+    def add_joint(name, kind, parent, child, A, B, lo, hi, home, kp):
+        if name in jnames:
+            P.add(kp + ("name",), f"duplicate joint name {name!r}")
+        jnames[name] = kp
+        joints.append((name, kind, parent, child, A, B, lo, hi, home, kp))
+        return len(joints) - 1
+
+    for i, j in enumerate(spec.joints):
+        kp = ("joints", i)
+        ncomp = {"universal": 2, "spherical": 3}.get(j.type, 1)
+        lims = j.limits
+        pairs = (lims if (lims and isinstance(lims[0], list)) else [lims]) if lims else [None]
+        pairs = pairs * (ncomp if len(pairs) == 1 and ncomp > 1 else 1)
+        offs = _as_list(j.offset, ncomp)
+        homes = _as_list(j.home, ncomp)
+        O = (
+            transform_from_xyz_rpy(j.origin.xyz, j.origin.rpy)
+            if j.origin is not None
+            else np.eye(4)
+        )
+        if ncomp == 1:
+            prism = j.type == "prismatic"
+            if j.dh is not None:
+                A, B = _dh_AB(
+                    spec.dh_convention, prism, j.dh.a, j.dh.alpha, j.dh.d, j.dh.theta
+                )
+                A = A @ (_tz(offs[0]) if prism else _rz(offs[0]))
+            else:
+                Ra = T_from(align_z(j.axis if j.axis is not None else [0, 0, 1]), np.zeros(3))
+                A = O @ Ra @ (_tz(offs[0]) if prism else _rz(offs[0]))
+                B = Ra.T.copy()
+            lo, hi = pairs[0] if pairs[0] else (-np.inf, np.inf)
+            idx = add_joint(j.name, int(prism), j.parent, j.child, A, B, lo, hi, homes[0], kp)
+            groups.append(JointGroup(j.name, j.type, (idx,)))
+        else:
+            axes = j.axes or [list(a) for a in COMPOUND_AXES[j.type]]
+            idxs = []
+            parent = j.parent
+            for k in range(ncomp):
+                Ra = T_from(align_z(axes[k]), np.zeros(3))
+                A = (O if k == 0 else np.eye(4)) @ Ra @ _rz(offs[k])
+                B = Ra.T.copy()
+                child = j.child if k == ncomp - 1 else f"{j.name}_link{k + 1}"
+                if k < ncomp - 1:
+                    virtual.append(child)
+                lo, hi = pairs[k] if pairs[k] else (-np.inf, np.inf)
+                idxs.append(
+                    add_joint(f"{j.name}_{k + 1}", 0, parent, child, A, B, lo, hi, homes[k], kp)
+                )
+                parent = child
+            groups.append(JointGroup(j.name, j.type, tuple(idxs)))
+    for v in virtual:
+        if v in link_names:
+            P.add(("links",), f"link name {v!r} is reserved for a compound joint's inner link")
+        link_names.append(v)
+    P.raise_if_any()
+    nl = len(link_names)
+    link_idx = {n: k for k, n in enumerate(link_names)}
+    # frames: link body frames first, then named frames
+    frame_names = list(link_names)
+    frame_link = list(range(nl))
+    frame_offset = [np.eye(4)] * nl
+    for i, link in enumerate(spec.links):
+        for k, fr in enumerate(link.frames):
+            kp = ("links", i, "frames", k, "name")
+            if fr.name in frame_names:
+                P.add(kp, f"duplicate frame name {fr.name!r} (already a link or frame)")
+                continue
+            frame_names.append(fr.name)
+            frame_link.append(link_idx[link.name])
+            frame_offset.append(transform_from_xyz_rpy(fr.xyz, fr.rpy))
+    frame_idx = {n: k for k, n in enumerate(frame_names)}
+    # ---- joints: parents, children, tree ------------------------------------------------------
+    n = len(joints)
+    parent_link = np.zeros(n, dtype=int)
+    parent_frame = np.zeros(n, dtype=int)
+    child_link = np.zeros(n, dtype=int)
+    A = np.zeros((n, 4, 4))
+    B = np.zeros((n, 4, 4))
+    link_parent_joint = -np.ones(nl, dtype=int)
+    for k, (name, kind, parent, child, Aj, Bj, lo, hi, home, kp) in enumerate(joints):
+        ok = True
+        if parent not in frame_idx:
+            P.add(kp + ("parent",), f"unknown link or frame {parent!r} "
+                  f"(links: {', '.join(link_names[:20])})")
+            ok = False
+        if child not in link_idx:
+            msg = f"unknown link {child!r}"
+            if child in frame_idx:
+                msg = f"{child!r} is a frame; a joint's child must be a link"
+            P.add(kp + ("child",), msg + f" (links: {', '.join(link_names[:20])})")
+            ok = False
+        if not ok:
+            continue
+        c = link_idx[child]
+        if c == 0:
+            P.add(kp + ("child",), f"the base link {child!r} cannot be a joint's child")
+            continue
+        if link_parent_joint[c] >= 0:
+            other = joints[link_parent_joint[c]][0]
+            P.add(kp + ("child",), f"link {child!r} is already the child of joint {other!r}: a "
+                  "closed loop needs a cut (end this branch in a link of its own and add a cut "
+                  "whose two frames must coincide)")
+            continue
+        link_parent_joint[c] = k
+        pf = frame_idx[parent]
+        parent_frame[k] = pf
+        parent_link[k] = frame_link[pf]
+        child_link[k] = c
+        # a joint placed on a named frame: fold the frame's offset into A
+        A[k] = frame_offset[pf] @ Aj
+        B[k] = Bj
+    P.raise_if_any()
+    # depth from the base (BFS); links never reached are not connected (or lie on a cycle)
+    children: dict[int, list[int]] = {k: [] for k in range(nl)}
+    for k in range(n):
+        children[parent_link[k]].append(k)
+    depth = -np.ones(nl, dtype=int)
+    depth[0] = 0
+    ancestors = np.zeros((nl, n), dtype=bool)
+    jdepth = np.zeros(n, dtype=int)
+    queue = deque([0])
+    while queue:
+        lk = queue.popleft()
+        for k in children[lk]:
+            c = child_link[k]
+            if depth[c] >= 0:
+                continue
+            depth[c] = depth[lk] + 1
+            jdepth[k] = depth[lk]
+            ancestors[c] = ancestors[lk]
+            ancestors[c, k] = True
+            queue.append(c)
+    for lk in range(nl):
+        if depth[lk] < 0:
+            kp = ("links",)
+            for i, link in enumerate(spec.links):
+                if link.name == link_names[lk]:
+                    kp = ("links", i, "name")
+            P.add(kp, f"link {link_names[lk]!r} is not connected to the base {base_name!r} "
+                  "(no chain of joints leads to it, or it lies on a cycle of joints)")
+    P.raise_if_any()
+    levels = tuple(np.flatnonzero(jdepth == dd) for dd in range(int(jdepth.max(initial=-1)) + 1))
+    # ---- cuts ----------------------------------------------------------------------------------
+    cuts: list[Cut] = []
+    cut_names: set[str] = set()
+    for i, c in enumerate(spec.cuts):
+        kp = ("cuts", i)
+        if c.name in cut_names:
+            P.add(kp + ("name",), f"duplicate cut name {c.name!r}")
+        cut_names.add(c.name)
+        fa, fb = c.frames
+        bad = False
+        for k, f in enumerate((fa, fb)):
+            if f not in frame_idx:
+                P.add(kp + ("frames", k), f"unknown frame {f!r}")
+                bad = True
+        if bad:
+            continue
+        la, lb = frame_link[frame_idx[fa]], frame_link[frame_idx[fb]]
+        if la == lb or _is_ancestor(ancestors, child_link, la, lb) or _is_ancestor(
+            ancestors, child_link, lb, la
+        ):
+            P.add(kp + ("frames",), f"frames {fa!r} and {fb!r} lie on the same branch of the "
+                  "tree (links {!r} and {!r}): a cut must join two branches of a loop".format(
+                      link_names[la], link_names[lb]))
+            continue
+        mask = np.ones(6, dtype=bool)
+        if c.mask is not None:
+            if len(set(c.mask)) != len(c.mask) or not c.mask:
+                P.add(kp + ("mask",), "expected distinct axis names from x, y, z, rx, ry, rz")
+                continue
+            mask = np.array([a in c.mask for a in AXIS_NAMES])
+        cuts.append(Cut(c.name, frame_idx[fa], frame_idx[fb], mask))
+    # ---- end effector --------------------------------------------------------------------------
+    ee = None
+    if spec.end_effector is not None:
+        if spec.end_effector not in frame_idx:
+            P.add(("end_effector",), f"unknown frame {spec.end_effector!r} "
+                  f"(frames: {', '.join(frame_names[:30])})")
+        else:
+            ee = frame_idx[spec.end_effector]
+    P.raise_if_any()
+    # ---- limits, home, inertia ----------------------------------------------------------------
+    lower = np.array([jt[6] for jt in joints], dtype=float)
+    upper = np.array([jt[7] for jt in joints], dtype=float)
+    home = np.array([jt[8] for jt in joints], dtype=float)
+    for k, jt in enumerate(joints):
+        if not lower[k] <= home[k] <= upper[k]:
+            P.add(jt[9] + ("home",), f"home {home[k]:.6g} is outside the limits "
+                  f"[{lower[k]:.6g}, {upper[k]:.6g}] (SI units)")
+    mass = np.zeros(nl)
+    com = np.zeros((nl, 3))
+    inertia = np.zeros((nl, 3, 3))
+    for link in spec.links:
+        if link.inertial is not None:
+            li = link_idx[link.name]
+            mass[li] = link.inertial.mass
+            com[li] = link.inertial.com
+            ixx, iyy, izz, ixy, ixz, iyz = link.inertial.inertia
+            inertia[li] = [[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]
+    gravity = np.array(spec.gravity if spec.gravity is not None else [0.0, 0.0, -9.81])
+    names = [jt[0] for jt in joints]
+    s = np.array([jt[1] for jt in joints], dtype=int)
+    mech = Mechanism(
+        name=spec.name,
+        source=doc.path if doc is not None else None,
+        link_names=tuple(link_names),
+        frame_names=tuple(frame_names),
+        frame_link=np.array(frame_link, dtype=int),
+        frame_offset=np.array(frame_offset),
+        joint_names=tuple(names),
+        s=s,
+        A=A,
+        B=B,
+        joint_parent_link=parent_link,
+        joint_child_link=child_link,
+        joint_parent_frame=parent_frame,
+        link_parent_joint=link_parent_joint,
+        levels=levels,
+        link_ancestors=ancestors,
+        cuts=tuple(cuts),
+        independent=np.arange(n),
+        dependent=np.zeros(0, dtype=int),
+        lower=lower,
+        upper=upper,
+        home=home,
+        end_effector=ee,
+        groups=tuple(groups),
+        mass=mass,
+        com=com,
+        inertia=inertia,
+        gravity=gravity,
+        virtual_links=frozenset(link_idx.get(v, -1) for v in virtual) if virtual else frozenset(),
+        description=spec.description or "",
+    )
+    P.raise_if_any()
+    return _with_partition(mech, spec, P, names, groups)
+
+
+def _is_ancestor(ancestors: np.ndarray, child_link: np.ndarray, la: int, lb: int) -> bool:
+    """Is link ``la`` on the path from the base to link ``lb``?"""
+    if la == 0:
+        return True
+    # la is an ancestor of lb when la's parent joint is among lb's ancestors
+    js = np.flatnonzero(ancestors[lb])
+    return bool(np.any(child_link[js] == la))
+
+
+def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
+    """Set independent/dependent joints (kim1995 Eq. (3)) and check them against the rank."""
+    from dataclasses import replace
+
+    from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+
+    n = mech.n
+    rng = np.random.default_rng(12345)
+    q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)
+    qs = np.stack([q0, q0 + 0.05 * rng.standard_normal(n)])
+    _, J = closure_jacobian(mech, forward_kinematics(mech, qs))
+    rank = int(max(np.linalg.matrix_rank(J[0], tol=1e-9), np.linalg.matrix_rank(J[1], tol=1e-9))) if J.shape[1] else 0
+    dof = n - rank
+    group_of = {g.name: g for g in groups}
+    if spec.independent is None:
+        if mech.cuts:
+            P.add(("independent",), f"a closed chain needs its independent joints listed "
+                  f"({dof} degrees of freedom)")
+            P.raise_if_any()
+        return mech
+    idx: list[int] = []
+    for k, name in enumerate(spec.independent):
+        if name in names:
+            idx.append(names.index(name))
+        elif name in group_of:
+            idx.extend(group_of[name].joints)
+        else:
+            P.add(("independent", k), f"unknown joint {name!r} (joints: {', '.join(names)})")
+    P.raise_if_any()
+    if len(set(idx)) != len(idx):
+        P.add(("independent",), "a joint is listed twice")
+        P.raise_if_any()
+    if len(idx) != dof:
+        P.add(("independent",), f"expected {dof} independent joints (the degrees of freedom: "
+              f"{n} joint coordinates minus rank {rank} of the constraint Jacobian at home), "
+              f"got {len(idx)}")
+        P.raise_if_any()
+    ind = np.array(idx, dtype=int)
+    dep = np.array([k for k in range(n) if k not in set(idx)], dtype=int)
+    if len(dep):
+        ok = any(np.linalg.matrix_rank(J[t][:, dep], tol=1e-9) == len(dep) for t in range(2))
+        if not ok:
+            P.add(("independent",), "these independent joints do not determine the others: "
+                  "the constraint Jacobian of the dependent joints is rank deficient at home")
+            P.raise_if_any()
+    return replace(mech, independent=ind, dependent=dep)

@@ -1,0 +1,198 @@
+r"""Forward kinematics of complex chains: dependent joints from independent ones (kim1995 §5.1).
+
+Newton-Raphson with a pseudo-inverse on the loop-closure equations phi_R(q_v, q_w) = 0
+(kim1995 Eq. (4)); the pseudo-inverse (SVD) copes with redundant equations, e.g. the planar loop
+of the direct-drive arm gives 6 equations of rank 3.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+from mechkin.model.mechanism import Mechanism
+
+TOL_PHI = 1e-12
+TOL_DQ = 1e-12
+MAX_ITER = 50
+COND_SINGULAR = 1e10
+
+
+class ClosureStatus(enum.Enum):
+    CONVERGED = "converged"
+    NOT_CONVERGED = "not converged"
+    SINGULAR = "singular"
+
+
+@dataclass(frozen=True)
+class ClosureResult:
+    """Batch result: one row per configuration.
+
+    q (m, n) all joints; status (m,) of ClosureStatus; iterations (m,); residual (m,) ||phi||_2
+    at exit [m and rad mixed]; cond (m,) condition number of d(phi)/d(q_w) at exit.
+    """
+
+    q: np.ndarray
+    status: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    cond: np.ndarray
+
+    @property
+    def ok(self) -> np.ndarray:
+        return np.array([s is ClosureStatus.CONVERGED for s in self.status])
+
+
+def _pinv_solve(J: np.ndarray, r: np.ndarray, rcond: float = 1e-12):
+    """Minimum-norm least-squares step J^+ r for stacks J (m, k, n), r (m, k); and cond (m,)."""
+    U, S, Vt = np.linalg.svd(J, full_matrices=False)
+    smax = S[:, :1]
+    keep = S > rcond * np.maximum(smax, 1e-300)
+    Sinv = np.where(keep, 1.0 / np.where(keep, S, 1.0), 0.0)
+    step = np.einsum("mji,mj->mi", Vt, Sinv * np.einsum("mkj,mk->mj", U, r))
+    nmin = min(J.shape[1], J.shape[2])
+    # conditioning of the column space: smallest of the n_w singular values that J should have
+    smin = S[:, J.shape[2] - 1] if J.shape[2] <= nmin else np.zeros(J.shape[0])
+    cond = np.where(smin > 0, smax[:, 0] / np.maximum(smin, 1e-300), np.inf)
+    return step, cond
+
+
+def solve_closure(
+    mech: Mechanism,
+    q_v: np.ndarray,
+    q_w0: np.ndarray,
+    *,
+    tol_phi: float = TOL_PHI,
+    tol_dq: float = TOL_DQ,
+    max_iter: int = MAX_ITER,
+) -> ClosureResult:
+    r"""Solve the dependent joints of a batch of configurations by Newton-Raphson.
+
+    .. math:: q_w^{k+1} = q_w^k - \left[\frac{\partial\phi_R}{\partial q_w}\right]^+ \phi_R(q_v, q_w^k)
+
+    Converged when ``||phi|| < tol_phi`` and ``||dq_w|| < tol_dq`` (kim1995 §5.1 Step 3; a step
+    whose residual is already at round-off counts as converged). Singular when the dependent
+    Jacobian loses column rank (cond > 1e10) at exit without convergence.
+
+    Parameters
+    ----------
+    q_v : array, shape (m, n_v)
+    q_w0 : array, shape (m, n_w)
+        Initial guesses (the previous step's solution on a trajectory).
+
+    References
+    ----------
+    kim1995_complex_chain_ik §5.1, Steps 2-3.
+    """
+    q_v = np.atleast_2d(np.asarray(q_v, dtype=np.float64))
+    q_w = np.array(np.broadcast_to(np.atleast_2d(q_w0), (q_v.shape[0], len(mech.dependent))),
+                   dtype=np.float64)
+    m = q_v.shape[0]
+    iters = np.zeros(m, dtype=int)
+    done = np.zeros(m, dtype=bool)
+    res = np.full(m, np.inf)
+    cond = np.ones(m)
+    if not mech.cuts or len(mech.dependent) == 0:
+        q = mech.assemble(q_v, q_w)
+        kin = forward_kinematics(mech, q)
+        from mechkin.model.kinematics import closure_residual
+
+        r = np.linalg.norm(closure_residual(mech, kin), axis=1)
+        st = np.array([ClosureStatus.CONVERGED if x < max(tol_phi, 1e-9) else
+                       ClosureStatus.NOT_CONVERGED for x in r], dtype=object)
+        return ClosureResult(q, st, iters, r, cond)
+    dep = mech.dependent
+    prev_res = np.full(m, np.inf)
+    prev_step = np.zeros_like(q_w)
+    shrink = np.ones(m)
+    for _ in range(max_iter + 1):
+        act = np.flatnonzero(~done)
+        if act.size == 0:
+            break
+        q = mech.assemble(q_v[act], q_w[act])
+        phi, J = closure_jacobian(mech, forward_kinematics(mech, q))
+        nphi = np.linalg.norm(phi, axis=1)
+        # backtracking: a step that raised ||phi|| is retried at half length (kim1995 takes
+        # full steps; this only acts far from a solution, where plain Newton can cycle)
+        worse = (nphi > prev_res[act] * (1.0 + 1e-9)) & (shrink[act] > 1e-3) & (nphi > 1e-13)
+        if worse.any():
+            wi = act[worse]
+            q_w[wi] += prev_step[wi]
+            shrink[wi] *= 0.5
+            prev_step[wi] *= 0.5
+            q_w[wi] -= prev_step[wi]
+            iters[wi] += 1
+            keep = ~worse
+            act, phi, J, nphi = act[keep], phi[keep], J[keep], nphi[keep]
+            if act.size == 0:
+                if (iters[~done] >= max_iter).all():
+                    break
+                continue
+        res[act] = nphi
+        step, c = _pinv_solve(J[:, :, dep], phi)
+        cond[act] = c
+        ndq = np.linalg.norm(step, axis=1)
+        conv = (nphi < tol_phi) & ((ndq < tol_dq) | (nphi < 1e-14))
+        done[act[conv]] = True
+        upd = act[~conv]
+        upd = upd[iters[upd] < max_iter]
+        if upd.size == 0:
+            if (iters[~done] >= max_iter).all():
+                break
+            continue
+        st = step[~conv][iters[act[~conv]] < max_iter]
+        # a trust region of 0.5 (rad or m) per step keeps far starts from jumping branches
+        nst = np.linalg.norm(st, axis=1, keepdims=True)
+        st = st * np.minimum(1.0, 0.5 / np.maximum(nst, 1e-300))
+        prev_res[upd] = res[upd]
+        shrink[upd] = 1.0
+        prev_step[upd] = st
+        q_w[upd] -= st
+        iters[upd] += 1
+    status = np.empty(m, dtype=object)
+    for k in range(m):
+        if done[k]:
+            status[k] = ClosureStatus.CONVERGED
+        elif cond[k] > COND_SINGULAR:
+            status[k] = ClosureStatus.SINGULAR
+        else:
+            status[k] = ClosureStatus.NOT_CONVERGED
+    return ClosureResult(mech.assemble(q_v, q_w), status, iters, res, cond)
+
+
+def solve_trajectory(
+    mech: Mechanism,
+    q_v_traj: np.ndarray,
+    q_w0: np.ndarray,
+    *,
+    tol_phi: float = TOL_PHI,
+    tol_dq: float = TOL_DQ,
+    max_iter: int = MAX_ITER,
+) -> ClosureResult:
+    """Continuation along a trajectory (kim1995 §5.1 Steps 1-5): each step starts from the last.
+
+    q_v_traj (m, n_v); q_w0 (n_w,) the initial approximation at t0. Steps whose solve fails keep
+    their status; the next step restarts from the last converged solution.
+    """
+    q_v_traj = np.atleast_2d(np.asarray(q_v_traj, dtype=np.float64))
+    m = q_v_traj.shape[0]
+    qs = np.empty((m, mech.n))
+    status = np.empty(m, dtype=object)
+    iters = np.zeros(m, dtype=int)
+    res = np.zeros(m)
+    cond = np.zeros(m)
+    guess = np.asarray(q_w0, dtype=np.float64).reshape(1, -1)
+    for k in range(m):
+        r = solve_closure(mech, q_v_traj[k : k + 1], guess, tol_phi=tol_phi, tol_dq=tol_dq,
+                          max_iter=max_iter)
+        qs[k] = r.q[0]
+        status[k] = r.status[0]
+        iters[k] = r.iterations[0]
+        res[k] = r.residual[0]
+        cond[k] = r.cond[0]
+        if r.status[0] is ClosureStatus.CONVERGED:
+            guess = r.q[:, mech.dependent]
+    return ClosureResult(qs, status, iters, res, cond)
