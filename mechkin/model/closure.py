@@ -90,6 +90,7 @@ def solve_closure(
     q_v = np.atleast_2d(np.asarray(q_v, dtype=np.float64))
     q_w = np.array(np.broadcast_to(np.atleast_2d(q_w0), (q_v.shape[0], len(mech.dependent))),
                    dtype=np.float64)
+    q_w_init = q_w.copy()
     m = q_v.shape[0]
     iters = np.zeros(m, dtype=int)
     done = np.zeros(m, dtype=bool)
@@ -152,6 +153,9 @@ def solve_closure(
         prev_step[upd] = st
         q_w[upd] -= st
         iters[upd] += 1
+    # revolute dependents: the branch nearest the initial guess (Newton may wander by 2 pi)
+    rev = mech.s[dep] == 0
+    q_w[:, rev] -= 2.0 * np.pi * np.round((q_w[:, rev] - q_w_init[:, rev]) / (2.0 * np.pi))
     status = np.empty(m, dtype=object)
     for k in range(m):
         if done[k]:

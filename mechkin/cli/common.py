@@ -1,0 +1,124 @@
+"""Pieces every subcommand shares: error handling, output folders, expect checks, MCAP logs."""
+
+from __future__ import annotations
+
+import functools
+import json
+import logging
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+import typer
+
+from mechkin.errors import MechkinError
+
+F = TypeVar("F", bound=Callable[..., Any])
+UNIT_TO_SI = {"rad": 1.0, "deg": np.pi / 180.0, "m": 1.0, "mm": 1e-3, "s": 1.0, "1": 1.0}
+
+
+def handle_errors(fn: F) -> F:
+    """Turn MechkinError into one line per problem on stderr and its exit code (never a
+    traceback); unexpected exceptions exit 3 with a one-line message."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except MechkinError as exc:
+            for line in str(exc).splitlines() or [type(exc).__name__]:
+                typer.echo(f"error: {line}" if not _has_location(line) else line, err=True)
+            raise typer.Exit(code=exc.exit_code) from None
+        except (typer.Exit, typer.Abort, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # noqa: BLE001 - the CLI must never show a traceback
+            logging.getLogger("mechkin").debug("internal error", exc_info=True)
+            typer.echo(f"mechkin: internal error: {type(exc).__name__}: {exc} (run with "
+                       "MECHKIN_DEBUG=1 for details)", err=True)
+            if _debug():
+                raise
+            raise typer.Exit(code=3) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+def _has_location(line: str) -> bool:
+    head = line.split(": ", 1)[0]
+    return ".yaml" in head or ".yml" in head or ".csv" in head or ":" in head
+
+
+def _debug() -> bool:
+    import os
+
+    return os.environ.get("MECHKIN_DEBUG", "") not in ("", "0")
+
+
+def default_out_dir(name: str, out: Path | None) -> Path:
+    """``--out`` if given, else ``outputs/<scenario name>/`` under the working directory."""
+    return Path(out) if out is not None else Path("outputs") / name
+
+
+def lookup(obj: Any, key: str) -> Any:
+    """Value at a dot path (``targets.0.q_v.q1``) of nested dicts and lists; KeyError if absent."""
+    cur = obj
+    for part in key.split("."):
+        if isinstance(cur, dict):
+            if part not in cur:
+                raise KeyError(part)
+            cur = cur[part]
+        elif isinstance(cur, (list, tuple)):
+            try:
+                cur = cur[int(part)]
+            except (ValueError, IndexError):
+                raise KeyError(part) from None
+        else:
+            raise KeyError(part)
+    return cur
+
+
+def evaluate_expect(summary: dict[str, Any], expects: list[Any]) -> list[dict[str, Any]]:
+    """Check each ``expect:`` entry against the summary; values compared in SI."""
+    out = []
+    for e in expects:
+        f = UNIT_TO_SI[e.unit] if e.unit else 1.0
+        ref = np.atleast_1d(np.asarray(e.value, dtype=float)) * f
+        tol = e.tol * f
+        rec: dict[str, Any] = {"key": e.key, "expected": e.value, "tol": e.tol,
+                               "unit": e.unit or "SI"}
+        if e.source:
+            rec["source"] = e.source
+        try:
+            actual = lookup(summary, e.key)
+            act = np.atleast_1d(np.asarray(actual, dtype=float))
+            if act.shape != ref.shape:
+                rec.update(ok=False, actual=actual, message=f"shape {act.shape} != {ref.shape}")
+            else:
+                err = float(np.max(np.abs(act - ref))) if act.size else 0.0
+                ok = bool(np.all(np.isfinite(act))) and err <= tol
+                shown = (act / f).tolist()
+                rec.update(ok=ok, actual=shown[0] if len(shown) == 1 else shown,
+                           error=err / f)
+        except (KeyError, TypeError, ValueError):
+            rec.update(ok=False, actual=None, message=f"no value at {e.key!r} in the summary")
+        out.append(rec)
+    return out
+
+
+def report_expect(checks: list[dict[str, Any]], scenario_path: Path) -> None:
+    for c in checks:
+        if not c["ok"]:
+            msg = c.get("message") or (f"expected {c['expected']} +- {c['tol']} "
+                                       f"({c['unit']}), got {c['actual']}")
+            typer.echo(f"{scenario_path}: expect {c['key']}: {msg}", err=True)
+
+
+def echo_json(summary: dict[str, Any]) -> None:
+    from mechkin.io.summary import summary_json
+
+    sys.stdout.write(summary_json(summary) + "\n")
+
+
+def dump(obj: Any) -> str:
+    return json.dumps(obj, indent=2)

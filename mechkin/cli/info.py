@@ -1,0 +1,97 @@
+"""``mechkin info MECH.yaml``: coordinates, cuts, equations, degrees of freedom, mobility."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import typer
+
+from mechkin.cli.common import echo_json, handle_errors
+from mechkin.model import Mechanism, load_mechanism
+from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+
+
+def info_cli(
+    mechanism: Path = typer.Argument(..., help="Mechanism YAML"),
+    json_out: bool = typer.Option(False, "--json", help="Print JSON instead of text"),
+) -> None:
+    """Joint coordinates, cuts, constraint equations, degrees of freedom and mobility."""
+    _info(mechanism, json_out)
+
+
+@handle_errors
+def _info(mechanism: Path, json_out: bool) -> None:
+    info = run_info(mechanism=mechanism)
+    if json_out:
+        echo_json(info)
+        return
+    typer.echo(f"{info['name']}: {info['description']}".rstrip(": "))
+    typer.echo(f"  joint coordinates (NC)    {info['n_coordinates']} "
+               f"({info['n_revolute']} revolute, {info['n_prismatic']} prismatic)")
+    typer.echo(f"  links                     {info['n_links']}")
+    typer.echo(f"  cuts                      {info['n_cuts']}")
+    typer.echo(f"  constraint equations (NE) {info['n_equations']} "
+               f"(rank {info['constraint_rank']} at home)")
+    typer.echo(f"  degrees of freedom        {info['dof']}")
+    typer.echo(f"  Grubler-Kutzbach mobility {info['mobility']}")
+    if info.get("mobility_note"):
+        typer.echo(f"    note: {info['mobility_note']}")
+    typer.echo(f"  independent               {', '.join(info['independent'])}")
+    typer.echo(f"  dependent                 {', '.join(info['dependent']) or '-'}")
+    typer.echo(f"  end effector              {info['end_effector'] or '-'}")
+
+
+def run_info(*, mechanism: Path) -> dict[str, Any]:
+    mech = load_mechanism(mechanism)
+    return mechanism_info(mech)
+
+
+def mechanism_info(mech: Mechanism) -> dict[str, Any]:
+    """Counts of kim1995 Table 10 (relative coordinates), dof from the rank, and mobility.
+
+    Grubler-Kutzbach (spatial): M = 6 (N_bodies - 1) - sum(6 - f_i). With 1-DOF joints and cut
+    links each merging two tree links into one body, M = n - sum over cuts of the equations.
+    """
+    q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)[None]
+    _, J = closure_jacobian(mech, forward_kinematics(mech, q0))
+    rank = int(np.linalg.matrix_rank(J[0], tol=1e-9)) if J.shape[1] else 0
+    dof = mech.n - rank
+    mobility = mech.n - mech.n_equations
+    note = None
+    if mobility != dof:
+        note = (f"the constraint equations are dependent (rank {rank} < {mech.n_equations}): "
+                "a planar or spherical loop, or an overconstrained mechanism; the degrees of "
+                "freedom come from the rank")
+    n_bodies = mech.n_links - mech.n_cuts - len(mech.virtual_links)
+    return {
+        "name": mech.name,
+        "description": mech.description,
+        "source": str(mech.source) if mech.source else None,
+        "n_coordinates": mech.n,
+        "n_revolute": int((mech.s == 0).sum()),
+        "n_prismatic": int((mech.s == 1).sum()),
+        "n_links": mech.n_links,
+        "n_bodies": n_bodies,
+        "n_cuts": mech.n_cuts,
+        "n_equations": mech.n_equations,
+        "constraint_rank": rank,
+        "dof": dof,
+        "mobility": mobility,
+        "mobility_note": note,
+        "independent": mech.independent_names,
+        "dependent": mech.dependent_names,
+        "end_effector": mech.frame_names[mech.end_effector]
+        if mech.end_effector is not None else None,
+        "joints": [
+            {"name": g.name, "type": g.type,
+             "coordinates": [mech.joint_names[j] for j in g.joints]}
+            for g in mech.groups
+        ],
+        "cuts": [
+            {"name": c.name, "frames": [mech.frame_names[c.a], mech.frame_names[c.b]],
+             "equations": int(c.mask.sum())}
+            for c in mech.cuts
+        ],
+    }

@@ -1,0 +1,210 @@
+"""Scenario files: the task, the mechanism, the inputs, outputs wanted and ``expect:`` checks.
+
+The common part is validated here; each task's own section (``fk:``, ``ik:``, ``track:``,
+``workspace:``) is validated by the model registered for it in ``TASK_SECTIONS``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, model_validator
+
+from mechkin.config.load import YamlDoc, read_yaml
+from mechkin.config.schema import Name, Num, PosNum, Spec, Units, validate_model
+from mechkin.errors import ConfigError
+
+# ---- fk ---------------------------------------------------------------------------------------
+
+
+class TimeSpec(Spec):
+    """A uniform time grid [s]: start, stop (inclusive) and step."""
+
+    start: Num = 0.0
+    stop: PosNum
+    step: PosNum
+
+
+class MotionSpec(Spec):
+    """Motion of one independent joint (values in the file's units; t in s).
+
+    constant: value. ramp: from -> to, linear over the time span. sinusoid:
+    offset + amplitude * sin(2 pi frequency t + phase).
+    """
+
+    type: Literal["constant", "ramp", "sinusoid"]
+    value: Num | None = None
+    start: Num | None = Field(default=None, alias="from")
+    to: Num | None = None
+    offset: Num = 0.0
+    amplitude: Num | None = None
+    frequency: Num | None = None
+    phase: Num = 0.0
+
+    @model_validator(mode="after")
+    def _check(self) -> MotionSpec:
+        need = {"constant": ("value",), "ramp": ("start", "to"),
+                "sinusoid": ("amplitude", "frequency")}[self.type]
+        missing = [("from" if k == "start" else k) for k in need if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"a {self.type} motion needs {', '.join(missing)}")
+        return self
+
+
+class ToleranceSpec(Spec):
+    """Newton-Raphson tolerances of the loop closure (kim1995 §5.1: epsilon_v, epsilon_w)."""
+
+    phi: PosNum = 1e-12
+    dq: PosNum = 1e-12
+    max_iter: Annotated[int, Field(strict=True, ge=1, le=10000)] = 50
+
+
+class FkSpec(Spec):
+    """``fk:`` section: the motion of the independent joints.
+
+    Give exactly one of: ``time`` + ``motion`` (generators per joint), ``table`` (columns ``t``
+    and one per independent joint), or ``csv`` (a file with a ``t_s`` column and one column per
+    independent joint named ``<joint>_rad``, ``<joint>_deg``, ``<joint>_m`` or ``<joint>_mm``).
+    """
+
+    time: TimeSpec | None = None
+    motion: dict[Name, MotionSpec] | None = None
+    table: dict[Name, list[Num]] | None = None
+    csv: str | None = None
+    initial_guess: dict[Name, Num] | None = None
+    tolerances: ToleranceSpec = Field(default_factory=ToleranceSpec)
+    snapshots: Annotated[int, Field(strict=True, ge=1, le=12)] = 4
+
+    @model_validator(mode="after")
+    def _one_source(self) -> FkSpec:
+        given = [k for k in ("motion", "table", "csv") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one of motion (with time), table or csv, "
+                             f"got {', '.join(given) or 'none'}")
+        if self.motion is not None and self.time is None:
+            raise ValueError("motion needs time: {start, stop, step}")
+        return self
+
+
+# ---- common -----------------------------------------------------------------------------------
+
+
+class OutputsSpec(Spec):
+    csv: bool = True
+    plots: bool = True
+    mcap: bool = True
+
+
+class ExpectSpec(Spec):
+    """A reference value checked after the run: ``key`` is a dot path into summary.json
+    (``targets.0.q_v.q1``); ``value`` a number or list; ``tol`` absolute; ``unit`` the unit
+    of value and tol when not SI (deg, mm)."""
+
+    key: Annotated[str, Field(min_length=1)]
+    value: Num | list[Num]
+    tol: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+    unit: Literal["rad", "deg", "m", "mm", "s", "1"] | None = None
+    source: str | None = None
+
+
+class ScenarioSpec(Spec):
+    name: Name
+    task: Literal["fk", "ik", "track", "workspace"]
+    description: str | None = None
+    mechanism: str | None = None
+    units: Units = Field(default_factory=Units)
+    fk: dict[str, Any] | None = None
+    ik: dict[str, Any] | None = None
+    track: dict[str, Any] | None = None
+    workspace: dict[str, Any] | None = None
+    outputs: OutputsSpec = Field(default_factory=OutputsSpec)
+    expect: list[ExpectSpec] = Field(default_factory=list)
+
+
+TASK_SECTIONS: dict[str, type[Spec]] = {"fk": FkSpec}
+MECHANISM_OPTIONAL = {"track", "workspace"}
+
+
+def register_task_section(task: str, model: type[Spec]) -> None:
+    """Register the schema of a task's section (solvers add theirs without touching this file)."""
+    TASK_SECTIONS[task] = model
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: common spec, its task section, resolved mechanism path."""
+
+    spec: ScenarioSpec
+    section: Any
+    doc: YamlDoc
+    mechanism_path: Path | None
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def path(self) -> Path:
+        return self.doc.path
+
+
+def _register_builtin_sections() -> None:
+    """Import the task modules that register their sections (lazily, to keep import light)."""
+    import importlib
+
+    for mod in ("mechkin.config.ik_spec", "mechkin.config.track_spec",
+                "mechkin.config.workspace_spec"):
+        try:
+            importlib.import_module(mod)
+        except ModuleNotFoundError as exc:
+            if exc.name != mod:
+                raise
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file (raises ConfigError listing every problem)."""
+    _register_builtin_sections()
+    doc = read_yaml(path)
+    spec = validate_model(doc, ScenarioSpec, doc.data)
+    problems: list[str] = []
+    section = getattr(spec, spec.task)
+    if section is None:
+        problems.append(f"{doc.where((spec.task,))}: a {spec.task} scenario needs a "
+                        f"'{spec.task}:' section")
+    for other in ("fk", "ik", "track", "workspace"):
+        if other != spec.task and getattr(spec, other) is not None:
+            problems.append(f"{doc.where((other,))}: section '{other}' does not belong in a "
+                            f"{spec.task} scenario")
+    mech_path = None
+    if spec.mechanism is None:
+        if spec.task not in MECHANISM_OPTIONAL:
+            problems.append(f"{doc.where(('mechanism',))}: required key is missing")
+    else:
+        mech_path = (doc.path.parent / spec.mechanism).resolve()
+        if not mech_path.is_file():
+            problems.append(f"{doc.where(('mechanism',))}: mechanism file not found: "
+                            f"{spec.mechanism} (resolved to {mech_path})")
+    if problems:
+        raise ConfigError(problems)
+    model = TASK_SECTIONS.get(spec.task)
+    if model is None:
+        raise ConfigError(f"{doc.where(('task',))}: task {spec.task!r} is not available in "
+                          "this version")
+    parsed = validate_model(doc, model, section, prefix=(spec.task,))
+    return Scenario(spec=spec, section=parsed, doc=doc, mechanism_path=mech_path)
+
+
+def scenario_json_schema() -> dict[str, Any]:
+    """JSON Schema of scenario files, with each task section's schema filled in."""
+    _register_builtin_sections()
+    schema = ScenarioSpec.model_json_schema()
+    props = schema.get("properties", {})
+    defs = schema.setdefault("$defs", {})
+    for task, model in TASK_SECTIONS.items():
+        sub = model.model_json_schema(ref_template="#/$defs/{model}")
+        defs.update(sub.pop("$defs", {}))
+        defs[model.__name__] = sub
+        props[task] = {"anyOf": [{"$ref": f"#/$defs/{model.__name__}"}, {"type": "null"}]}
+    return schema
