@@ -1,0 +1,24 @@
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+@pytest.fixture
+def root() -> Path:
+    return ROOT
+
+
+@pytest.fixture
+def mechanisms_dir() -> Path:
+    return ROOT / "mechanisms"
+
+
+@pytest.fixture
+def scenarios_dir() -> Path:
+    return ROOT / "scenarios"
