@@ -117,7 +117,7 @@ def report_expect(checks: list[dict[str, Any]], scenario_path: Path) -> None:
 def echo_json(summary: dict[str, Any]) -> None:
     from mechkin.io.summary import summary_json
 
-    sys.stdout.write(summary_json(summary) + "\n")
+    sys.stdout.write(summary_json(summary))
 
 
 def dump(obj: Any) -> str:

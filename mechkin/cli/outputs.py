@@ -38,7 +38,7 @@ def mechanism_scene(mech: Mechanism, kin: Kinematics) -> Scene:
     return Scene(
         lines=(Lines(seg.reshape(m, -1, 3), kind="list", thickness=0.01 * size,
                      rgba=(0.2, 0.5, 0.9, 1.0)),) if seg.shape[1] else (),
-        spheres=(Spheres(kin.W[:, :, :3, 3], radius=0.015 * size),),
+        spheres=(Spheres(kin.axes()[1], radius=0.015 * size),),
     )
 
 

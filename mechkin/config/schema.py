@@ -131,8 +131,9 @@ class JointSpec(Spec):
         lim = self.limits
         if lim is not None:
             pairs = lim if (lim and isinstance(lim[0], list)) else [lim]
-            if len(pairs) != n:
-                raise ValueError(f"limits: expected {n} [lo, hi] pair(s), got {len(pairs)}")
+            if len(pairs) not in (1, n):
+                raise ValueError(f"limits: expected one [lo, hi] pair (for every axis) or {n}, "
+                                 f"got {len(pairs)}")
             for lo_hi in pairs:
                 if not lo_hi[0] < lo_hi[1]:  # type: ignore[index]
                     raise ValueError(f"limits: expected lo < hi, got {lo_hi}")
@@ -166,7 +167,7 @@ class MechanismSpec(Spec):
     cuts: list[CutSpec] = Field(default_factory=list)
     independent: list[Name] | None = None
     end_effector: Name | None = None
-    gravity: Vec3 | None = None
+    gravity: Vec3 | None = None  # in the file's length unit per s^2 (default -9.81 m/s^2 z)
 
 
 def pydantic_problems(

@@ -141,14 +141,24 @@ def read_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     -------
     dict of str to array, shape (m,)
         Columns in file order.
+
+    Raises
+    ------
+    ValueError
+        An empty file or a row whose cell count differs from the header's (with its line).
+    OSError
+        The file cannot be read.
     """
     import csv
 
     with open(path, newline="", encoding="utf-8") as f:
-        rows = list(csv.reader(f))
+        rows = [(n, r) for n, r in enumerate(csv.reader(f), start=1) if r]
     if not rows:
-        raise OutputError(f"{path}: expected a CSV header line, got an empty file")
-    header, body = rows[0], rows[1:]
+        raise ValueError("expected a CSV header line, got an empty file")
+    header, body = rows[0][1], [r for _, r in rows[1:]]
+    for n, r in rows[1:]:
+        if len(r) != len(header):
+            raise ValueError(f"line {n}: expected {len(header)} cells, got {len(r)}")
     out: dict[str, np.ndarray] = {}
     for j, name in enumerate(header):
         col = [r[j] for r in body]

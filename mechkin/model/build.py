@@ -273,12 +273,12 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         if bad:
             continue
         la, lb = frame_link[frame_idx[fa]], frame_link[frame_idx[fb]]
-        if la == lb or _is_ancestor(ancestors, child_link, la, lb) or _is_ancestor(
-            ancestors, child_link, lb, la
-        ):
-            P.add(kp + ("frames",), f"frames {fa!r} and {fb!r} lie on the same branch of the "
-                  "tree (links {!r} and {!r}): a cut must join two branches of a loop".format(
-                      link_names[la], link_names[lb]))
+        if la == lb:
+            # both frames on one rigid link: no joint lies between them, so the "cut" closes no
+            # loop (a cut onto an ancestor link, e.g. back to the ground, is a valid loop)
+            P.add(kp + ("frames",), f"frames {fa!r} and {fb!r} lie on the same branch: both "
+                  f"are fixed on link {link_names[la]!r}, so no joint lies between them and the "
+                  "cut closes no loop")
             continue
         mask = np.ones(6, dtype=bool)
         if c.mask is not None:
@@ -351,15 +351,6 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     )
     P.raise_if_any()
     return _with_partition(mech, spec, P, names, groups)
-
-
-def _is_ancestor(ancestors: np.ndarray, child_link: np.ndarray, la: int, lb: int) -> bool:
-    """Is link ``la`` on the path from the base to link ``lb``?"""
-    if la == 0:
-        return True
-    # la is an ancestor of lb when la's parent joint is among lb's ancestors
-    js = np.flatnonzero(ancestors[lb])
-    return bool(np.any(child_link[js] == la))
 
 
 def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:

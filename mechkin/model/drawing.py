@@ -15,7 +15,7 @@ def skeleton_segments(mech: Mechanism, kin: Kinematics) -> np.ndarray:
     m = kin.q.shape[0]
     T_f = kin.frames(mech)
     origins = T_f[..., :3, 3]  # (m, nf, 3)
-    axis_o = kin.W[..., :3, 3]  # (m, n, 3)
+    axis_o = kin.axes()[1]  # (m, n, 3) points on the joint axes
     child_o = kin.T_links[:, mech.joint_child_link][..., :3, 3]
     parent_o = origins[:, mech.joint_parent_frame]
     seg = [np.stack([parent_o, axis_o], axis=2), np.stack([axis_o, child_o], axis=2)]

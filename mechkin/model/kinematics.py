@@ -12,25 +12,89 @@ from dataclasses import dataclass
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
-from mechkin.spatial.rotations import quat_from_matrix
+from mechkin.spatial.rotations import quat_from_matrix, skew
 
 
 @dataclass(frozen=True)
 class Kinematics:
     """Poses of a batch of configurations.
 
-    T_links (m, nl, 4, 4): base -> link frames. W (m, n, 4, 4): base -> joint axis frames
-    (z = joint axis, origin on the axis), evaluated after the joint's motion.
+    q (m, n); T_links (m, nl, 4, 4): base -> link frames. Joint axes (unit z in the base frame)
+    and points on them are computed on demand by :meth:`axes`.
     """
 
     q: np.ndarray
     T_links: np.ndarray
-    W: np.ndarray
+    mech: Mechanism
 
     def frames(self, mech: Mechanism, idx: np.ndarray | list[int] | None = None) -> np.ndarray:
         """Poses of frames ``idx`` (all if None) in the base frame: (m, k, 4, 4)."""
         fi = np.arange(len(mech.frame_names)) if idx is None else np.asarray(idx)
         return self.T_links[:, mech.frame_link[fi]] @ mech.frame_offset[fi]
+
+    def axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Joint axes z (m, n, 3) and points o (m, n, 3) on them, in the base frame."""
+        cache = self.__dict__.get("_axes")
+        if cache is None:
+            mech = self.mech
+            Tp = self.T_links[:, mech.joint_parent_link]  # (m, n, 4, 4)
+            Rp = Tp[..., :3, :3]
+            az = mech.A[:, :3, 2]
+            ao = mech.A[None, :, :3, 3] + az[None] * np.where(mech.s == 1, self.q, 0.0)[..., None]
+            z = np.einsum("mnij,nj->mni", Rp, az)
+            o = np.einsum("mnij,mnj->mni", Rp, ao) + Tp[..., :3, 3]
+            cache = (z, o)
+            object.__setattr__(self, "_axes", cache)
+        return cache
+
+    @property
+    def W(self) -> np.ndarray:
+        """Joint axis frames (m, n, 4, 4): T_base_parent @ A_i @ Z(q_i)."""
+        mech = self.mech
+        Tp = self.T_links[:, mech.joint_parent_link]
+        return Tp @ (_local(mech, self.q, mech.A, mech.A @ _ZC, mech.A @ _ZS, mech.A @ _ZD))
+
+
+# Z(q) = c*ZC + s*ZS + ZK (revolute, about z) or ZD*q + I (prismatic, along z)
+_ZC = np.diag([1.0, 1.0, 0.0, 0.0])
+_ZS = np.zeros((4, 4))
+_ZS[0, 1], _ZS[1, 0] = -1.0, 1.0
+_ZK = np.diag([0.0, 0.0, 1.0, 1.0])
+_ZD = np.zeros((4, 4))
+_ZD[2, 3] = 1.0
+
+
+def _local(mech: Mechanism, qs: np.ndarray, P0, Pc, Ps, Pd) -> np.ndarray:
+    """c P_c + s P_s + d P_d + P_0 for every joint: (m, n, 4, 4)."""
+    return np.moveaxis(_local_T(mech, np.ascontiguousarray(qs.T), P0, Pc, Ps, Pd), 0, 1)
+
+
+def _local_T(mech: Mechanism, qT: np.ndarray, P0, Pc, Ps, Pd) -> np.ndarray:
+    """Joint-major local transforms (n, m, 4, 4) from joint-major values qT (n, m)."""
+    rev = mech.s == 0
+    L = np.empty(qT.shape + (4, 4))
+    if rev.any():
+        qr = qT[rev]
+        L[rev] = np.cos(qr)[..., None, None] * Pc[rev, None]
+        L[rev] += np.sin(qr)[..., None, None] * Ps[rev, None]
+        L[rev] += P0[rev, None]
+    if (~rev).any():
+        L[~rev] = qT[~rev][..., None, None] * Pd[~rev, None]
+        L[~rev] += P0[~rev, None]
+    return L
+def _local_factors(mech: Mechanism) -> tuple[np.ndarray, ...]:
+    """Constant matrices with A Z(q) B = c Pc + s Ps + d Pd + P0 (cached on the mechanism)."""
+    cache = mech.__dict__.get("_local_factors")
+    if cache is None:
+        A, B = mech.A, mech.B
+        rev = (mech.s == 0)[:, None, None]
+        P0 = np.where(rev, A @ _ZK @ B, A @ B)
+        Pc = np.where(rev, A @ _ZC @ B, 0.0)
+        Ps = np.where(rev, A @ _ZS @ B, 0.0)
+        Pd = np.where(rev, 0.0, A @ _ZD @ B)
+        cache = (P0, Pc, Ps, Pd)
+        object.__setattr__(mech, "_local_factors", cache)
+    return cache
 
 
 def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
@@ -43,32 +107,26 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
 
     Notes
     -----
-    Joints of one depth of the tree are composed together (one matmul per depth), so a
-    36-joint Stewart platform costs 7 batched products, a 6R arm 6.
+    Each joint's transform ``A Z(q) B`` is ``c P_c + s P_s + d P_d + P_0`` with constant
+    matrices (kim1995 Eq. (2): the joint index s_i picks rotation or translation), and joints of
+    one depth of the tree are composed together (one batched product per depth), so a 36-joint
+    Stewart platform costs 7 batched products, a 6R arm 6.
     """
     qs = np.asarray(qs, dtype=np.float64)
     if qs.ndim != 2 or qs.shape[1] != mech.n:
         raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
     m = qs.shape[0]
-    T = np.empty((m, mech.n_links, 4, 4))
-    T[:, 0] = np.eye(4)
-    W = np.empty((m, mech.n, 4, 4))
-    rev = mech.s == 0
-    c = np.where(rev, np.cos(qs), 1.0)
-    s = np.where(rev, np.sin(qs), 0.0)
-    d = np.where(rev, 0.0, qs)
-    A = mech.A
-    # A @ Z(q): rotate the first two columns, shift the origin along the third (kim1995 Eq. (2))
-    AZ = np.empty((m, mech.n, 4, 4))
-    AZ[..., 0] = A[None, :, :, 0] * c[..., None] + A[None, :, :, 1] * s[..., None]
-    AZ[..., 1] = A[None, :, :, 1] * c[..., None] - A[None, :, :, 0] * s[..., None]
-    AZ[..., 2] = A[None, :, :, 2]
-    AZ[..., 3] = A[None, :, :, 3] + A[None, :, :, 2] * d[..., None]
+    T = np.empty((mech.n_links, m, 4, 4))  # link-major while composing, contiguous per link
+    T[0] = np.eye(4)
+    L = _local_T(mech, np.ascontiguousarray(qs.T), *_local_factors(mech))
     for lvl in mech.levels:
-        Wl = T[:, mech.joint_parent_link[lvl]] @ AZ[:, lvl]
-        W[:, lvl] = Wl
-        T[:, mech.joint_child_link[lvl]] = Wl @ mech.B[lvl]
-    return Kinematics(q=qs, T_links=T, W=W)
+        if len(lvl) == 1:
+            j = lvl[0]
+            np.matmul(T[mech.joint_parent_link[j]], L[j], out=T[mech.joint_child_link[j]])
+        else:
+            T[mech.joint_child_link[lvl]] = T[mech.joint_parent_link[lvl]] @ L[lvl]
+    T = np.moveaxis(T, 0, 1)
+    return Kinematics(q=qs, T_links=T, mech=mech)
 
 
 def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | None = None):
@@ -76,22 +134,30 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
     return forward_kinematics(mech, qs).frames(mech, idx)
 
 
-def _joint_twists(mech: Mechanism, kin: Kinematics) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    z = kin.W[..., :3, 2]  # (m, n, 3)
-    o = kin.W[..., :3, 3]
-    rev = (mech.s == 0)[None, :, None]
-    w = np.where(rev, z, 0.0)
-    return z, o, w
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (faster than np.cross on small stacks)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def _point_twists(mech: Mechanism, kin: Kinematics, p: np.ndarray):
+    """Per joint, velocity of points p (m, k, 3) and angular velocity: (m, k, n, 3) each."""
+    z, o = kin.axes()
+    rev = (mech.s == 0)[:, None]
+    v = np.where(rev, _cross(z[:, None], p[:, :, None, :] - o[:, None]), z[:, None])
+    w = np.where(rev, z, 0.0)[:, None]
+    return v, w
 
 
 def frame_jacobian(mech: Mechanism, kin: Kinematics, f: int) -> np.ndarray:
     """Geometric Jacobian (m, 6, n) of frame ``f``: rows (omega, v) in the base frame."""
-    T_f = kin.frames(mech, [f])[:, 0]
-    p = T_f[:, :3, 3]
-    z, o, w = _joint_twists(mech, kin)
+    p = kin.frames(mech, [f])[:, :, :3, 3]
+    v, w = _point_twists(mech, kin, p)
     mask = mech.link_ancestors[mech.frame_link[f]][None, :, None]
-    v = np.where((mech.s == 0)[None, :, None], np.cross(z, p[:, None, :] - o), z)
-    J = np.concatenate([w * mask, v * mask], axis=-1)  # (m, n, 6)
+    J = np.concatenate([np.broadcast_to(w[:, 0], v[:, 0].shape) * mask, v[:, 0] * mask], axis=-1)
     return np.swapaxes(J, 1, 2)
 
 
@@ -108,54 +174,64 @@ def relative_residual(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
     return np.concatenate([p, e[..., 1:]], axis=-1)
 
 
+def relative_jacobians(
+    mech: Mechanism,
+    kin: Kinematics,
+    fa: np.ndarray | None,
+    fb: np.ndarray,
+    T_a_fixed: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    r"""Residuals x (m, k, 6) of frames fb (k,) relative to frames fa (k,) and dx/dq (m, k, 6, n).
+
+    ``fa = None`` means fixed frames ``T_a_fixed`` (k, 4, 4) or (m, k, 4, 4) in the base frame
+    (precision points, kim1995 Eq. (7)). With sigma_j = [j before b] - [j before a] in the tree,
+
+    .. math:: \dot p = R_a^T \sum_j \sigma_j v_j(p_b)\dot q_j,\quad
+              \dot e = \tfrac12 (e_0 I - [e]_\times) R_a^T \sum_j \sigma_j \omega_j \dot q_j
+
+    (for a joint before both frames, v_j(p_b) - v_j(p_a) - omega_j x (p_b - p_a) = 0).
+    """
+    fb = np.asarray(fb)
+    m = kin.q.shape[0]
+    T_b = kin.frames(mech, fb)
+    sigma = mech.link_ancestors[mech.frame_link[fb]].astype(np.float64)  # (k, n)
+    if fa is None:
+        T_a = np.broadcast_to(np.asarray(T_a_fixed, dtype=np.float64), (m, len(fb), 4, 4))
+    else:
+        fa = np.asarray(fa)
+        T_a = kin.frames(mech, fa)
+        sigma = sigma - mech.link_ancestors[mech.frame_link[fa]]
+    R_a = T_a[..., :3, :3]
+    p_b = T_b[..., :3, 3]
+    v, w = _point_twists(mech, kin, p_b)  # (m, k, n, 3)
+    sig = sigma[None, :, :, None]
+    Jp = np.einsum("mkji,mknj->mkin", R_a, sig * v)
+    Jw = np.einsum("mkji,mknj->mkin", R_a, sig * w)
+    e = quat_from_matrix(np.swapaxes(R_a, -1, -2) @ T_b[..., :3, :3])  # (m, k, 4)
+    e0, ev = e[..., 0], e[..., 1:]
+    E = 0.5 * (e0[..., None, None] * np.eye(3) - skew(ev))
+    x = np.concatenate([np.einsum("mkji,mkj->mki", R_a, p_b - T_a[..., :3, 3]), ev], axis=-1)
+    return x, np.concatenate([Jp, E @ Jw], axis=2)
+
+
 def relative_jacobian(
     mech: Mechanism, kin: Kinematics, fa: int | None, fb: int, T_a_fixed: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    r"""Residual x (m, 6) of frame fb relative to fa and its Jacobian dx/dq (m, 6, n).
-
-    ``fa = None`` means a fixed frame ``T_a_fixed`` (4, 4) or (m, 4, 4) in the base frame (a
-    precision point, kim1995 Eq. (7)).
-
-    .. math:: \dot p = R_a^T (v_b - v_a - \omega_a \times (p_b - p_a)),\quad
-              \dot e = \tfrac12 (e_0 I - [e]_\times) R_a^T (\omega_b - \omega_a)
-    """
-    m = kin.q.shape[0]
-    T_b = kin.frames(mech, [fb])[:, 0]
-    if fa is None:
-        T_a = np.broadcast_to(np.asarray(T_a_fixed, dtype=np.float64), (m, 4, 4))
-    else:
-        T_a = kin.frames(mech, [fa])[:, 0]
-    R_a = T_a[:, :3, :3]
-    p_a, p_b = T_a[:, :3, 3], T_b[:, :3, 3]
-    z, o, w = _joint_twists(mech, kin)
-    rev = (mech.s == 0)[None, :, None]
-    mask_b = mech.link_ancestors[mech.frame_link[fb]][None, :, None]
-    v_b = np.where(rev, np.cross(z, p_b[:, None, :] - o), z) * mask_b  # (m, n, 3)
-    w_b = w * mask_b
-    if fa is None:
-        v_rel, w_rel = v_b, w_b
-    else:
-        mask_a = mech.link_ancestors[mech.frame_link[fa]][None, :, None]
-        v_a = np.where(rev, np.cross(z, p_a[:, None, :] - o), z) * mask_a
-        w_a = w * mask_a
-        v_rel = v_b - v_a - np.cross(w_a, (p_b - p_a)[:, None, :])
-        w_rel = w_b - w_a
-    e = quat_from_matrix(np.swapaxes(R_a, -1, -2) @ T_b[:, :3, :3])  # (m, 4)
-    e0, ev = e[:, 0], e[:, 1:]
-    x = np.concatenate([np.einsum("mji,mj->mi", R_a, p_b - p_a), ev], axis=-1)
-    Jp = np.einsum("mji,mkj->mik", R_a, v_rel)  # R_a^T v_rel -> (m, 3, n)
-    Jw = np.einsum("mji,mkj->mik", R_a, w_rel)
-    E = 0.5 * (e0[:, None, None] * np.eye(3) - _skew(ev))  # (m, 3, 3)
-    Je = E @ Jw
-    return x, np.concatenate([Jp, Je], axis=1)
+    """Residual x (m, 6) of frame fb relative to fa (or a fixed frame) and dx/dq (m, 6, n)."""
+    T_fixed = None if T_a_fixed is None else np.asarray(T_a_fixed)[..., None, :, :]
+    x, J = relative_jacobians(mech, kin, None if fa is None else np.array([fa]), np.array([fb]),
+                              T_fixed)
+    return x[:, 0], J[:, 0]
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
+def _cut_arrays(mech: Mechanism) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    cache = mech.__dict__.get("_cut_arrays")
+    if cache is None:
+        cache = (np.array([c.a for c in mech.cuts], dtype=int),
+                 np.array([c.b for c in mech.cuts], dtype=int),
+                 np.stack([c.mask for c in mech.cuts]) if mech.cuts else np.zeros((0, 6), bool))
+        object.__setattr__(mech, "_cut_arrays", cache)
+    return cache
 
 
 def closure_residual(mech: Mechanism, kin: Kinematics) -> np.ndarray:
@@ -163,10 +239,8 @@ def closure_residual(mech: Mechanism, kin: Kinematics) -> np.ndarray:
     m = kin.q.shape[0]
     if not mech.cuts:
         return np.zeros((m, 0))
-    Ta = kin.frames(mech, [c.a for c in mech.cuts])
-    Tb = kin.frames(mech, [c.b for c in mech.cuts])
-    x = relative_residual(Ta, Tb)  # (m, nc, 6)
-    mask = np.stack([c.mask for c in mech.cuts])
+    fa, fb, mask = _cut_arrays(mech)
+    x = relative_residual(kin.frames(mech, fa), kin.frames(mech, fb))  # (m, nc, 6)
     return x[:, mask]
 
 
@@ -175,9 +249,6 @@ def closure_jacobian(mech: Mechanism, kin: Kinematics) -> tuple[np.ndarray, np.n
     m = kin.q.shape[0]
     if not mech.cuts:
         return np.zeros((m, 0)), np.zeros((m, 0, mech.n))
-    xs, Js = [], []
-    for c in mech.cuts:
-        x, J = relative_jacobian(mech, kin, c.a, c.b)
-        xs.append(x[:, c.mask])
-        Js.append(J[:, c.mask])
-    return np.concatenate(xs, axis=1), np.concatenate(Js, axis=1)
+    fa, fb, mask = _cut_arrays(mech)
+    x, J = relative_jacobians(mech, kin, fa, fb)
+    return x[:, mask], J[:, mask]

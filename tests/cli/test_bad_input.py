@@ -65,8 +65,8 @@ CASES = {
         r"'q_coupler': a closed loop needs a cut",
     ),
     "cut on one branch": (
-        _mutate(["cuts", 0, "frames"], ["coupler_end", "crank"]),
-        r"m\.yaml:\d+: cuts\[0\]\.frames: frames 'coupler_end' and 'crank' lie on the same "
+        _mutate(["cuts", 0, "frames"], ["coupler_end", "coupler"]),
+        r"m\.yaml:\d+: cuts\[0\]\.frames: frames 'coupler_end' and 'coupler' lie on the same "
         r"branch",
     ),
     "unknown independent": (_mutate(["independent"], ["q_crnk"]),

@@ -82,3 +82,13 @@ def test_nan_refused_in_lists() -> None:
 def test_bad_tables(columns: dict, match: str) -> None:
     with pytest.raises(OutputError, match=match):
         format_csv(columns)
+
+
+def test_read_csv_skips_blank_lines_and_reports_ragged_rows(tmp_path: Path) -> None:
+    path = tmp_path / "in.csv"
+    path.write_text("t_s,q1_rad\n0,1\n\n0.5,2\n\n")
+    back = read_csv(path)
+    assert back["t_s"].tolist() == [0.0, 0.5] and back["q1_rad"].tolist() == [1.0, 2.0]
+    path.write_text("t_s,q1_rad\n0,1\n0.5\n")
+    with pytest.raises(ValueError, match="line 3: expected 2 cells, got 1"):
+        read_csv(path)

@@ -28,6 +28,12 @@ def test_plot_series(tmp_path: Path) -> None:
     assert [p.name for p in tmp_path.iterdir()] == ["q.png"]
 
 
+def test_plot_series_without_labels(tmp_path: Path) -> None:
+    t = np.linspace(0.0, 1.0, 5)
+    path = plot_series(tmp_path / "q.png", t, np.zeros((5, 2)), ["", ""], "t [s]", "q", "q")
+    assert _is_png(path)
+
+
 def test_plot_series_shape_errors(tmp_path: Path) -> None:
     with pytest.raises(OutputError, match="labels"):
         plot_series(tmp_path / "q.png", np.arange(3.0), np.zeros((3, 2)), ["a"], "x", "y", "t")

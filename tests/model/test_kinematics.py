@@ -163,3 +163,18 @@ def test_partition_matrices():
     q_v, q_w = np.array([0.1]), np.array([0.2, 0.3])
     q = mech.assemble(q_v, q_w)
     np.testing.assert_allclose(q, mech.L_v @ q_v + mech.L_w @ q_w)  # kim1995 Eq. (3)
+
+
+def test_cut_onto_the_base_closes_a_loop():
+    """A serial chain closed back onto the ground gives the same linkage as the two-branch form."""
+    a = load_mechanism(FOURBAR)
+    b = load_mechanism(ROOT / "tests" / "data" / "fourbar_ground_cut.yaml")
+    crank = np.deg2rad([30.0, 75.0, 140.0])[:, None]
+    ra = solve_trajectory(a, crank, a.home[a.dependent])
+    rb = solve_trajectory(b, crank, b.home[b.dependent])
+    assert all(s is ClosureStatus.CONVERGED for s in rb.status)
+    pb = frame_poses(b, rb.q, [b.frame_index("rocker")])[:, 0, :3, 3]  # coupler-rocker pin
+    tip = np.column_stack([0.3 * np.cos(crank[:, 0]), 0.3 * np.sin(crank[:, 0])])
+    np.testing.assert_allclose(np.linalg.norm(pb[:, :2] - tip, axis=1), 1.0, atol=1e-10)
+    np.testing.assert_allclose(np.linalg.norm(pb[:, :2] - [1.0, 0.0], axis=1), 0.8, atol=1e-10)
+    assert ra.q.shape == rb.q.shape
