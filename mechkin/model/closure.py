@@ -47,17 +47,46 @@ class ClosureResult:
 
 
 def _pinv_solve(J: np.ndarray, r: np.ndarray, rcond: float = 1e-12):
-    """Minimum-norm least-squares step J^+ r for stacks J (m, k, n), r (m, k); and cond (m,)."""
+    """Least-squares step J^+ r for stacks J (m, k, n), r (m, k) with k >= n; and cond (m,).
+
+    kim1995 §5.1 writes the pseudo-inverse as (J^T J)^-1 J^T; a square J is solved directly,
+    a tall one through its normal equations, and only a rank-deficient stack pays for an SVD
+    (minimum-norm step, singular values below rcond * s_max dropped).
+    """
+    k, n = J.shape[1], J.shape[2]
+    if k >= n:
+        try:
+            if k == n:
+                step = np.linalg.solve(J, r[..., None])[..., 0]
+            else:
+                Jt = np.swapaxes(J, 1, 2)
+                step = np.linalg.solve(Jt @ J, (Jt @ r[..., None]))[..., 0]
+            if np.all(np.isfinite(step)):
+                return step, None
+        except np.linalg.LinAlgError:
+            pass
+    return _svd_solve(J, r, rcond)
+
+
+def _svd_solve(J: np.ndarray, r: np.ndarray, rcond: float = 1e-12):
     U, S, Vt = np.linalg.svd(J, full_matrices=False)
     smax = S[:, :1]
     keep = S > rcond * np.maximum(smax, 1e-300)
     Sinv = np.where(keep, 1.0 / np.where(keep, S, 1.0), 0.0)
     step = np.einsum("mji,mj->mi", Vt, Sinv * np.einsum("mkj,mk->mj", U, r))
-    nmin = min(J.shape[1], J.shape[2])
-    # conditioning of the column space: smallest of the n_w singular values that J should have
-    smin = S[:, J.shape[2] - 1] if J.shape[2] <= nmin else np.zeros(J.shape[0])
-    cond = np.where(smin > 0, smax[:, 0] / np.maximum(smin, 1e-300), np.inf)
-    return step, cond
+    return step, _cond_from_s(S, J.shape[2])
+
+
+def _cond_from_s(S: np.ndarray, n: int) -> np.ndarray:
+    smin = S[:, n - 1] if n <= S.shape[1] else np.zeros(S.shape[0])
+    return np.where(smin > 0, S[:, 0] / np.maximum(smin, 1e-300), np.inf)
+
+
+def _cond(J: np.ndarray) -> np.ndarray:
+    """Condition number of the columns of J (m, k, n)."""
+    if J.shape[0] == 0:
+        return np.zeros(0)
+    return _cond_from_s(np.linalg.svd(J, compute_uv=False), J.shape[2])
 
 
 def solve_closure(
@@ -133,8 +162,10 @@ def solve_closure(
                     break
                 continue
         res[act] = nphi
-        step, c = _pinv_solve(J[:, :, dep], phi)
-        cond[act] = c
+        Jw = J[:, :, dep]
+        step, c = _pinv_solve(Jw, phi)
+        if c is not None:
+            cond[act] = c
         ndq = np.linalg.norm(step, axis=1)
         conv = (nphi < tol_phi) & ((ndq < tol_dq) | (nphi < 1e-14))
         done[act[conv]] = True
@@ -153,6 +184,10 @@ def solve_closure(
         prev_step[upd] = st
         q_w[upd] -= st
         iters[upd] += 1
+    bad = np.flatnonzero(~done)
+    if bad.size:
+        _, Jb = closure_jacobian(mech, forward_kinematics(mech, mech.assemble(q_v[bad], q_w[bad])))
+        cond[bad] = _cond(Jb[:, :, dep])
     # revolute dependents: the branch nearest the initial guess (Newton may wander by 2 pi)
     rev = mech.s[dep] == 0
     q_w[:, rev] -= 2.0 * np.pi * np.round((q_w[:, rev] - q_w_init[:, rev]) / (2.0 * np.pi))
@@ -167,6 +202,13 @@ def solve_closure(
     return ClosureResult(mech.assemble(q_v, q_w), status, iters, res, cond)
 
 
+def dependent_sensitivity(mech: Mechanism, q: np.ndarray) -> np.ndarray:
+    """dq_w/dq_v = -(dphi/dq_w)^+ dphi/dq_v at configurations q (m, n): (m, n_w, n_v)."""
+    _, J = closure_jacobian(mech, forward_kinematics(mech, q))
+    Jw, Jv = J[:, :, mech.dependent], J[:, :, mech.independent]
+    return -np.linalg.pinv(Jw) @ Jv
+
+
 def solve_trajectory(
     mech: Mechanism,
     q_v_traj: np.ndarray,
@@ -175,11 +217,17 @@ def solve_trajectory(
     tol_phi: float = TOL_PHI,
     tol_dq: float = TOL_DQ,
     max_iter: int = MAX_ITER,
+    chunk: int = 32,
 ) -> ClosureResult:
-    """Continuation along a trajectory (kim1995 §5.1 Steps 1-5): each step starts from the last.
+    """Continuation along a trajectory (kim1995 §5.1 Steps 1-5).
 
-    q_v_traj (m, n_v); q_w0 (n_w,) the initial approximation at t0. Steps whose solve fails keep
-    their status; the next step restarts from the last converged solution.
+    ``chunk = 1`` is the paper's scheme: each step starts from the previous step's solution.
+    With ``chunk = K > 1`` (default) the next K steps are solved together in one batched Newton
+    run, each started from a first-order predictor off the last converged step,
+    ``q_w + (dq_w/dq_v) (q_v - q_v_last)``; any step of the chunk that does not converge is then
+    solved alone from its predecessor, so the result equals the sequential one.
+
+    q_v_traj (m, n_v); q_w0 (n_w,) the initial approximation at t0.
     """
     q_v_traj = np.atleast_2d(np.asarray(q_v_traj, dtype=np.float64))
     m = q_v_traj.shape[0]
@@ -188,15 +236,39 @@ def solve_trajectory(
     iters = np.zeros(m, dtype=int)
     res = np.zeros(m)
     cond = np.zeros(m)
+    kw = {"tol_phi": tol_phi, "tol_dq": tol_dq, "max_iter": max_iter}
     guess = np.asarray(q_w0, dtype=np.float64).reshape(1, -1)
-    for k in range(m):
-        r = solve_closure(mech, q_v_traj[k : k + 1], guess, tol_phi=tol_phi, tol_dq=tol_dq,
-                          max_iter=max_iter)
-        qs[k] = r.q[0]
-        status[k] = r.status[0]
-        iters[k] = r.iterations[0]
-        res[k] = r.residual[0]
-        cond[k] = r.cond[0]
-        if r.status[0] is ClosureStatus.CONVERGED:
-            guess = r.q[:, mech.dependent]
+    first = solve_closure(mech, q_v_traj[:1], guess, **kw)
+    qs[0], status[0], iters[0], res[0], cond[0] = (first.q[0], first.status[0],
+                                                   first.iterations[0], first.residual[0],
+                                                   first.cond[0])
+    last_q = first.q[0] if first.status[0] is ClosureStatus.CONVERGED else None
+    k = 1
+    while k < m:
+        if chunk <= 1 or last_q is None or not mech.cuts:
+            g = guess if last_q is None else last_q[mech.dependent][None]
+            r = solve_closure(mech, q_v_traj[k : k + 1], g, **kw)
+            sl = slice(k, k + 1)
+        else:
+            sl = slice(k, min(m, k + chunk))
+            S = dependent_sensitivity(mech, last_q[None])[0]
+            g = last_q[mech.dependent] + (q_v_traj[sl] - last_q[mech.independent]) @ S.T
+            r = solve_closure(mech, q_v_traj[sl], g, **kw)
+            ok = np.array([x is ClosureStatus.CONVERGED for x in r.status])
+            if not ok.all():
+                # keep the converged prefix, redo the rest one by one from its predecessor
+                n_ok = int(np.argmin(ok)) if not ok.all() else len(ok)
+                sl = slice(k, k + max(n_ok, 0))
+                r = ClosureResult(r.q[:n_ok], r.status[:n_ok], r.iterations[:n_ok],
+                                  r.residual[:n_ok], r.cond[:n_ok])
+                if n_ok == 0:
+                    r = solve_closure(mech, q_v_traj[k : k + 1], last_q[mech.dependent][None],
+                                      **kw)
+                    sl = slice(k, k + 1)
+        qs[sl], status[sl], iters[sl], res[sl], cond[sl] = (r.q, r.status, r.iterations,
+                                                            r.residual, r.cond)
+        conv = [i for i, x in enumerate(r.status) if x is ClosureStatus.CONVERGED]
+        if conv:
+            last_q = r.q[conv[-1]]
+        k = sl.stop
     return ClosureResult(qs, status, iters, res, cond)

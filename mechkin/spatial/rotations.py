@@ -77,6 +77,16 @@ def quat_from_matrix(R: np.ndarray) -> np.ndarray:
     shape = R.shape[:-2]
     R = R.reshape(-1, 3, 3)
     tr = R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2]
+    if np.all(tr > -0.5):
+        # every rotation below 120 deg: the e0 branch is accurate (e0 > 0.5), no dispatch needed
+        s0 = np.sqrt(1.0 + tr) * 2.0
+        q = np.empty((R.shape[0], 4))
+        q[:, 0] = 0.25 * s0
+        q[:, 1] = (R[:, 2, 1] - R[:, 1, 2]) / s0
+        q[:, 2] = (R[:, 0, 2] - R[:, 2, 0]) / s0
+        q[:, 3] = (R[:, 1, 0] - R[:, 0, 1]) / s0
+        q /= np.linalg.norm(q, axis=-1, keepdims=True)
+        return q.reshape(shape + (4,))
     d = np.stack([tr, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=-1)
     k = np.argmax(d, axis=-1)
     q = np.empty((R.shape[0], 4))
