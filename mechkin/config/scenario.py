@@ -119,17 +119,23 @@ class ScenarioSpec(Spec):
     ik: dict[str, Any] | None = None
     track: dict[str, Any] | None = None
     workspace: dict[str, Any] | None = None
+    biped: dict[str, Any] | None = None
     outputs: OutputsSpec = Field(default_factory=OutputsSpec)
     expect: list[ExpectSpec] = Field(default_factory=list)
 
 
 TASK_SECTIONS: dict[str, type[Spec]] = {"fk": FkSpec}
+# the sections each task accepts (exactly one must be present): an ik scenario is either general
+# precision points (``ik:``) or the biped's closed-form classes (``biped:``, hwang2023)
+SECTIONS_OF_TASK = {"fk": ("fk",), "ik": ("ik", "biped"), "track": ("track",),
+                    "workspace": ("workspace",)}
+ALL_SECTIONS = ("fk", "ik", "biped", "track", "workspace")
 MECHANISM_OPTIONAL = {"track", "workspace"}
 
 
-def register_task_section(task: str, model: type[Spec]) -> None:
-    """Register the schema of a task's section (solvers add theirs without touching this file)."""
-    TASK_SECTIONS[task] = model
+def register_task_section(section: str, model: type[Spec]) -> None:
+    """Register the schema of a section (task modules add theirs without touching this file)."""
+    TASK_SECTIONS[section] = model
 
 
 @dataclass(frozen=True)
@@ -140,6 +146,7 @@ class Scenario:
     section: Any
     doc: YamlDoc
     mechanism_path: Path | None
+    section_name: str = ""
 
     @property
     def name(self) -> str:
@@ -155,7 +162,7 @@ def _register_builtin_sections() -> None:
     import importlib
 
     for mod in ("mechkin.config.ik_spec", "mechkin.config.track_spec",
-                "mechkin.config.workspace_spec"):
+                "mechkin.config.workspace_spec", "mechkin.config.biped_spec"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:
@@ -169,12 +176,16 @@ def load_scenario(path: str | Path) -> Scenario:
     doc = read_yaml(path)
     spec = validate_model(doc, ScenarioSpec, doc.data)
     problems: list[str] = []
-    section = getattr(spec, spec.task)
-    if section is None:
-        problems.append(f"{doc.where((spec.task,))}: a {spec.task} scenario needs a "
-                        f"'{spec.task}:' section")
-    for other in ("fk", "ik", "track", "workspace"):
-        if other != spec.task and getattr(spec, other) is not None:
+    allowed = SECTIONS_OF_TASK[spec.task]
+    present = [k for k in allowed if getattr(spec, k) is not None]
+    if len(present) != 1:
+        want = " or ".join(f"'{k}:'" for k in allowed)
+        problems.append(f"{doc.where((spec.task,))}: a {spec.task} scenario needs exactly one "
+                        f"{want} section")
+    section_name = present[0] if present else spec.task
+    section = getattr(spec, section_name)
+    for other in ALL_SECTIONS:
+        if other not in allowed and getattr(spec, other) is not None:
             problems.append(f"{doc.where((other,))}: section '{other}' does not belong in a "
                             f"{spec.task} scenario")
     mech_path = None
@@ -188,12 +199,13 @@ def load_scenario(path: str | Path) -> Scenario:
                             f"{spec.mechanism} (resolved to {mech_path})")
     if problems:
         raise ConfigError(problems)
-    model = TASK_SECTIONS.get(spec.task)
+    model = TASK_SECTIONS.get(section_name)
     if model is None:
-        raise ConfigError(f"{doc.where(('task',))}: task {spec.task!r} is not available in "
-                          "this version")
-    parsed = validate_model(doc, model, section, prefix=(spec.task,))
-    return Scenario(spec=spec, section=parsed, doc=doc, mechanism_path=mech_path)
+        raise ConfigError(f"{doc.where((section_name,))}: section {section_name!r} is not "
+                          "available in this version")
+    parsed = validate_model(doc, model, section, prefix=(section_name,))
+    return Scenario(spec=spec, section=parsed, doc=doc, mechanism_path=mech_path,
+                    section_name=section_name)
 
 
 def scenario_json_schema() -> dict[str, Any]:
