@@ -83,23 +83,29 @@ def evaluate_expect(summary: dict[str, Any], expects: list[Any]) -> list[dict[st
     out = []
     for e in expects:
         f = UNIT_TO_SI[e.unit] if e.unit else 1.0
-        ref = np.atleast_1d(np.asarray(e.value, dtype=float)) * f
-        tol = e.tol * f
-        rec: dict[str, Any] = {"key": e.key, "expected": e.value, "tol": e.tol,
-                               "unit": e.unit or "SI"}
+        rec: dict[str, Any] = {"key": e.key, "unit": e.unit or "SI"}
+        if e.value is not None:
+            rec.update(expected=e.value, tol=e.tol)
+            ref = np.atleast_1d(np.asarray(e.value, dtype=float)) * f
+            lo, hi = ref - e.tol * f, ref + e.tol * f
+        else:
+            rec.update(min=e.min, max=e.max)
+            lo = np.atleast_1d(-np.inf if e.min is None else e.min * f)
+            hi = np.atleast_1d(np.inf if e.max is None else e.max * f)
+            ref = None
         if e.source:
             rec["source"] = e.source
         try:
             actual = lookup(summary, e.key)
             act = np.atleast_1d(np.asarray(actual, dtype=float))
-            if act.shape != ref.shape:
+            if ref is not None and act.shape != ref.shape:
                 rec.update(ok=False, actual=actual, message=f"shape {act.shape} != {ref.shape}")
             else:
-                err = float(np.max(np.abs(act - ref))) if act.size else 0.0
-                ok = bool(np.all(np.isfinite(act))) and err <= tol
+                ok = bool(np.all(np.isfinite(act)) and np.all(act >= lo) and np.all(act <= hi))
                 shown = (act / f).tolist()
-                rec.update(ok=ok, actual=shown[0] if len(shown) == 1 else shown,
-                           error=err / f)
+                rec.update(ok=ok, actual=shown[0] if len(shown) == 1 else shown)
+                if ref is not None:
+                    rec["error"] = float(np.max(np.abs(act - ref))) / f if act.size else 0.0
         except (KeyError, TypeError, ValueError):
             rec.update(ok=False, actual=None, message=f"no value at {e.key!r} in the summary")
         out.append(rec)
@@ -109,8 +115,9 @@ def evaluate_expect(summary: dict[str, Any], expects: list[Any]) -> list[dict[st
 def report_expect(checks: list[dict[str, Any]], scenario_path: Path) -> None:
     for c in checks:
         if not c["ok"]:
-            msg = c.get("message") or (f"expected {c['expected']} +- {c['tol']} "
-                                       f"({c['unit']}), got {c['actual']}")
+            want = (f"{c['expected']} +- {c['tol']}" if "expected" in c
+                    else f"in [{c.get('min')}, {c.get('max')}]")
+            msg = c.get("message") or f"expected {want} ({c['unit']}), got {c['actual']}"
             typer.echo(f"{scenario_path}: expect {c['key']}: {msg}", err=True)
 
 

@@ -99,14 +99,24 @@ class OutputsSpec(Spec):
 
 class ExpectSpec(Spec):
     """A reference value checked after the run: ``key`` is a dot path into summary.json
-    (``targets.0.q_v.q1``); ``value`` a number or list; ``tol`` absolute; ``unit`` the unit
-    of value and tol when not SI (deg, mm)."""
+    (``targets.0.q_v.q1``). Either ``value`` (a number or list) with an absolute ``tol``, or
+    bounds ``min`` and/or ``max``; ``unit`` is the unit of the numbers when not SI (deg, mm)."""
 
     key: Annotated[str, Field(min_length=1)]
-    value: Num | list[Num]
-    tol: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+    value: Num | list[Num] | None = None
+    tol: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)] = 0.0
+    min: Num | None = None
+    max: Num | None = None
     unit: Literal["rad", "deg", "m", "mm", "s", "1"] | None = None
     source: str | None = None
+
+    @model_validator(mode="after")
+    def _value_or_bounds(self) -> ExpectSpec:
+        if self.value is None and self.min is None and self.max is None:
+            raise ValueError("give value (with tol) or min/max")
+        if self.value is not None and (self.min is not None or self.max is not None):
+            raise ValueError("give value (with tol) or min/max, not both")
+        return self
 
 
 class ScenarioSpec(Spec):

@@ -1,4 +1,4 @@
-"""Inverse dynamics of serial chains: park's closed-form planar 2-link arm and recursive Newton-Euler.
+"""Inverse dynamics: park's closed-form planar 2-link arm and recursive Newton-Euler for chains.
 
 Both models answer the same minimal interface, :class:`InverseDynamics`, which is all the path
 and DP solvers need (park Eq. (8)):
@@ -110,7 +110,7 @@ class PlanarTwoLinkDynamics:
         return M
 
     def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """Coriolis and centrifugal torques ``h (m, 2)`` (park Eq. (8), Table 1; sines, not cosines)."""
+        """Coriolis and centrifugal torques ``h (m, 2)`` (park Eq. (8), Table 1 with sines)."""
         q = _as_batch(q, 2, "q")
         qd = _as_batch(qd, 2, "qd")
         k = self.m2 * self.l1 * self.lc2 * np.sin(q[:, 1])
@@ -206,6 +206,8 @@ class SerialChainDynamics:
     coms: np.ndarray
     inertias: np.ndarray
     gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    _I6: np.ndarray = field(init=False, repr=False, compare=False)  # (n, 6, 6) spatial inertias
+    _S: np.ndarray = field(init=False, repr=False, compare=False)  # (n, 6) joint axes, child frame
 
     def __post_init__(self) -> None:
         A = np.asarray(self.A, dtype=np.float64)
@@ -318,7 +320,7 @@ class SerialChainDynamics:
         )
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
-        """``M(q) (m, n, n)``: column k is the RNEA torque for ``qdd = e_k``, no velocity or gravity."""
+        """``M(q) (m, n, n)``: column k is the RNEA torque for ``qdd = e_k``, no qd, no gravity."""
         q = _as_batch(q, self.n_joints, "q")
         m, n = q.shape
         qs = np.repeat(q, n, axis=0)

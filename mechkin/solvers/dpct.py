@@ -1,0 +1,911 @@
+r"""DPCT: conveyor tracking by dynamic programming in the phase plane (park §3-§4).
+
+The hand moves on a straight line, ``X_h = X_h(t_0) + r [X_h(t_r) - X_h(t_0)]`` (park Eq. (7)), so
+the planning state is ``(x1, x2) = (r, r')`` (Eq. (14)-(15)). The part on the belt, mapped onto
+the same line, is the reference ``x~1(t) = r0 + x~2 t``, ``x~2 = const`` (Eq. (16)-(17)). The DP
+searches an ``N1 x N2`` grid of the phase plane backwards from the end point, minimising the
+tracking cost of Eq. (22)/(28) under the torque limits (Eq. (3)) and the smoothness limits on joint
+velocity, acceleration and jerk (Eq. (4)-(6), discretised by Eq. (31)-(35)). ``objective="time"``
+replaces the cost by the transition time and plans from rest to rest.
+
+How each ambiguous step of park §4 is read (these readings reproduce the §5 numbers that the
+stated model can reproduce, see PAPER_NOTES):
+
+1. **Grid** (Eq. (23)-(24)). ``x1[i] = i / N1`` (i = 0..N1) and ``x2[j] = j x~2 / N_t`` (j = 0..N2)
+   with ``N_t = round(0.8 N2)``: §4.2 puts N_t at 80-90 % of N2; §5.1's "N1 is 80 % of N2" is OCR
+   damage for N_t. The grid top ``x2[N2] = x~2 N2 / N_t`` leaves room for overshoot.
+2. **Transition time** (Eq. (26)). ``dt = 2 dx1 / (x2[j] + x2[l])``: Eq. (21) integrated with a
+   constant ``r''`` over the transition. It equals Eq. (26)'s ``dx1 / x2[j]`` whenever ``j = l``
+   (so the steady state keeps exactly the belt's timing) and, unlike Eq. (26), stays finite when
+   the hand leaves rest (``j = 0``); read literally, Eq. (26) also under-estimates the time of a
+   decelerating step, which would let the time-optimal DP beat the true optimum. A transition
+   between two zero-speed states never advances and is excluded.
+3. **Torque** (Eq. (12), (21), (3)). ``U = a r'' + b x2[j]^2 + g`` at node ``(x1[i], x2[j])`` with
+   ``r'' = (x2[l]^2 - x2[j]^2) / (2 dx1)``; every joint is checked on every transition (§4.3),
+   and at the end node with ``r'' = 0`` (the steady state goes on; at rest the arm holds).
+4. **Time-to-go bookkeeping** (Eq. (27)). The end node ``(N1, N_t)`` is at ``t_f``, the time
+   the reference reaches ``r = 1``; ``t(i, j) = t(i+1, l) - dt``. The part's state in Eq. (28)
+   is taken at ``t(i, j)``. The start time ``t(0, 0)`` is therefore an outcome: the hand waits at
+   rest at ``r = 0`` until then (the wait lies before the first DP node and is not costed), but it
+   may not start before ``t_0 = 0`` (Eq. (2)): transitions whose time would be negative are
+   excluded.
+5. **Cost** (Eq. (22), (28)-(30)). ``J = dt [(x1[i] - x~1(t(i,j)))^2 + (x2[j] - x~2)^2]``, the
+   left-point rectangle rule of Eq. (18); ``J*(i,j) = min_l J + J*(i+1,l)``.
+6. **Smoothness** (Eq. (4)'-(6)', (31)-(35)). Node velocities ``qd = f'(x1) x2`` (Eq. (10),
+   (4)'); ``qdd(k) = (qd(k+1) - qd(k)) / dt`` (Eq. (32), (5)'; the printed (5)' has A_min in
+   both bounds: the left one is A_max); ``jerk(k) = (qdd(k+1) - qdd(k)) / dt`` (Eq. (33), (6)')
+   where ``qdd(k+1)`` is the acceleration of the transition already chosen for ``(i+1, l)``: this
+   is why Eq. (35)'s admissible range of ``x2[j]`` depends on ``x1[i], x1[i+1], x2[l]``. The last
+   transition has no successor and the departure from rest no predecessor, so neither has a jerk
+   check. With jerk limits the backward recursion is optimal given the stored successors (as
+   in the paper), not over all jerk-feasible paths.
+7. **Steady state** (§2, §5). ``t_a`` is the time of the first node after which the hand stays on
+   the part (``|x1 - x~1| <= 1e-9`` and ``x2 = x~2``); with reading 2 the steady state has zero
+   tracking error, and ``t_a`` lies on the grid ``t_f - m dx1 / x~2``.
+
+The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
+stages only.
+
+References
+----------
+park_conveyor_tracking_dp, §2-§4, Eq. (1)-(35); §5 for the reproduced cases.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from mechkin.errors import ConfigError
+from mechkin.solvers.dynamics import InverseDynamics
+from mechkin.solvers.path import JointPath, PhaseCoefficients, phase_coefficients
+
+logger = logging.getLogger(__name__)
+
+#: Tracking error below which the hand counts as on the part [in r, i.e. fraction of the line].
+STEADY_TOL = 1e-9
+#: A limit is reported active when the trajectory uses at least this fraction of it.
+ACTIVE_FRACTION = 0.98
+#: Relative slack when checking limits (round-off only).
+LIMIT_RTOL = 1e-9
+#: Default N_t / N2 (park §4.2: 80-90 %; PAPER_NOTES: 80 %).
+NT_FRACTION = 0.8
+#: Samples of r'^2 per stage in the reachability bound of the time-optimal grid.
+_REACH_SAMPLES = 2048
+#: Relative margin on the sampled reachability bound of r'.
+_REACH_MARGIN = 0.01
+
+_FAMILIES = ("torque", "qd", "qdd", "jerk")
+
+
+class TrackStatus(enum.Enum):
+    """Outcome of a DPCT solve."""
+
+    OK = "ok"
+    INFEASIBLE = "infeasible"
+
+
+@dataclass(frozen=True)
+class ConveyorReference:
+    """The part on the belt: ``X_p(t) = part_start + belt_velocity t`` (park Eq. (1)).
+
+    Parameters
+    ----------
+    part_start : array, shape (d,)
+        ``X_p(t_0)`` [m].
+    belt_velocity : array, shape (d,)
+        ``V_b`` [m/s].
+    """
+
+    part_start: np.ndarray
+    belt_velocity: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("part_start", "belt_velocity"):
+            a = np.asarray(getattr(self, name), dtype=np.float64)
+            if a.ndim != 1 or not np.all(np.isfinite(a)):
+                raise ValueError(f"{name}: expected a finite vector, got {a!r}")
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
+    def position(self, t: np.ndarray) -> np.ndarray:
+        """``X_p(t) (m, d)`` for ``t (m,)`` (park Eq. (1))."""
+        return self.part_start + np.asarray(t, dtype=np.float64)[:, None] * self.belt_velocity
+
+    def phase(self, path: JointPath) -> tuple[float, float]:
+        r"""``(r0, rd)`` with ``x~1(t) = r0 + rd t``, ``x~2 = rd`` (park Eq. (16)-(17)).
+
+        Eq. (17) divides by one component of ``X_h(t_f) - X_h(t_0)``; the largest is used, and
+        the part must move on the hand's line (else no steady state with zero error exists).
+
+        Raises
+        ------
+        ConfigError
+            If the belt does not carry the part along the hand's line, or carries it backwards.
+        """
+        p0 = path.hand(np.zeros(1))[0]
+        dp = path.hand(np.ones(1))[0] - p0
+        if dp.shape != self.part_start.shape or dp.shape != self.belt_velocity.shape:
+            raise ConfigError(
+                f"conveyor: expected {dp.shape[0]}-vectors like the hand path, got "
+                f"part_start {self.part_start.shape}, belt_velocity {self.belt_velocity.shape}"
+            )
+        k = int(np.argmax(np.abs(dp)))
+        r0 = float((self.part_start[k] - p0[k]) / dp[k])  # park Eq. (17)
+        rd = float(self.belt_velocity[k] / dp[k])  # park Eq. (17)
+        scale = float(np.linalg.norm(dp))
+        off = max(
+            float(np.linalg.norm(self.part_start - (p0 + r0 * dp))),
+            float(np.linalg.norm(self.belt_velocity - rd * dp)),
+        )
+        if off > 1e-9 * max(scale, 1.0):
+            raise ConfigError(
+                "conveyor: the part does not move along the hand's straight line "
+                f"(off by {off:.3g} m or m/s); park Eq. (16) needs it on the line"
+            )
+        if rd <= 0.0:
+            raise ConfigError(
+                f"conveyor: the belt moves the part away from the path's end (r' = {rd:.3g} /s)"
+            )
+        return r0, rd
+
+
+def _limit_pair(
+    lo: np.ndarray | None, hi: np.ndarray | None, name: str
+) -> tuple[np.ndarray, np.ndarray] | None:
+    if lo is None and hi is None:
+        return None
+    if lo is None or hi is None:
+        raise ValueError(f"{name}: give both bounds or neither")
+    lo_a = np.asarray(lo, dtype=np.float64)
+    hi_a = np.asarray(hi, dtype=np.float64)
+    if lo_a.shape != hi_a.shape or lo_a.ndim != 1:
+        raise ValueError(f"{name}: expected two (n,) vectors, got {lo_a.shape} and {hi_a.shape}")
+    if np.any(np.isnan(lo_a)) or np.any(np.isnan(hi_a)) or np.any(lo_a > hi_a):
+        raise ValueError(f"{name}: expected lo <= hi, got {lo_a} and {hi_a}")
+    lo_a.setflags(write=False)
+    hi_a.setflags(write=False)
+    return lo_a, hi_a
+
+
+@dataclass(frozen=True)
+class TrackLimits:
+    """Joint limits of park Eq. (3)-(6); each pair is ``(lo (n,), hi (n,))`` or None (no limit).
+
+    Units: torque [N m | N], qd [rad/s | m/s], qdd [rad/s^2], jerk [rad/s^3]. Infinite bounds
+    are allowed per joint.
+    """
+
+    torque: tuple[np.ndarray, np.ndarray] | None = None
+    qd: tuple[np.ndarray, np.ndarray] | None = None
+    qdd: tuple[np.ndarray, np.ndarray] | None = None
+    jerk: tuple[np.ndarray, np.ndarray] | None = None
+
+    def __post_init__(self) -> None:
+        for name in _FAMILIES:
+            pair = getattr(self, name)
+            if pair is not None:
+                object.__setattr__(self, name, _limit_pair(pair[0], pair[1], name))
+
+    @classmethod
+    def symmetric(
+        cls,
+        *,
+        torque: np.ndarray | None = None,
+        qd: np.ndarray | None = None,
+        qdd: np.ndarray | None = None,
+        jerk: np.ndarray | None = None,
+    ) -> TrackLimits:
+        """Limits ``-x <= . <= x`` from magnitudes ``x (n,)`` (park Eq. (36)-(37))."""
+
+        def pair(x: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
+            if x is None:
+                return None
+            a = np.asarray(x, dtype=np.float64)
+            return -a, a
+
+        return cls(torque=pair(torque), qd=pair(qd), qdd=pair(qdd), jerk=pair(jerk))
+
+    def families(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """The limit families that are set, by name."""
+        return {k: getattr(self, k) for k in _FAMILIES if getattr(self, k) is not None}
+
+
+@dataclass(frozen=True)
+class DPGrid:
+    """The phase-plane grid (park Eq. (23)-(24)).
+
+    ``x1[i] = i / N1``; ``x2[j] = j dx2`` for ``j = 0..N2``; tracking puts ``x~2`` at ``j = Nt``;
+    the time-optimal mode has ``Nt = None`` and its top ``x2_max`` from a reachability bound.
+    """
+
+    N1: int
+    N2: int
+    Nt: int | None
+    x2_max: float
+
+    @property
+    def dx1(self) -> float:
+        """Stage spacing in r."""
+        return 1.0 / self.N1
+
+    @property
+    def dx2(self) -> float:
+        """State spacing in r' [1/s]."""
+        return self.x2_max / self.N2
+
+
+@dataclass(frozen=True)
+class TrackTrajectory:
+    """The realised trajectory at the DP nodes (plus a rest node at ``t = 0`` if the hand waits).
+
+    All arrays have K rows. ``qdd`` (Eq. (32)) and ``jerk`` (Eq. (33)) are forward differences
+    and NaN where undefined: ``qdd`` at the last node, ``jerk`` at the last two nodes and across
+    the initial wait. ``rdd`` and ``torque`` at node k belong to the transition leaving it
+    (``rdd = 0`` at the last node). ``part`` and ``tracking_error`` are None without a reference.
+    """
+
+    t: np.ndarray  # (K,) [s]
+    r: np.ndarray  # (K,) [-]
+    rd: np.ndarray  # (K,) [1/s]
+    rdd: np.ndarray  # (K,) [1/s^2]
+    q: np.ndarray  # (K, n) [rad | m]
+    qd: np.ndarray  # (K, n)
+    qdd: np.ndarray  # (K, n)
+    jerk: np.ndarray  # (K, n)
+    torque: np.ndarray  # (K, n) [N m | N]
+    hand: np.ndarray  # (K, d) [m]
+    part: np.ndarray | None  # (K, d) [m]
+    tracking_error: np.ndarray | None  # (K, d) hand - part [m]
+
+    def columns(self, prismatic: Sequence[bool] | None = None) -> dict[str, np.ndarray]:
+        """CSV-ready columns ``name_unit -> (K,)``: ``t_s, r, rd_1_s, q1_rad, u1_Nm, hand_x_m``...
+
+        ``prismatic[k]`` switches joint k's units to m, m/s, ... and N (default: all revolute).
+        """
+        n = self.q.shape[1]
+        pris = [False] * n if prismatic is None else list(prismatic)
+        cols: dict[str, np.ndarray] = {
+            "t_s": self.t,
+            "r": self.r,
+            "rd_1_s": self.rd,
+            "rdd_1_s2": self.rdd,
+        }
+        for name, arr, unit_r, unit_p in (
+            ("q", self.q, "rad", "m"),
+            ("qd", self.qd, "rad_s", "m_s"),
+            ("qdd", self.qdd, "rad_s2", "m_s2"),
+            ("jerk", self.jerk, "rad_s3", "m_s3"),
+            ("u", self.torque, "Nm", "N"),
+        ):
+            for k in range(n):
+                cols[f"{name}{k + 1}_{unit_p if pris[k] else unit_r}"] = arr[:, k]
+        axes = "xyz"
+        points = (("hand", self.hand), ("part", self.part), ("error", self.tracking_error))
+        for label, pts in points:
+            if pts is not None:
+                for k in range(pts.shape[1]):
+                    cols[f"{label}_{axes[k]}_m"] = pts[:, k]
+        return cols
+
+
+@dataclass(frozen=True)
+class TrackResult:
+    """Result of :func:`solve_conveyor_tracking`.
+
+    Attributes
+    ----------
+    status : TrackStatus
+    message : str
+        One line; for an infeasible problem it names the limit and where on the path it blocks.
+    objective : {"tracking", "time"}
+    t_a_s : float or None
+        End of the transient (park §2), tracking only [s].
+    t_start_s : float or None
+        When the hand leaves rest [s] (tracking: the DP's ``t(0, 0)``; time: 0).
+    duration_s : float or None
+        Tracking: ``t_f`` (the plan spans ``[0, t_f]``); time: the rest-to-rest motion time [s].
+    peak_torque : array, shape (n,), or None
+        Signed torque of largest magnitude per joint.
+    limits_ok : bool
+        Every set limit holds on the realised trajectory (``LIMIT_RTOL`` slack).
+    active_limits : tuple of str
+        ``"torque_1"``, ``"qd_2"``, ...: limits used to at least ``ACTIVE_FRACTION``.
+    limit_usage : dict
+        Largest fraction of each limit used, by the same names.
+    grid : DPGrid
+    cost : float
+        ``J*(0, 0)`` (Eq. (30)); the duration for the time objective.
+    solve_time_s : float
+    blocked_at_r : tuple of float or None
+        For an infeasible problem, the r interval where the search dies.
+    blocking_limits : tuple of str
+        For an infeasible problem, the limit families that block.
+    trajectory : TrackTrajectory or None
+    """
+
+    status: TrackStatus
+    message: str
+    objective: str
+    t_a_s: float | None
+    t_start_s: float | None
+    duration_s: float | None
+    peak_torque: np.ndarray | None
+    limits_ok: bool
+    active_limits: tuple[str, ...]
+    limit_usage: dict[str, float]
+    grid: DPGrid
+    cost: float
+    solve_time_s: float
+    blocked_at_r: tuple[float, float] | None = None
+    blocking_limits: tuple[str, ...] = ()
+    trajectory: TrackTrajectory | None = field(default=None, repr=False)
+
+    def summary(self) -> dict[str, object]:
+        """JSON-ready key figures (no trajectory arrays) for ``summary.json``."""
+        return {
+            "status": self.status.value,
+            "message": self.message,
+            "objective": self.objective,
+            "t_a_s": self.t_a_s,
+            "t_start_s": self.t_start_s,
+            "duration_s": self.duration_s,
+            "peak_torque": None if self.peak_torque is None else self.peak_torque.tolist(),
+            "limits_ok": self.limits_ok,
+            "active_limits": list(self.active_limits),
+            "limit_usage": dict(self.limit_usage),
+            "grid": {
+                "N1": self.grid.N1,
+                "N2": self.grid.N2,
+                "Nt": self.grid.Nt,
+                "x2_max_1_s": self.grid.x2_max,
+            },
+            "cost": self.cost if np.isfinite(self.cost) else None,
+            "solve_time_s": self.solve_time_s,
+            "blocked_at_r": None if self.blocked_at_r is None else list(self.blocked_at_r),
+            "blocking_limits": list(self.blocking_limits),
+        }
+
+
+def _slack(b: np.ndarray) -> np.ndarray:
+    """Round-off slack of a bound (``LIMIT_RTOL``, absolute below 1)."""
+    return LIMIT_RTOL * np.maximum(np.abs(b), 1.0)
+
+
+def _within(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``lo <= x <= hi`` per joint (last axis) with round-off slack; NaN counts as inside."""
+    return ~((x < lo - _slack(lo)) | (x > hi + _slack(hi)))
+
+
+@dataclass
+class _Stage:
+    """Stage-independent arrays of all ``(j, l)`` transitions (module docstring, reading 2)."""
+
+    x2: np.ndarray  # (N2+1,)
+    dt: np.ndarray  # (N2+1, N2+1) 2 dx1 / (x2[j] + x2[l]); inf between two rest states
+    inv_dt: np.ndarray  # (N2+1, N2+1)
+    rdd: np.ndarray  # (N2+1, N2+1) (x2[l]^2 - x2[j]^2) / (2 dx1)
+
+
+def _transition_checks(
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    pc: PhaseCoefficients,
+    i: int,
+    rows: slice,
+    st: _Stage,
+    qdd_next: np.ndarray,
+    per_family: bool,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Limit checks of all transitions ``(i, j) -> (i+1, l)``, ``j`` in ``rows``.
+
+    Returns ``ok (J, L)``, true where every limit holds, and (with ``per_family``) per-joint
+    masks ``"torque_1" -> (J, L)`` for the diagnosis of a blocked stage. Torque (Eq. (3), (12))
+    is checked as an interval of r'', velocity (Eq. (4)') per row, acceleration (Eq. (32),
+    (5)') and jerk (Eq. (33), (6)', with the successor's stored ``qdd_next``) per pair.
+    """
+    x2j = st.x2[rows]
+    inv_dt = st.inv_dt[rows]
+    rdd = st.rdd[rows]
+    ok = np.ones(inv_dt.shape, dtype=bool)
+    masks: dict[str, np.ndarray] = {}
+
+    def keep(name: str, m: np.ndarray) -> None:
+        ok[...] &= m
+        if per_family:
+            masks[name] = np.broadcast_to(m, ok.shape)
+
+    for k in range(pc.a.shape[1]):
+        if "torque" in limits:
+            lo, hi = limits["torque"][0][k], limits["torque"][1][k]
+            c = pc.b[i, k] * x2j**2 + pc.g[i, k]  # park Eq. (12) without the r'' term
+            a = pc.a[i, k]
+            if a == 0.0:
+                keep(f"torque_{k + 1}", ((c >= lo - _slack(lo)) & (c <= hi + _slack(hi)))[:, None])
+            else:
+                b1 = (lo - _slack(lo) - c) / a
+                b2 = (hi + _slack(hi) - c) / a
+                r_lo, r_hi = np.minimum(b1, b2), np.maximum(b1, b2)
+                keep(f"torque_{k + 1}", (rdd >= r_lo[:, None]) & (rdd <= r_hi[:, None]))
+        qd_j = pc.dq[i, k] * x2j  # park Eq. (10), (4)'
+        if "qd" in limits:
+            lo, hi = limits["qd"][0][k], limits["qd"][1][k]
+            keep(f"qd_{k + 1}", ((qd_j >= lo - _slack(lo)) & (qd_j <= hi + _slack(hi)))[:, None])
+        if "qdd" in limits or "jerk" in limits:
+            qdd = (pc.dq[i + 1, k] * st.x2[None, :] - qd_j[:, None]) * inv_dt  # park Eq. (32)
+            if "qdd" in limits:
+                lo, hi = limits["qdd"][0][k], limits["qdd"][1][k]
+                keep(f"qdd_{k + 1}", (qdd >= lo - _slack(lo)) & (qdd <= hi + _slack(hi)))
+            if "jerk" in limits:
+                lo, hi = limits["jerk"][0][k], limits["jerk"][1][k]
+                jerk = (qdd_next[None, :, k] - qdd) * inv_dt  # park Eq. (33)
+                keep(f"jerk_{k + 1}", ~((jerk < lo - _slack(lo)) | (jerk > hi + _slack(hi))))
+    return ok, masks
+
+
+def _reachable_x2_max(
+    pc: PhaseCoefficients, limits: dict[str, tuple[np.ndarray, np.ndarray]], dx1: float
+) -> float:
+    """Largest r' reachable from rest that can still stop at r = 1 (time-optimal grid top).
+
+    A sampled forward/backward reachability pass on ``x = r'^2`` with the collocated torque and
+    node-velocity limits (``x_{i+1} = x_i + 2 dx1 r''_i``); acceleration and jerk limits only
+    shrink the true set, so the bound stays an upper bound of every feasible DP path.
+    """
+    K = pc.r.shape[0]
+    x_cap = np.full(K, np.inf)
+    if "qd" in limits:
+        lo, hi = limits["qd"]
+        f1 = pc.dq
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cap = np.where(f1 > 0, hi / f1, np.where(f1 < 0, lo / f1, np.inf))
+        x_cap = np.minimum(x_cap, np.min(cap, axis=1) ** 2)
+
+    def u_range(i: int, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        u_lo = np.full(x.shape, -np.inf)
+        u_hi = np.full(x.shape, np.inf)
+        if "torque" in limits:
+            lo, hi = limits["torque"]
+            for k in range(pc.a.shape[1]):
+                c = pc.b[i, k] * x + pc.g[i, k]
+                a = pc.a[i, k]
+                if a == 0.0:
+                    bad = (c < lo[k]) | (c > hi[k])
+                    u_lo = np.where(bad, np.inf, u_lo)
+                    continue
+                b1, b2 = (lo[k] - c) / a, (hi[k] - c) / a
+                u_lo = np.maximum(u_lo, np.minimum(b1, b2))
+                u_hi = np.minimum(u_hi, np.maximum(b1, b2))
+        return u_lo, u_hi
+
+    fwd = np.zeros(K)  # largest x reachable from rest
+    for i in range(K - 1):
+        top_i = min(fwd[i], x_cap[i])
+        if not np.isfinite(top_i):
+            fwd[i + 1] = np.inf
+            continue
+        x = np.linspace(0.0, top_i, _REACH_SAMPLES)
+        u_lo, u_hi = u_range(i, x)
+        ok = u_lo <= u_hi
+        nxt = x[ok] + 2.0 * dx1 * u_hi[ok] if np.any(ok) else np.zeros(1)
+        fwd[i + 1] = min(max(float(np.max(nxt)), 0.0), x_cap[i + 1])
+    bwd = np.zeros(K)  # largest reachable x that can still come to rest at r = 1
+    for i in range(K - 2, -1, -1):
+        top_i = min(fwd[i], x_cap[i])
+        if not np.isfinite(top_i):
+            raise ConfigError(
+                "objective time: the limits do not bound the path speed; "
+                "give torque or velocity limits, or x2_max"
+            )
+        x = np.linspace(0.0, top_i, _REACH_SAMPLES)
+        u_lo, u_hi = u_range(i, x)
+        u_min = np.maximum(u_lo, -x / (2.0 * dx1))  # x_{i+1} = x + 2 dx1 u >= 0
+        ok = (u_min <= u_hi) & (x + 2.0 * dx1 * u_min <= bwd[i + 1])
+        bwd[i] = float(np.max(x[ok])) if np.any(ok) else 0.0
+    top = float(np.max(bwd)) * (1.0 + _REACH_MARGIN) ** 2
+    if not np.isfinite(top) or top <= 0.0:
+        raise ConfigError(
+            "objective time: the limits do not bound the path speed; "
+            "give torque or velocity limits, or x2_max"
+        )
+    return float(np.sqrt(top))
+
+
+def _joint_names(mask_fail: np.ndarray, family: str) -> list[str]:
+    return [f"{family}_{k + 1}" for k in np.flatnonzero(mask_fail)]
+
+
+def _diagnose(masks: dict[str, np.ndarray], base: np.ndarray) -> list[str]:
+    """Which limits block a dead stage: those whose removal re-opens a transition.
+
+    ``masks`` maps ``"torque_1"``-style names (and ``"start"``) to ``(J, L)`` masks; ``base``
+    marks the transitions that reach a live state. Each limit is relaxed alone, and each family
+    (all joints of one kind) together; the limits that fail on the re-opened transitions are
+    named. If nothing re-opens, every limit that fails somewhere on ``base`` is named.
+    """
+    groups: dict[str, list[str]] = {}
+    for name in masks:
+        groups.setdefault(name.partition("_")[0], []).append(name)
+    candidates = [[name] for name in masks] + [g for g in groups.values() if len(g) > 1]
+    found: set[str] = set()
+    for group in candidates:
+        reopened = base.copy()
+        for other, m in masks.items():
+            if other not in group:
+                reopened &= m
+        if np.any(reopened):
+            found.update(name for name in group if not np.all(masks[name][reopened]))
+    if not found:
+        found = {name for name, m in masks.items() if not np.all(m[base])}
+    return [name for name in masks if name in found]
+
+
+def _describe(names: list[str]) -> str:
+    """``["torque_1", "jerk_1", "jerk_2"]`` -> a phrase naming the limits and joints."""
+    words = {
+        "torque": "torque limit",
+        "qd": "joint velocity limit",
+        "qdd": "joint acceleration limit",
+        "jerk": "joint jerk limit",
+        "start": "start no earlier than t_0 = 0",
+    }
+    joints: dict[str, list[str]] = {}
+    for nm in names:
+        fam, _, joint = nm.partition("_")
+        joints.setdefault(fam, [])
+        if joint:
+            joints[fam].append(joint)
+    out = []
+    for fam, js in joints.items():
+        w = words.get(fam, fam)
+        if js:
+            w += f" (joint{'s' if len(js) > 1 else ''} {', '.join(js)})"
+        out.append(w)
+    return ", ".join(out)
+
+
+@dataclass
+class _DPTables:
+    V: np.ndarray  # (N1+1, N2+1) cost-to-go J*
+    NP: np.ndarray  # (N1, N2+1) next state
+    T: np.ndarray  # (N1+1, N2+1) node time
+    blocked: tuple[int, list[str]] | None
+
+
+def _run_dp(
+    pc: PhaseCoefficients,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    x2: np.ndarray,
+    j_end: int,
+    t_end: float,
+    reference: tuple[float, float] | None,
+) -> _DPTables:
+    """Backward recursion of park Eq. (25)-(30) with time-to-go bookkeeping (Eq. (27)).
+
+    ``reference`` is ``(r0, x~2)`` for the tracking cost (Eq. (28)); None for minimum time.
+    """
+    N1 = pc.r.shape[0] - 1
+    N2 = x2.shape[0] - 1
+    n = pc.a.shape[1]
+    dx1 = 1.0 / N1
+    V = np.full((N1 + 1, N2 + 1), np.inf)
+    T = np.full((N1 + 1, N2 + 1), np.nan)
+    NP = np.zeros((N1, N2 + 1), dtype=np.int64)
+
+    # end node (park Eq. (23)): torque with r'' = 0 and velocity must hold there too
+    end_fail: list[str] = []
+    x_end = x2[j_end]
+    if "torque" in limits:
+        U = pc.b[N1] * x_end**2 + pc.g[N1]
+        end_fail += _joint_names(~_within(U, *limits["torque"]), "torque")
+    if "qd" in limits:
+        end_fail += _joint_names(~_within(pc.dq[N1] * x_end, *limits["qd"]), "qd")
+    if end_fail:
+        return _DPTables(V, NP, T, (N1, end_fail))
+    V[N1, j_end] = 0.0
+    T[N1, j_end] = t_end
+    qdd_next = np.full((N2 + 1, n), np.nan)  # no successor after the end node: no jerk check
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dt = 2.0 * dx1 / (x2[:, None] + x2[None, :])  # reading 2 of the module docstring
+    st = _Stage(
+        x2=x2,
+        dt=dt,
+        inv_dt=(x2[:, None] + x2[None, :]) / (2.0 * dx1),
+        rdd=(x2[None, :] ** 2 - x2[:, None] ** 2) / (2.0 * dx1),  # constant r'' per transition
+    )
+    for i in range(N1 - 1, -1, -1):
+        with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
+            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference)
+        if isinstance(out, list):
+            return _DPTables(V, NP, T, (i, out))
+        qdd_next = out
+    return _DPTables(V, NP, T, None)
+
+
+def _dp_stage(
+    i: int,
+    pc: PhaseCoefficients,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    st: _Stage,
+    V: np.ndarray,
+    T: np.ndarray,
+    NP: np.ndarray,
+    qdd_next: np.ndarray,
+    reference: tuple[float, float] | None,
+) -> np.ndarray | list[str]:
+    """One stage of park Eq. (25)-(30), all ``(j, l)`` pairs at once; fills row i of V, T, NP.
+
+    Returns the accelerations ``qdd (N2+1, n)`` of the chosen transitions (for the jerk check of
+    stage i-1), or the names of the blocking limits if no state of stage i survives.
+    """
+    N2 = st.x2.shape[0] - 1
+    rows = slice(0, 1) if i == 0 else slice(0, N2 + 1)  # stage 0: only the rest state
+    x2j = st.x2[rows]
+    dt = st.dt[rows]
+    ok, _ = _transition_checks(limits, pc, i, rows, st, qdd_next, per_family=False)
+    base = np.isfinite(V[i + 1])[None, :] & np.isfinite(dt)
+    ok &= base
+    t = T[i + 1][None, :] - dt  # park Eq. (27): time at (i, j) via (i+1, l)
+    if reference is not None:
+        r0, rd_ref = reference
+        start_ok = t >= -LIMIT_RTOL  # no earlier than t_0 = 0 (park Eq. (2))
+        ok &= start_ok
+        e1 = pc.r[i] - (r0 + rd_ref * t)  # park Eq. (17) at t(i, j)
+        e2 = (x2j - rd_ref)[:, None]
+        stage_cost = dt * (e1 * e1 + e2 * e2)  # park Eq. (28)
+    else:
+        stage_cost = dt  # minimum time
+    cost = np.where(ok, stage_cost + V[i + 1][None, :], np.inf)  # park Eq. (29)
+    best = np.argmin(cost, axis=1)  # park Eq. (30); NP(i, j)
+    jj = np.arange(cost.shape[0])
+    V[i, rows] = cost[jj, best]
+    NP[i, rows] = best
+    T[i, rows] = np.where(np.isfinite(V[i, rows]), t[jj, best], np.nan)
+    if not np.any(np.isfinite(V[i, rows])):
+        _, masks = _transition_checks(limits, pc, i, rows, st, qdd_next, per_family=True)
+        if reference is not None:
+            masks["start"] = start_ok
+        return _diagnose(masks, base)
+    qdd_new = np.full((N2 + 1, pc.a.shape[1]), np.nan)
+    dqd = pc.dq[i + 1] * st.x2[best][:, None] - pc.dq[i] * x2j[:, None]
+    qdd_new[rows] = dqd * st.inv_dt[rows][jj, best][:, None]  # park Eq. (32), chosen transitions
+    return qdd_new
+
+
+def _usage(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Largest fraction of each joint's limit used, ``(n,)``; NaN samples ignored."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        up = np.where(hi > 0, x / hi, np.where(x > 0, np.inf, 0.0))
+        dn = np.where(lo < 0, x / lo, np.where(x < 0, np.inf, 0.0))
+    both = np.fmax(up, dn)
+    both = np.where(np.isnan(x), -np.inf, both)
+    return np.max(both, axis=0)
+
+
+def _realise(
+    pc: PhaseCoefficients,
+    path: JointPath,
+    x2: np.ndarray,
+    tab: _DPTables,
+    objective: str,
+    reference: ConveyorReference | None,
+) -> TrackTrajectory:
+    """Follow NP from (0, 0) and evaluate the trajectory at the nodes (Eq. (9)-(12), (31)-(33))."""
+    N1 = pc.r.shape[0] - 1
+    dx1 = 1.0 / N1
+    js = np.zeros(N1 + 1, dtype=np.int64)
+    for i in range(N1):
+        js[i + 1] = tab.NP[i, js[i]]
+    t = tab.T[np.arange(N1 + 1), js]
+    if objective == "time":
+        t = t - t[0]
+    r = pc.r.copy()
+    rd = x2[js]
+    rdd = np.append((rd[1:] ** 2 - rd[:-1] ** 2) / (2.0 * dx1), 0.0)
+    dt = 2.0 * dx1 / (rd[:-1] + rd[1:])
+    q = pc.q.copy()
+    qd = pc.dq * rd[:, None]  # park Eq. (10)
+    qdd = np.full_like(qd, np.nan)
+    qdd[:-1] = (qd[1:] - qd[:-1]) / dt[:, None]  # park Eq. (32)
+    jerk = np.full_like(qd, np.nan)
+    jerk[:-2] = (qdd[1:-1] - qdd[:-2]) / dt[:-1, None]  # park Eq. (33)
+    torque = pc.torque(rd, rdd)  # park Eq. (12)
+    if t[0] > 1e-12:  # the hand waits at rest until t(0, 0)
+        t = np.append(0.0, t)
+        r = np.append(0.0, r)
+        rd = np.append(0.0, rd)
+        rdd = np.append(0.0, rdd)
+        q = np.vstack([q[:1], q])
+        qd = np.vstack([np.zeros_like(qd[:1]), qd])
+        qdd = np.vstack([np.zeros_like(qdd[:1]), qdd])
+        jerk = np.vstack([np.full_like(jerk[:1], np.nan), jerk])
+        torque = np.vstack([pc.g[:1], torque])
+    hand = path.hand(r)
+    part = err = None
+    if reference is not None:
+        part = reference.position(t)
+        err = hand - part
+    return TrackTrajectory(t, r, rd, rdd, q, qd, qdd, jerk, torque, hand, part, err)
+
+
+def solve_conveyor_tracking(
+    *,
+    dynamics: InverseDynamics,
+    path: JointPath,
+    reference: ConveyorReference | None = None,
+    limits: TrackLimits | None = None,
+    N1: int = 50,
+    N2: int = 100,
+    objective: Literal["tracking", "time"] = "tracking",
+    nt_fraction: float = NT_FRACTION,
+    x2_max: float | None = None,
+) -> TrackResult:
+    r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
+
+    ``objective="tracking"``: DPCT, the tracking cost of Eq. (22)/(28) against ``reference``
+    (Eq. (16)-(17)), from rest at ``r = 0`` to the part's state at ``r = 1`` at ``t_f``.
+    ``objective="time"``: the same recursion with cost ``dt`` (minimum time), from rest to rest
+    (``r' = 0`` at both ends), with the same limits, jerk included.
+
+    Parameters
+    ----------
+    dynamics : InverseDynamics
+        Inverse dynamics ``U = M qdd + h`` (park Eq. (8)).
+    path : JointPath
+        Hand line and its joint map ``q = f(r)`` (park Eq. (7), (9)-(11)).
+    reference : ConveyorReference, optional
+        The part on the belt (park Eq. (1)); required for tracking, optional for time (then
+        ``part`` and ``tracking_error`` are reported too when given).
+    limits : TrackLimits, optional
+        Torque (Eq. (3)), velocity, acceleration and jerk limits (Eq. (4)-(6)).
+    N1, N2 : int
+        Stages (along r) and states (along r'); park §5 uses 30x50, 50x100, 100x200.
+    objective : {"tracking", "time"}
+    nt_fraction : float
+        ``N_t = round(nt_fraction N2)``, the state of the part's speed (tracking only).
+    x2_max : float, optional
+        Top of the r' grid for ``objective="time"`` [1/s]; default: the largest r' reachable
+        from rest that can still stop (torque and velocity limits).
+
+    Returns
+    -------
+    TrackResult
+        ``status`` INFEASIBLE when no grid path meets the limits; the message names the limit
+        and the r interval where the search dies.
+
+    Raises
+    ------
+    ConfigError
+        Inconsistent problem data (grid sizes, a part off the hand's line, an unbounded
+        time-optimal problem).
+
+    References
+    ----------
+    park_conveyor_tracking_dp, Eq. (16)-(35); the module docstring lists the readings.
+    """
+    t_start = time.perf_counter()
+    if objective not in ("tracking", "time"):
+        raise ConfigError(f"objective: expected 'tracking' or 'time', got {objective!r}")
+    if N1 < 1 or N2 < 1:
+        raise ConfigError(f"grid: expected N1, N2 >= 1, got {N1} x {N2}")
+    limits = limits or TrackLimits()
+    lim = limits.families()
+    n = dynamics.n_joints
+    for name, (lo, _) in lim.items():
+        if lo.shape != (n,):
+            raise ConfigError(f"limits.{name}: expected {n} values, got {lo.shape[0]}")
+
+    x1 = np.linspace(0.0, 1.0, N1 + 1)
+    pc = phase_coefficients(dynamics, path, x1)  # park Eq. (9)-(12) at every stage
+    ref_phase: tuple[float, float] | None = None
+    if objective == "tracking":
+        if reference is None:
+            raise ConfigError("objective tracking: a conveyor reference is required")
+        ref_phase = reference.phase(path)
+        r0, rd_ref = ref_phase
+        Nt = int(round(nt_fraction * N2))
+        if not 1 <= Nt <= N2:
+            raise ConfigError(f"nt_fraction: N_t = {Nt} is outside 1..N2 = {N2}")
+        t_f = (1.0 - r0) / rd_ref  # park Eq. (17): x~1(t_f) = 1
+        if t_f <= 0.0:
+            raise ConfigError("conveyor: the part is already past the end of the hand's line")
+        x2 = rd_ref * np.arange(N2 + 1) / Nt  # park Eq. (24)
+        x2[Nt] = rd_ref  # exactly, so the steady state has exactly the belt's timing
+        grid = DPGrid(N1=N1, N2=N2, Nt=Nt, x2_max=float(x2[-1]))
+        j_end, t_end = Nt, t_f
+    else:
+        top = x2_max if x2_max is not None else _reachable_x2_max(pc, lim, 1.0 / N1)
+        if not np.isfinite(top) or top <= 0.0:
+            raise ConfigError(f"x2_max: expected a positive number, got {top}")
+        x2 = top * np.arange(N2 + 1) / N2
+        grid = DPGrid(N1=N1, N2=N2, Nt=None, x2_max=float(top))
+        j_end, t_end = 0, 0.0
+
+    tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase)
+    feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
+    if not feasible:
+        i_b, names = tab.blocked if tab.blocked is not None else (0, [])
+        where = (float(x1[i_b]), float(x1[min(i_b + 1, N1)]))
+        p_lo, p_hi = path.hand(np.array(where))
+        if i_b == N1:
+            loc = f"at the end r = 1 (hand at {np.round(p_lo, 4).tolist()} m)"
+        else:
+            loc = (
+                f"between r = {where[0]:.4g} and r = {where[1]:.4g} "
+                f"(hand from {np.round(p_lo, 4).tolist()} to {np.round(p_hi, 4).tolist()} m)"
+            )
+        what = _describe(names) if names else "the limits"
+        message = f"infeasible: {what} blocks the motion {loc} on the {N1}x{N2} grid"
+        if any(nm.startswith("jerk") for nm in names):
+            message += "; a finer r' grid (larger N2 / N1) represents smaller jerks"
+        logger.info(message)
+        return TrackResult(
+            status=TrackStatus.INFEASIBLE,
+            message=message,
+            objective=objective,
+            t_a_s=None,
+            t_start_s=None,
+            duration_s=None,
+            peak_torque=None,
+            limits_ok=False,
+            active_limits=(),
+            limit_usage={},
+            grid=grid,
+            cost=float("inf"),
+            solve_time_s=time.perf_counter() - t_start,
+            blocked_at_r=where,
+            blocking_limits=tuple(names),
+        )
+
+    traj = _realise(pc, path, x2, tab, objective, reference)
+    values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk}
+    usage: dict[str, float] = {}
+    for name, (lo, hi) in lim.items():
+        for k, u in enumerate(_usage(values[name], lo, hi)):
+            usage[f"{name}_{k + 1}"] = float(u)
+    limits_ok = all(u <= 1.0 + LIMIT_RTOL for u in usage.values())
+    active = tuple(k for k, u in usage.items() if u >= ACTIVE_FRACTION)
+    peak_idx = np.argmax(np.abs(traj.torque), axis=0)
+    peak = traj.torque[peak_idx, np.arange(n)]
+
+    t_a: float | None = None
+    if objective == "tracking":
+        r0, rd_ref = ref_phase  # type: ignore[misc]
+        on_part = (np.abs(traj.r - (r0 + rd_ref * traj.t)) <= STEADY_TOL) & (
+            np.abs(traj.rd - rd_ref) <= STEADY_TOL
+        )
+        k = on_part.shape[0] - 1
+        while k > 0 and on_part[k - 1]:
+            k -= 1
+        t_a = float(traj.t[k])
+        t_move = float(tab.T[0, 0])
+        duration = float(traj.t[-1])
+        message = f"ok: steady tracking from t_a = {t_a:.4g} s on the {N1}x{N2} grid" + (
+            "" if limits_ok else " (a limit is exceeded on the realised trajectory)"
+        )
+    else:
+        t_move = 0.0
+        duration = float(traj.t[-1])
+        message = f"ok: rest-to-rest time {duration:.4g} s on the {N1}x{N2} grid"
+    return TrackResult(
+        status=TrackStatus.OK,
+        message=message,
+        objective=objective,
+        t_a_s=t_a,
+        t_start_s=t_move,
+        duration_s=duration,
+        peak_torque=peak,
+        limits_ok=limits_ok,
+        active_limits=active,
+        limit_usage=usage,
+        grid=grid,
+        cost=float(tab.V[0, 0]),
+        solve_time_s=time.perf_counter() - t_start,
+        trajectory=traj,
+    )
