@@ -73,6 +73,11 @@ def _local_T(mech: Mechanism, qT: np.ndarray, P0, Pc, Ps, Pd) -> np.ndarray:
     """Joint-major local transforms (n, m, 4, 4) from joint-major values qT (n, m)."""
     rev = mech.s == 0
     L = np.empty(qT.shape + (4, 4))
+    if rev.all():  # no masking copies for all-revolute chains (the common case)
+        np.multiply(np.cos(qT)[..., None, None], Pc[:, None], out=L)
+        L += np.sin(qT)[..., None, None] * Ps[:, None]
+        L += P0[:, None]
+        return L
     if rev.any():
         qr = qT[rev]
         L[rev] = np.cos(qr)[..., None, None] * Pc[rev, None]
@@ -118,6 +123,9 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
     m = qs.shape[0]
     T = np.empty((mech.n_links, m, 4, 4))  # link-major while composing, contiguous per link
     T[0] = np.eye(4)
+    if m >= LARGE_BATCH:
+        _fk_large_batch(mech, qs, T)
+        return Kinematics(q=qs, T_links=np.moveaxis(T, 0, 1), mech=mech)
     L = _local_T(mech, np.ascontiguousarray(qs.T), *_local_factors(mech))
     for lvl in mech.levels:
         if len(lvl) == 1:
@@ -127,6 +135,29 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
             T[mech.joint_child_link[lvl]] = T[mech.joint_parent_link[lvl]] @ L[lvl]
     T = np.moveaxis(T, 0, 1)
     return Kinematics(q=qs, T_links=T, mech=mech)
+
+
+LARGE_BATCH = 256
+
+
+def _fk_large_batch(mech: Mechanism, qs: np.ndarray, T: np.ndarray) -> None:
+    """Joint by joint for large batches: T_parent @ A and (.) @ B are each one GEMM over the
+    whole batch ((m*4, 4) @ (4, 4)), and Z(q) only mixes two columns (or shifts one)."""
+    m = qs.shape[0]
+    rev = mech.s == 0
+    c = np.cos(qs)
+    s = np.sin(qs)
+    for j in np.concatenate(mech.levels):
+        X = (T[mech.joint_parent_link[j]].reshape(m * 4, 4) @ mech.A[j]).reshape(m, 4, 4)
+        if rev[j]:
+            x0 = X[:, :, 0].copy()
+            x1 = X[:, :, 1]
+            cj, sj = c[:, j, None], s[:, j, None]
+            X[:, :, 0] = x0 * cj + x1 * sj
+            X[:, :, 1] = x1 * cj - x0 * sj
+        else:
+            X[:, :, 3] += X[:, :, 2] * qs[:, j, None]
+        np.matmul(X.reshape(m * 4, 4), mech.B[j], out=T[mech.joint_child_link[j]].reshape(m * 4, 4))
 
 
 def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | None = None):
