@@ -205,6 +205,18 @@ def relative_residual(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
     return np.concatenate([p, e[..., 1:]], axis=-1)
 
 
+def _support(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of sigma (k, n), the joints with sigma != 0, padded: index (k, s), sign (k, s)."""
+    nz = [np.flatnonzero(row) for row in sigma]
+    width = max((len(x) for x in nz), default=0)
+    idx = np.full((len(nz), width), sigma.shape[1], dtype=int)  # padding -> a dummy column n
+    sgn = np.zeros((len(nz), width))
+    for r, cols in enumerate(nz):
+        idx[r, : len(cols)] = cols
+        sgn[r, : len(cols)] = sigma[r, cols]
+    return idx, sgn
+
+
 def relative_jacobians(
     mech: Mechanism,
     kin: Kinematics,
@@ -220,29 +232,44 @@ def relative_jacobians(
     .. math:: \dot p = R_a^T \sum_j \sigma_j v_j(p_b)\dot q_j,\quad
               \dot e = \tfrac12 (e_0 I - [e]_\times) R_a^T \sum_j \sigma_j \omega_j \dot q_j
 
-    (for a joint before both frames, v_j(p_b) - v_j(p_a) - omega_j x (p_b - p_a) = 0).
+    (for a joint before both frames, v_j(p_b) - v_j(p_a) - omega_j x (p_b - p_a) = 0). Only the
+    joints with sigma_j != 0 (the two branches of each loop) are evaluated.
     """
     fb = np.asarray(fb)
     m = kin.q.shape[0]
+    k = len(fb)
     T_b = kin.frames(mech, fb)
     sigma = mech.link_ancestors[mech.frame_link[fb]].astype(np.float64)  # (k, n)
     if fa is None:
-        T_a = np.broadcast_to(np.asarray(T_a_fixed, dtype=np.float64), (m, len(fb), 4, 4))
+        T_a = np.broadcast_to(np.asarray(T_a_fixed, dtype=np.float64), (m, k, 4, 4))
     else:
         fa = np.asarray(fa)
         T_a = kin.frames(mech, fa)
         sigma = sigma - mech.link_ancestors[mech.frame_link[fa]]
+    idx, sgn = _support(sigma)  # (k, s)
+    idx_c = np.minimum(idx, mech.n - 1)
     R_a = T_a[..., :3, :3]
     p_b = T_b[..., :3, 3]
-    v, w = _point_twists(mech, kin, p_b)  # (m, k, n, 3)
-    sig = sigma[None, :, :, None]
-    Jp = np.einsum("mkji,mknj->mkin", R_a, sig * v)
-    Jw = np.einsum("mkji,mknj->mkin", R_a, sig * w)
+    z, o = kin.axes()
+    zs, os_ = z[:, idx_c], o[:, idx_c]  # (m, k, s, 3)
+    rev = (mech.s[idx_c] == 0)[None, :, :, None]
+    sg = sgn[None, :, :, None]
+    v = np.where(rev, _cross(zs, p_b[:, :, None, :] - os_), zs) * sg
+    w = np.where(rev, zs, 0.0) * sg
+    Jp = v @ R_a  # rows v^T R_a = (R_a^T v)^T: (m, k, s, 3)
+    Jw = w @ R_a
     e = quat_from_matrix(np.swapaxes(R_a, -1, -2) @ T_b[..., :3, :3])  # (m, k, 4)
     e0, ev = e[..., 0], e[..., 1:]
     E = 0.5 * (e0[..., None, None] * np.eye(3) - skew(ev))
-    x = np.concatenate([np.einsum("mkji,mkj->mki", R_a, p_b - T_a[..., :3, 3]), ev], axis=-1)
-    return x, np.concatenate([Jp, E @ Jw], axis=2)
+    Je = Jw @ np.swapaxes(E, -1, -2)  # (E Jw^T)^T
+    x = np.empty((m, k, 6))
+    x[..., :3] = (np.swapaxes(R_a, -1, -2) @ (p_b - T_a[..., :3, 3])[..., None])[..., 0]
+    x[..., 3:] = ev
+    Jt = np.zeros((m, k, mech.n + 1, 6))
+    Jt[:, np.arange(k)[:, None], idx, :3] = Jp
+    Jt[:, np.arange(k)[:, None], idx, 3:] = Je
+    Jt = Jt[:, :, : mech.n]
+    return x, np.swapaxes(Jt, -1, -2)
 
 
 def relative_jacobian(
