@@ -217,6 +217,22 @@ def _support(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return idx, sgn
 
 
+def _support_cached(mech: Mechanism, fa: np.ndarray | None, fb: np.ndarray):
+    """The loop supports of (fa, fb) frame pairs, computed once per mechanism and pair list."""
+    cache = mech.__dict__.setdefault("_supports", {})
+    key = (None if fa is None else tuple(fa.tolist()), tuple(fb.tolist()))
+    hit = cache.get(key)
+    if hit is None:
+        sigma = mech.link_ancestors[mech.frame_link[fb]].astype(np.float64)  # (k, n)
+        if fa is not None:
+            sigma = sigma - mech.link_ancestors[mech.frame_link[fa]]
+        idx, sgn = _support(sigma)
+        hit = (idx, sgn, np.minimum(idx, mech.n - 1))
+        if len(cache) < 256:
+            cache[key] = hit
+    return hit
+
+
 def relative_jacobians(
     mech: Mechanism,
     kin: Kinematics,
@@ -239,15 +255,12 @@ def relative_jacobians(
     m = kin.q.shape[0]
     k = len(fb)
     T_b = kin.frames(mech, fb)
-    sigma = mech.link_ancestors[mech.frame_link[fb]].astype(np.float64)  # (k, n)
     if fa is None:
         T_a = np.broadcast_to(np.asarray(T_a_fixed, dtype=np.float64), (m, k, 4, 4))
     else:
         fa = np.asarray(fa)
         T_a = kin.frames(mech, fa)
-        sigma = sigma - mech.link_ancestors[mech.frame_link[fa]]
-    idx, sgn = _support(sigma)  # (k, s)
-    idx_c = np.minimum(idx, mech.n - 1)
+    idx, sgn, idx_c = _support_cached(mech, fa, fb)  # (k, s)
     R_a = T_a[..., :3, :3]
     p_b = T_b[..., :3, 3]
     z, o = kin.axes()
