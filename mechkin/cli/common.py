@@ -97,7 +97,11 @@ def evaluate_expect(summary: dict[str, Any], expects: list[Any]) -> list[dict[st
             rec["source"] = e.source
         try:
             actual = lookup(summary, e.key)
+            if actual is None:
+                raise KeyError(e.key)
             act = np.atleast_1d(np.asarray(actual, dtype=float))
+            if not np.all(np.isfinite(act)):
+                raise ValueError(e.key)
             if ref is not None and act.shape != ref.shape:
                 rec.update(ok=False, actual=actual, message=f"shape {act.shape} != {ref.shape}")
             else:
@@ -107,7 +111,8 @@ def evaluate_expect(summary: dict[str, Any], expects: list[Any]) -> list[dict[st
                 if ref is not None:
                     rec["error"] = float(np.max(np.abs(act - ref))) / f if act.size else 0.0
         except (KeyError, TypeError, ValueError):
-            rec.update(ok=False, actual=None, message=f"no value at {e.key!r} in the summary")
+            rec.update(ok=False, actual=None,
+                       message=f"no finite value at {e.key!r} in the summary")
         out.append(rec)
     return out
 

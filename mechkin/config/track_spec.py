@@ -1,0 +1,175 @@
+"""``track:`` section of scenario files: conveyor tracking by DP in the phase plane (park §2-§5).
+
+Registered with :func:`mechkin.config.scenario.register_task_section` on import. Numbers are in
+the scenario's ``units``: path points, the part and the belt in the length unit (m/s for the
+belt in that unit per second); joint velocity, acceleration and jerk limits in the angle unit
+per s, s^2, s^3 for revolute joints (length unit for prismatic ones); torques always in N m
+(forces in N). :func:`limits_si` and :func:`point_si` convert to SI.
+
+Example (park §5.3, all limits)::
+
+    track:
+      objective: tracking
+      path: {start: [-0.8, 1.732, 0], end: [-0.3, 1.732, 0]}
+      ik: {branch: {q2: positive}}
+      conveyor: {part_start: [-0.9, 1.732, 0], belt_velocity: [0.2, 0, 0]}
+      grid: {N1: 50, N2: 100, nt_fraction: 0.8}
+      limits: {torque: [0.5, 0.2], qd: [0.2, 0.2], qdd: [0.3, 0.3], jerk: [2.3, 2.0]}
+      dynamics: rnea
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from mechkin.config.scenario import register_task_section
+from mechkin.config.schema import Name, Num, PosNum, Spec, Units
+from mechkin.config.units import angle_factor, length_factor
+
+Point = Annotated[list[Num], Field(min_length=2, max_length=3)]
+GridInt = Annotated[int, Field(strict=True, ge=1, le=5000)]
+Fraction = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=1)]
+
+
+class PathSpec(Spec):
+    """Straight hand line with fixed orientation (park Eq. (7)): ``start`` and ``end`` points
+    [length unit] (2 values: z = 0), and the hand ``frame`` (default: the end effector)."""
+
+    start: Point
+    end: Point
+    frame: Name | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> PathSpec:
+        if len(self.start) != len(self.end):
+            raise ValueError("start and end need the same number of coordinates")
+        if np.linalg.norm(np.subtract(self.start, self.end)) == 0.0:
+            raise ValueError("start and end are the same point")
+        return self
+
+
+class IkBranchSpec(Spec):
+    """Inverse kinematics along the line (park Eq. (9)): Newton-Raphson on the hand position,
+    continued along the path from ``initial_guess`` (joint values by name in the file's units;
+    default the mechanism's home). ``branch`` fixes signs of joints (``{q2: positive}``, park's
+    elbow q2 > 0): the start solution and the whole path must keep them."""
+
+    initial_guess: dict[Name, Num] | None = None
+    branch: dict[Name, Literal["positive", "negative"]] | None = None
+    tolerance: PosNum = 1e-12
+
+
+class ConveyorSpec(Spec):
+    """The part on the belt (park Eq. (1)): ``X_p(t) = part_start + belt_velocity t``; the
+    part is drawn as a box of ``part_size`` [length unit]."""
+
+    part_start: Point
+    belt_velocity: Point
+    part_size: Annotated[list[PosNum], Field(min_length=3, max_length=3)] = Field(
+        default_factory=lambda: [0.08, 0.08, 0.04])
+
+
+class GridSpec(Spec):
+    """Phase-plane grid (park Eq. (23)-(24)): ``N1`` stages in r, ``N2`` states in r';
+    ``N_t = round(nt_fraction N2)`` is the part's speed (tracking); ``x2_max`` [1/s] the top of
+    the r' grid for ``objective: time`` (default: a reachability bound)."""
+
+    N1: GridInt = 50
+    N2: GridInt = 100
+    nt_fraction: Fraction = 0.8
+    x2_max: PosNum | None = None
+
+
+class LimitPairSpec(Spec):
+    """Asymmetric limits: per joint ``min <= value <= max``."""
+
+    min: list[Num]
+    max: list[Num]
+
+    @model_validator(mode="after")
+    def _check(self) -> LimitPairSpec:
+        if len(self.min) != len(self.max):
+            raise ValueError("min and max need one value per joint each")
+        if any(a > b for a, b in zip(self.min, self.max, strict=True)):
+            raise ValueError("expected min <= max for every joint")
+        return self
+
+
+Limit = list[PosNum] | LimitPairSpec
+
+
+class LimitsSpec(Spec):
+    """Joint limits (park Eq. (3)-(6)); a list is symmetric magnitudes per joint (-x <= . <= x).
+
+    ``torque`` [N m | N]; ``qd``, ``qdd``, ``jerk`` in the angle unit per s, s^2, s^3.
+    """
+
+    torque: Limit | None = None
+    qd: Limit | None = None
+    qdd: Limit | None = None
+    jerk: Limit | None = None
+
+
+class TrackSpec(Spec):
+    """``track:`` section.
+
+    ``objective``: ``tracking`` (DPCT, park §4: follow the part on the belt) or ``time``
+    (minimum time from rest to rest along the same path, same limits). ``grid_study`` solves
+    the same problem on several grids (park §5.2) and reports one record per grid; the outputs
+    (CSV, plots, MCAP) are those of ``grid``. ``dynamics``: ``rnea`` (recursive Newton-Euler
+    from the mechanism's inertial parameters) or ``closed_form_2link`` (park Table 1, for a
+    planar 2R arm; its parameters are read from the same inertials).
+    """
+
+    objective: Literal["tracking", "time"] = "tracking"
+    path: PathSpec
+    ik: IkBranchSpec = Field(default_factory=IkBranchSpec)
+    conveyor: ConveyorSpec | None = None
+    grid: GridSpec = Field(default_factory=GridSpec)
+    grid_study: list[GridSpec] | None = None
+    limits: LimitsSpec = Field(default_factory=LimitsSpec)
+    dynamics: Literal["rnea", "closed_form_2link"] = "rnea"
+
+    @model_validator(mode="after")
+    def _check(self) -> TrackSpec:
+        if self.objective == "tracking" and self.conveyor is None:
+            raise ValueError("objective tracking needs a conveyor: {part_start, belt_velocity}")
+        if self.grid_study is not None and not self.grid_study:
+            raise ValueError("grid_study: give at least one grid")
+        return self
+
+
+def point_si(p: list[float], units: Units) -> np.ndarray:
+    """A point or velocity [length unit] -> (3,) [m]; two coordinates get z = 0."""
+    a = np.zeros(3)
+    a[: len(p)] = np.asarray(p, dtype=float) * length_factor(units.length)
+    return a
+
+
+def limits_si(
+    spec: LimitsSpec, units: Units, prismatic: np.ndarray
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """``name -> (lo (n,), hi (n,))`` in SI; qd/qdd/jerk of revolute joints scaled by the angle
+    unit, of prismatic joints by the length unit; torques as given (N m | N)."""
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    pris = np.asarray(prismatic, dtype=bool)
+    motion = np.where(pris, length_factor(units.length), angle_factor(units.angle))
+    for name in ("torque", "qd", "qdd", "jerk"):
+        lim = getattr(spec, name)
+        if lim is None:
+            continue
+        if isinstance(lim, LimitPairSpec):
+            lo, hi = np.asarray(lim.min, dtype=float), np.asarray(lim.max, dtype=float)
+        else:
+            hi = np.asarray(lim, dtype=float)
+            lo = -hi
+        if name != "torque" and lo.shape == motion.shape:
+            lo, hi = lo * motion, hi * motion
+        out[name] = (lo, hi)
+    return out
+
+
+register_task_section("track", TrackSpec)

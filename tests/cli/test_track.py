@@ -1,0 +1,163 @@
+"""`mechkin track` end to end on park's scenarios: summaries, CSV, MCAP read back, bad input."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap_protobuf.decoder import DecoderFactory
+from typer.testing import CliRunner
+
+from mechkin.cli.app import app
+from mechkin.cli.track import run_track
+from mechkin.config.scenario import load_scenario
+from mechkin.io.csv_out import read_csv
+
+ROOT = Path(__file__).resolve().parents[2]
+SCEN = ROOT / "scenarios"
+runner = CliRunner()
+PARK = ["park_conveyor_none", "park_conveyor_torque", "park_conveyor_full", "park_grid_study",
+        "park_time_optimal_torque", "park_time_optimal_full"]
+KEYS = {"status", "message", "t_a_s", "peak_torque", "duration_s", "limits_ok", "active_limits",
+        "grid", "solve_time_s", "files", "limit_usage"}
+
+
+def _local(tmp_path: Path, name: str, *edits: tuple[str, str]) -> Path:
+    """A copy of a bundled scenario with its mechanism path made absolute, and text edits."""
+    s = (SCEN / f"{name}.yaml").read_text()
+    s = s.replace("../mechanisms/", f"{ROOT / 'mechanisms'}/")
+    for a, b in edits:
+        assert a in s, a
+        s = s.replace(a, b)
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(s)
+    return p
+
+
+def _mcap(path: Path):
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summ = reader.get_summary()
+        topics = {c.topic: summ.schemas[c.schema_id].name for c in summ.channels.values()}
+        counts = {summ.channels[cid].topic: n
+                  for cid, n in summ.statistics.channel_message_counts.items()}
+        decoded: dict[str, list] = {}
+        proto = [t for t in topics if t != "/mechkin/state"]
+        for _s, ch, _m, msg in reader.iter_decoded_messages(topics=proto):
+            decoded.setdefault(ch.topic, []).append(msg)
+        for _s, ch, m in reader.iter_messages(topics=["/mechkin/state"]):
+            decoded.setdefault(ch.topic, []).append(json.loads(m.data))
+        return topics, counts, summ.statistics, decoded
+
+
+@pytest.mark.parametrize("name", PARK)
+def test_park_scenarios_exit_0(tmp_path: Path, name: str) -> None:
+    sc = load_scenario(SCEN / f"{name}.yaml")
+    summary, code = run_track(scenario=sc, out_dir=tmp_path / "out", plots=False)
+    assert code == 0, (summary["message"], summary.get("expect"))
+    assert set(summary) >= KEYS
+    assert summary["status"] == "ok" and summary["limits_ok"]
+    assert all(c["ok"] for c in summary["expect"])
+    assert {"track.csv", "track.mcap", "summary.json"} <= set(summary["files"])
+    on_disk = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert on_disk["t_a_s"] == summary["t_a_s"]
+    if name == "park_grid_study":
+        assert [(g["N1"], g["N2"]) for g in summary["grid_study"]] == [(30, 50), (50, 100),
+                                                                        (100, 200)]
+        assert all(g["t_a_s"] >= 1.0935 and g["limits_ok"] for g in summary["grid_study"])
+    if name.startswith("park_time_optimal"):
+        assert summary["t_a_s"] is None
+        ref = 2.530 if name.endswith("torque") else 3.041
+        assert ref <= summary["duration_s"] <= 1.02 * ref
+
+
+def test_full_case_outputs_csv_and_mcap(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(SCEN / "park_conveyor_full.yaml"), "--out", str(out),
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    summary = json.loads(res.stdout)
+    assert summary["t_a_s"] == pytest.approx(1.10, abs=0.005)
+    for png in ("phase.png", "hand_part.png", "joint_velocities.png", "torques.png"):
+        assert png in summary["files"] and (out / png).stat().st_size > 0
+    text = (out / "track.csv").read_text()
+    assert "nan" not in text.lower() and ",," not in text
+    cols = {k: np.asarray(v, dtype=float) for k, v in read_csv(out / "track.csv").items()}
+    for c in ("t_s", "r", "rd_1_s", "q1_rad", "qd2_rad_s", "qdd1_rad_s2", "jerk2_rad_s3",
+              "u1_Nm", "u2_Nm", "hand_x_m", "part_x_m", "error_x_m", "error_norm_m"):
+        assert c in cols, c
+    K = summary["n_samples"]
+    assert all(len(v) == K for v in cols.values())
+    assert np.all(np.abs(cols["qd1_rad_s"]) <= 0.2 + 1e-9)
+    assert np.all(np.abs(cols["qd2_rad_s"]) <= 0.2 + 1e-9)
+    after = cols["t_s"] >= summary["t_a_s"] - 1e-12
+    assert np.max(cols["error_norm_m"][after]) <= 1e-9  # zero steady-state error (§5.3)
+    assert np.min(cols["u1_Nm"]) == pytest.approx(summary["peak_torque"][0], abs=1e-12)
+
+    topics, counts, stats, msgs = _mcap(out / "track.mcap")
+    assert topics["/tf"] == "foxglove.FrameTransforms"
+    assert topics["/scene"] == "foxglove.SceneUpdate"
+    assert topics["/joint_states"] == "foxglove.JointStates"
+    assert "/mechkin/state" in topics
+    assert all(n == K for n in counts.values()), counts
+    assert stats.message_start_time == 0
+    assert stats.message_end_time == round(summary["duration_s"] * 1e9)
+    assert {t.child_frame_id for t in msgs["/tf"][0].transforms} >= {"link1", "link2", "hand"}
+    effort = np.array([list(m.joints[k].effort for k in range(2))
+                       for m in msgs["/joint_states"]])
+    np.testing.assert_allclose(effort[:, 0], cols["u1_Nm"], atol=1e-12)
+    ent = msgs["/scene"][-1].entities[0]
+    assert len(ent.cubes) == 2 and len(ent.lines) >= 1  # the part and the belt; the arm
+    part_x = [m.entities[0].cubes[0].pose.position.x for m in msgs["/scene"]]
+    np.testing.assert_allclose(part_x, cols["part_x_m"], atol=1e-12)
+    state = msgs["/mechkin/state"]
+    assert {"r", "rd_1_s", "tracking_error_m", "phase"} <= set(state[-1])
+    assert state[-1]["phase"] == "tracking" and state[-1]["tracking_error_m"] <= 1e-9
+
+
+def test_closed_form_dynamics_gives_the_same_plan(tmp_path: Path) -> None:
+    p = _local(tmp_path, "park_conveyor_torque", ("dynamics: rnea", "dynamics: closed_form_2link"))
+    a, _ = run_track(scenario=load_scenario(p), out_dir=tmp_path / "a", plots=False)
+    b, _ = run_track(scenario=load_scenario(SCEN / "park_conveyor_torque.yaml"),
+                     out_dir=tmp_path / "b", plots=False)
+    assert a["t_a_s"] == b["t_a_s"]
+    np.testing.assert_allclose(a["peak_torque"], b["peak_torque"], atol=1e-9)
+
+
+def test_infeasible_limits_exit_1_naming_the_limit(tmp_path: Path) -> None:
+    p = _local(tmp_path, "park_conveyor_full", ("qd: [0.2, 0.2]", "qd: [0.2, 0.05]"))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 1, res.output
+    assert "infeasible" in res.stderr and "joint velocity limit (joint 2)" in res.stderr
+    assert "r = 1" in res.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "infeasible" and summary["t_a_s"] is None
+    assert summary["blocking_limits"] == ["qd_2"]
+    assert summary["files"] == ["summary.json"]
+
+
+def test_expect_failure_exits_1(tmp_path: Path) -> None:
+    p = _local(tmp_path, "park_conveyor_none", ("max: 0.650000001", "max: 0.61"))
+    res = runner.invoke(app, ["track", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
+    assert res.exit_code == 1
+    assert "expect t_a_s" in res.stderr
+
+
+@pytest.mark.parametrize(("edit", "pattern"), [
+    (("nt_fraction: 0.8", "nt_fracton: 0.8"), r":\d+: track\.grid\.nt_fracton: unknown key"),
+    (("objective: tracking", "objective: fastest"), r":\d+: track\.objective: "),
+    (("torque: [0.5, 0.2], qd", "torque: [0.5], qd"),
+     r":\d+: track\.limits\.torque: expected 2 values"),
+    (("{q2: positive}", "{q2: negative}"), r":\d+: track\.ik\.branch\.q2: q2 is not negative"),
+])
+def test_bad_track_section_exits_2(tmp_path: Path, edit, pattern) -> None:
+    p = _local(tmp_path, "park_conveyor_full", edit)
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 2, res.output
+    import re
+
+    assert re.search(str(p).replace(".", r"\.") + pattern, res.stderr), res.stderr
+    assert not out.exists()
