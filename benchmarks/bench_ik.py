@@ -1,0 +1,113 @@
+"""IK speed and verified success (0.1 mm, 1 mrad): ``python benchmarks/bench_ik.py [--n N]``.
+
+Panda and PUMA 560 random reachable poses (seeded, FK of random joints within the limits, solved
+from home); the kim1995 Stewart and end-effector robot precision points; lm and cg-golden; the
+batched lm mode on the PUMA 560. Success is verified with the model's forward kinematics.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mechkin.model import load_mechanism
+from mechkin.model.kinematics import forward_kinematics
+from mechkin.solvers.ik_optimize import (
+    IkKernel,
+    IkOptions,
+    pose_errors,
+    solve_ik,
+    solve_ik_batch,
+    solve_ik_sequence,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+POS, ORI = 1e-4, 1e-3
+
+
+def verified(mech, q, T):
+    T_E = forward_kinematics(mech, np.atleast_2d(q)).frames(mech, [mech.end_effector])[:, 0]
+    pe, oe = pose_errors(T_E, np.asarray(T).reshape(-1, 4, 4))
+    return (pe < POS) & (oe < ORI)
+
+
+def random_poses(mech, n, seed):
+    rng = np.random.default_rng(seed)
+    iv = mech.independent
+    qs = rng.uniform(mech.lower[iv], mech.upper[iv], size=(n, len(iv)))
+    return forward_kinematics(mech, qs).frames(mech, [mech.end_effector])[:, 0]
+
+
+def bench_random(name, n, method, restarts):
+    mech = load_mechanism(ROOT / "mechanisms" / f"{name}.yaml")
+    Ts = random_poses(mech, n, 123)
+    kern = IkKernel(mech)
+    opts = IkOptions(method=method, restarts=restarts, seed=1, tol_pos=1e-7, tol_ori=1e-6,
+                     grad_tol=1e-10 if method == "lm" else 1e-8)
+    times, ok = [], []
+    for T in Ts:
+        t0 = time.perf_counter()
+        r = solve_ik(mech, T, options=opts, kernel=kern)
+        times.append(time.perf_counter() - t0)
+        ok.append(bool(verified(mech, r.q, T)[0]))
+    print(f"{name:28s} {method:9s} n={n:5d}  median {np.median(times) * 1e3:8.3f} ms  "
+          f"mean {np.mean(times) * 1e3:8.3f} ms  success {100 * np.mean(ok):6.2f} %")
+
+
+def bench_points(name, Ts, W, method, q_v0=None):
+    mech = load_mechanism(ROOT / "mechanisms" / f"{name}.yaml")
+    opts = IkOptions(method=method, grad_tol=1e-12 if method == "lm" else 1e-8)
+    rs = solve_ik_sequence(mech, Ts, weights=W, options=opts, q_v0=q_v0)
+    times = [r.time_s for r in rs]
+    ok = [bool(r.ok) for r in rs]
+    print(f"{name:28s} {method:9s} n={len(Ts):5d}  median {np.median(times) * 1e3:8.3f} ms  "
+          f"mean {np.mean(times) * 1e3:8.3f} ms  success {100 * np.mean(ok):6.2f} %"
+          f"  (evaluations {[r.evaluations for r in rs]})")
+
+
+def bench_batch(name, n):
+    mech = load_mechanism(ROOT / "mechanisms" / f"{name}.yaml")
+    Ts = random_poses(mech, n, 321)
+    solve_ik_batch(mech, Ts[:100])  # warm-up
+    t0 = time.perf_counter()
+    r = solve_ik_batch(mech, Ts, options=IkOptions(restarts=30, seed=2, tol_pos=1e-7,
+                                                   tol_ori=1e-6))
+    dt = time.perf_counter() - t0
+    ok = verified(mech, r.q, Ts)
+    print(f"{name:28s} batch-lm  n={n:5d}  {n / dt:10.0f} solves/s  ({dt * 1e3 / n:.3f} ms per "
+          f"solve)  success {100 * ok.mean():6.2f} %")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--n", type=int, default=200, help="random poses per arm (lm)")
+    ap.add_argument("--n-cg", type=int, default=10, help="random poses per arm (cg-golden)")
+    ap.add_argument("--n-batch", type=int, default=20000)
+    a = ap.parse_args()
+    for name in ("panda", "puma560"):
+        bench_random(name, a.n, "lm", restarts=30)
+        bench_random(name, a.n_cg, "cg-golden", restarts=3)
+    R = np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1.0]])
+    st = []
+    for p in [(0, 0, 8), (0, 0, 12), (2, 0, 15), (10, 0, 15)]:
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, p
+        st.append(T)
+    ee = [np.array(T, float) for T in (
+        [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1.933], [0, 0, 0, 1]],
+        [[0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 1.933], [0, 0, 0, 1]],
+        [[0, -1, 0, 0], [0, 0, 1, 0], [-1, 0, 0, 1.933], [0, 0, 0, 1]],
+        [[0, -1, 0, 0.201581], [0, 0, 1, 1.002186], [-1, 0, 0, 1.263049], [0, 0, 0, 1]])]
+    Wee = np.array([[0, 0, 0, 1, 1, 1]] * 3 + [[1] * 6], float)
+    for method in ("lm", "cg-golden"):
+        bench_points("kim1995_stewart", st, None, method)
+        bench_points("kim1995_end_effector_robot", ee, Wee, method)
+    bench_batch("puma560", a.n_batch)
+    bench_batch("panda", a.n_batch // 4)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1032 @@
+r"""Inverse kinematics of complex chains by optimisation (kim1995 §3-§5).
+
+The end-effector frame {E} is driven onto a precision point {P} by searching the independent
+joints q_v; the dependent joints q_w follow from the loop closure phi_R(q_v, q_w) = 0 (kim1995
+Eq. (4)-(6)). The objective is (kim1995 Eq. (7)-(9))
+
+.. math:: x = ({}^P p_E^T\; {}^P e_E^T)^T,\qquad f(q_v) = \tfrac12 x^T W x
+
+and its gradient follows from the chain rule (kim1995 Eq. (10)) with the sensitivity of the
+dependent joints
+
+.. math:: \frac{\partial q}{\partial q_v} = L_v + L_w \frac{\partial q_w}{\partial q_v},\qquad
+          \frac{\partial q_w}{\partial q_v} = -\Big[\frac{\partial\phi_R}{\partial q_w}\Big]^+
+          \frac{\partial\phi_R}{\partial q_v}.
+
+Two methods share that objective:
+
+* ``cg-golden``: kim1995 §5.2 as printed: Fletcher-Reeves conjugate gradient, golden-section line
+  search with bracketing (Arora 1989), every function evaluation running the §5.1 loop closure
+  warm-started from the current dependent joints.
+* ``lm``: damped Gauss-Newton (Levenberg-Marquardt) on the reduced Jacobian
+  ``J_r = dx/dq_v`` of the same residual; the default. :func:`solve_ik_batch` runs it on many
+  targets at once, vectorized across targets.
+
+Joint limits and leg strokes of the independent joints are respected by projection (clamping
+q_v after every step and every line-search trial). Every result carries the position and
+orientation error of {E} recomputed by forward kinematics at the returned joints.
+
+Speed: the kinematics here are evaluated by a private kernel (:class:`IkKernel`) that folds each
+joint's constant transforms into three matrices (``A Z(q) B = c K_c + s K_s + d K_d + K_0``) and
+avoids ``np.cross``; it is checked against :mod:`mechkin.model.kinematics` in the tests.
+
+References
+----------
+kim1995_complex_chain_ik §3-§5, Eq. (4)-(10); §5.1 (loop closure) and §5.2 (inverse kinematics).
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from mechkin.model.mechanism import Mechanism
+from mechkin.spatial.rotations import quat_from_matrix
+
+log = logging.getLogger(__name__)
+
+Method = Literal["lm", "cg-golden"]
+
+TOL_POS_M = 1e-6  # a target counts as reached below these verified errors
+TOL_ORI_RAD = 1e-6
+GRAD_TOL = 1e-10
+MAX_ITER_LM = 100
+MAX_ITER_CG = 2000
+TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v
+MAX_ITER_CLOSURE = 30
+GOLDEN = 0.5 * (np.sqrt(5.0) - 1.0)  # 0.618...
+
+
+class IkStatus(enum.Enum):
+    """Outcome of one inverse-kinematics solve (DESIGN.md: results carry a status)."""
+
+    OK = "ok"
+    NOT_CONVERGED = "not converged"
+    UNREACHABLE = "unreachable"
+    SINGULAR = "singular"
+    AT_LIMIT = "at a limit"
+
+
+@dataclass(frozen=True)
+class IkOptions:
+    """Options of :func:`solve_ik`.
+
+    Attributes
+    ----------
+    method : {"lm", "cg-golden"}
+    grad_tol : float
+        Stop when ``||df/dq_v|| < grad_tol`` (kim1995 §5.2 Step 6, epsilon).
+    max_iter : int or None
+        Iterations of the method (default 100 for lm, 2000 for cg-golden).
+    tol_pos, tol_ori : float
+        Verified errors [m], [rad] below which a target counts as reached (status ok). Only the
+        components with non-zero weight count.
+    restarts : int
+        Extra solves from seeded random independent joints within the limits when a solve
+        does not reach the target; the best one is kept.
+    seed : int
+        Seed of the restarts.
+    tol_phi : float
+        Loop-closure tolerance ||phi_R|| (kim1995 §5.1 Step 3).
+    line_tol : float
+        Golden-section interval length at which the line search stops (cg-golden).
+    cg_restart : int or None
+        Reset the conjugate direction to -grad every ``cg_restart`` iterations (None: every
+        n_v iterations; 0: never, as printed in kim1995 §5.2). A direction that is not a
+        descent direction is always reset.
+    """
+
+    method: Method = "lm"
+    grad_tol: float = GRAD_TOL
+    max_iter: int | None = None
+    tol_pos: float = TOL_POS_M
+    tol_ori: float = TOL_ORI_RAD
+    restarts: int = 0
+    seed: int = 0
+    tol_phi: float = TOL_PHI
+    line_tol: float = 1e-7
+    cg_restart: int | None = None
+
+
+@dataclass(frozen=True)
+class IkResult:
+    """Record of one solve (one precision point).
+
+    Attributes
+    ----------
+    q_v : (n_v,) independent joints [rad | m]; q_w : (n_w,) dependent joints; q : (n,) all.
+    status : IkStatus
+    position_error : float
+        ``||p_E - p_P||`` [m], by forward kinematics at ``q``.
+    orientation_error : float
+        Rotation angle of ``R_P^T R_E`` [rad], by forward kinematics at ``q``.
+    f : float
+        Objective (kim1995 Eq. (9)) at exit; ``grad_norm`` its gradient norm (Eq. (10)).
+    iterations, evaluations : int
+        Iterations of the method and evaluations of f (each one loop closure for closed chains).
+    time_s : float
+    f_history : (iterations + 1,) f per iteration.
+    at_limit : tuple of joint names whose value sits on a limit.
+    restarts_used : int
+    """
+
+    q_v: np.ndarray
+    q_w: np.ndarray
+    q: np.ndarray
+    status: IkStatus
+    position_error: float
+    orientation_error: float
+    f: float
+    grad_norm: float
+    iterations: int
+    evaluations: int
+    time_s: float
+    f_history: np.ndarray
+    at_limit: tuple[str, ...] = ()
+    restarts_used: int = 0
+    method: str = "lm"
+
+    @property
+    def ok(self) -> bool:
+        return self.status is IkStatus.OK
+
+
+@dataclass(frozen=True)
+class IkBatchResult:
+    """Records of :func:`solve_ik_batch`, one row per target (shapes (m, ...))."""
+
+    q_v: np.ndarray
+    q_w: np.ndarray
+    q: np.ndarray
+    status: np.ndarray  # (m,) object array of IkStatus
+    position_error: np.ndarray
+    orientation_error: np.ndarray
+    f: np.ndarray
+    iterations: np.ndarray
+    time_s: float
+
+    @property
+    def ok(self) -> np.ndarray:
+        return np.array([s is IkStatus.OK for s in self.status], dtype=bool)
+
+
+# ---- kinematics kernel -------------------------------------------------------------------------
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b over the last axis (np.cross is slow on small arrays)."""
+    return a[..., _I1] * b[..., _I2] - a[..., _I2] * b[..., _I1]
+
+
+_I1 = np.array([1, 2, 0])
+_I2 = np.array([2, 0, 1])
+
+
+_QA = np.array([7, 2, 3])  # R21, R02, R10 of the flattened matrix
+_QB = np.array([5, 6, 1])  # R12, R20, R01
+
+
+def quat_vector_fast(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e0 (...,), e (..., 3)) Euler parameters of rotation matrices, e0 >= 0 (kim1995 Eq. (8)).
+
+    Uses the trace branch where the rotation angle is below about 170 deg and Shepperd's method
+    (:func:`quat_from_matrix`) elsewhere.
+    """
+    tr = np.trace(R, axis1=-2, axis2=-1)
+    far = tr < -0.9
+    e0 = 0.5 * np.sqrt(np.maximum(1.0 + tr, 1e-300))
+    Rf = R.reshape(R.shape[:-2] + (9,))
+    ev = (Rf[..., _QA] - Rf[..., _QB]) * (0.25 / e0)[..., None]
+    if np.any(far):
+        e = quat_from_matrix(R[far])
+        e0 = e0.copy()
+        e0[far] = e[:, 0]
+        ev[far] = e[:, 1:]
+    return e0, ev
+
+
+class IkKernel:
+    """Per-mechanism constants for fast batched kinematics of the IK objective.
+
+    ``T_parent_child(q) = A Z(q) B = c K_c + s K_s + d K_d + K_0`` with ``c, s = cos q, sin q``
+    for revolute joints (``c = 1, s = 0`` for prismatic ones) and ``d = q`` for prismatic joints
+    (kim1995 Eq. (2)).
+
+    Parameters
+    ----------
+    mech : Mechanism
+    frame : int or None
+        The end-effector frame {E} (default ``mech.end_effector``).
+    """
+
+    def __init__(self, mech: Mechanism, frame: int | None = None) -> None:
+        self.mech = mech
+        f = mech.end_effector if frame is None else frame
+        if f is None:
+            raise ValueError("the mechanism has no end_effector frame; give frame=")
+        self.frame = int(f)
+        n = mech.n
+        A, B = mech.A, mech.B
+        Pc = np.diag([1.0, 1.0, 0.0, 0.0])
+        Ps = np.zeros((4, 4))
+        Ps[0, 1], Ps[1, 0] = -1.0, 1.0
+        P0 = np.diag([0.0, 0.0, 1.0, 1.0])
+        Pd = np.zeros((4, 4))
+        Pd[2, 3] = 1.0
+        self.Kc = A @ Pc @ B
+        self.Ks = A @ Ps @ B
+        self.K0 = A @ P0 @ B
+        self.Kd = A @ Pd @ B
+        self.rev = mech.s == 0
+        self.az = A[:, :3, 2].copy()  # joint axis in the parent link frame
+        self.ao = A[:, :3, 3].copy()
+        self.n = n
+        self.iv = np.asarray(mech.independent, dtype=int)
+        self.iw = np.asarray(mech.dependent, dtype=int)
+        self.parent = mech.joint_parent_link
+        self.child = mech.joint_child_link
+        self.levels = mech.levels
+        self.serial = all(len(lv) == 1 for lv in mech.levels) and all(
+            int(mech.joint_parent_link[lv[0]]) == (0 if k == 0 else
+                                                   int(mech.joint_child_link[mech.levels[k - 1][0]]))
+            for k, lv in enumerate(mech.levels))
+        self.chain = [int(lv[0]) for lv in mech.levels] if self.serial else []
+        self.fl = int(mech.frame_link[self.frame])
+        self.foff = mech.frame_offset[self.frame]
+        self.anc_e = mech.link_ancestors[self.fl].astype(float)  # (n,)
+        cuts = mech.cuts
+        self.n_cuts = len(cuts)
+        if cuts:
+            ca = np.array([c.a for c in cuts])
+            cb = np.array([c.b for c in cuts])
+            self.cut_la = mech.frame_link[ca]
+            self.cut_lb = mech.frame_link[cb]
+            self.cut_oa = mech.frame_offset[ca]
+            self.cut_ob = mech.frame_offset[cb]
+            self.anc_a = mech.link_ancestors[self.cut_la].astype(float)  # (nc, n)
+            self.anc_b = mech.link_ancestors[self.cut_lb].astype(float)
+            self.cut_mask = np.stack([c.mask for c in cuts]).astype(bool)  # (nc, 6)
+        self.lower_v = mech.lower[self.iv]
+        self.upper_v = mech.upper[self.iv]
+        # a revolute joint whose range spans a full turn is continuous: wrap, do not clamp
+        self.cont_v = (mech.s[self.iv] == 0) & (self.upper_v - self.lower_v >= 2 * np.pi - 1e-9)
+        self.bound_lo = np.where(self.cont_v, -np.inf, self.lower_v)
+        self.bound_hi = np.where(self.cont_v, np.inf, self.upper_v)
+
+    def project(self, q_v: np.ndarray) -> np.ndarray:
+        """Project independent joints (..., n_v) onto the limits (continuous joints wrapped)."""
+        q = np.clip(q_v, self.bound_lo, self.bound_hi)
+        if self.cont_v.any():
+            lo = self.lower_v
+            q = np.where(self.cont_v, lo + np.mod(q - lo, 2 * np.pi), q)
+        return q
+
+    # -- forward kinematics --
+    def links(self, q: np.ndarray) -> np.ndarray:
+        """Link poses T_links (m, nl, 4, 4) for q (m, n)."""
+        m = q.shape[0]
+        rev = self.rev
+        c = np.where(rev, np.cos(q), 1.0)[..., None, None]
+        s = np.where(rev, np.sin(q), 0.0)[..., None, None]
+        d = np.where(rev, 0.0, q)[..., None, None]
+        M = c * self.Kc + s * self.Ks + d * self.Kd + self.K0  # (m, n, 4, 4)
+        T = np.empty((m, self.mech.n_links, 4, 4))
+        T[:, 0] = np.eye(4)
+        if self.serial:
+            prev = T[:, 0]
+            for j in self.chain:
+                prev = prev @ M[:, j]
+                T[:, self.child[j]] = prev
+        else:
+            for lvl in self.levels:
+                T[:, self.child[lvl]] = T[:, self.parent[lvl]] @ M[:, lvl]
+        return T
+
+    def axes(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Joint axes z (m, n, 3) and points o (m, n, 3) on them, in the base frame."""
+        Tp = T[:, self.parent]
+        R = Tp[..., :3, :3]
+        z = np.einsum("mnij,nj->mni", R, self.az)
+        o = np.einsum("mnij,nj->mni", R, self.ao) + Tp[..., :3, 3]
+        return z, o
+
+    def end_effector(self, T: np.ndarray) -> np.ndarray:
+        """Pose of {E} (m, 4, 4)."""
+        return T[:, self.fl] @ self.foff
+
+    def residual_jacobian(self, T: np.ndarray, z: np.ndarray, o: np.ndarray,
+                          T_P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r"""x (m, 6) of {E} relative to {P} (kim1995 Eq. (7)-(8)) and dx/dq (m, 6, n).
+
+        .. math:: \dot x_p = R_P^T v_E,\qquad \dot e = \tfrac12 (e_0 I - [e]_\times) R_P^T
+                  \omega_E
+        """
+        T_E = self.end_effector(T)
+        RPt = np.swapaxes(T_P[:, :3, :3], 1, 2)
+        p = T_E[:, :3, 3]
+        xp = np.einsum("mij,mj->mi", RPt, p - T_P[:, :3, 3])
+        e0, ev = quat_vector_fast(RPt @ T_E[:, :3, :3])
+        zz = z * self.anc_e[None, :, None]
+        v = np.where(self.rev[None, :, None], _cross(zz, p[:, None, :] - o), zz)  # (m, n, 3)
+        w = np.where(self.rev[None, :, None], zz, 0.0)
+        Jp = RPt @ np.swapaxes(v, 1, 2)  # (m, 3, n)
+        Jw = RPt @ np.swapaxes(w, 1, 2)
+        E = 0.5 * (e0[:, None, None] * np.eye(3) - _skew(ev))
+        return np.concatenate([xp, ev], axis=1), np.concatenate([Jp, E @ Jw], axis=1)
+
+    def residual(self, T: np.ndarray, T_P: np.ndarray) -> np.ndarray:
+        """x (m, 6) of {E} relative to {P} (kim1995 Eq. (8))."""
+        T_E = self.end_effector(T)
+        RPt = np.swapaxes(T_P[:, :3, :3], 1, 2)
+        xp = np.einsum("mij,mj->mi", RPt, T_E[:, :3, 3] - T_P[:, :3, 3])
+        _, ev = quat_vector_fast(RPt @ T_E[:, :3, :3])
+        return np.concatenate([xp, ev], axis=1)
+
+    def closure(self, T: np.ndarray, z: np.ndarray | None, o: np.ndarray | None,
+                jac: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """phi_R (m, n_eq) and d(phi_R)/dq (m, n_eq, n) (kim1995 Eq. (4)), cuts masked."""
+        m = T.shape[0]
+        Ta = T[:, self.cut_la] @ self.cut_oa  # (m, nc, 4, 4)
+        Tb = T[:, self.cut_lb] @ self.cut_ob
+        Rat = np.swapaxes(Ta[..., :3, :3], -1, -2)
+        pa, pb = Ta[..., :3, 3], Tb[..., :3, 3]
+        xp = np.einsum("mcij,mcj->mci", Rat, pb - pa)
+        e0, ev = quat_vector_fast(Rat @ Tb[..., :3, :3])
+        phi = np.concatenate([xp, ev], axis=-1)[:, self.cut_mask]
+        if not jac:
+            return phi, None
+        assert z is not None and o is not None
+        rev = self.rev[None, None, :, None]
+        za = z[:, None] * self.anc_a[None, :, :, None]  # (m, nc, n, 3)
+        zb = z[:, None] * self.anc_b[None, :, :, None]
+        dd = self.anc_b - self.anc_a  # only joints on one branch move b relative to a
+        zr = z[:, None] * dd[None, :, :, None]
+        # v_b - v_a - w_a x (p_b - p_a) = z x (p_b - o) (b only) - z x (p_a - o) (a only) - ...
+        # for a joint on both branches the terms cancel; on branch b: z x (p_b - o);
+        # on branch a only: -z x (p_a - o) - z x (p_b - p_a) = -z x (p_b - o).
+        v = np.where(rev, _cross(zr, pb[:, :, None, :] - o[:, None]), zr)
+        w = np.where(rev, zr, 0.0)
+        del za, zb
+        Jp = Rat @ np.swapaxes(v, -1, -2)  # (m, nc, 3, n)
+        Jw = Rat @ np.swapaxes(w, -1, -2)
+        E = 0.5 * (e0[..., None, None] * np.eye(3) - _skew(ev))
+        J = np.concatenate([Jp, E @ Jw], axis=-2)  # (m, nc, 6, n)
+        return phi, J[:, self.cut_mask].reshape(m, -1, self.n)
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    S = np.zeros(v.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
+
+
+def _lstsq_steps(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """A^+ b for stacks A (m, k, p) with full column rank, b (m, k, r) (kim1995 §5.1:
+    [A]^+ = [A^T A]^{-1} A^T; a square A is solved directly)."""
+    if A.shape[1] == A.shape[2]:
+        return np.linalg.solve(A, b)
+    At = np.swapaxes(A, 1, 2)
+    return np.linalg.solve(At @ A, At @ b)
+
+
+@dataclass
+class _Eval:
+    """One evaluation at q (m, n): pose residual, reduced Jacobian and closure state."""
+
+    q: np.ndarray
+    x: np.ndarray  # (m, 6)
+    J: np.ndarray | None  # (m, 6, n_v) reduced Jacobian dx/dq_v
+    closed: np.ndarray  # (m,) bool: loop closure converged
+    phi_norm: np.ndarray  # (m,)
+    closure_iters: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    S: np.ndarray | None = None  # (m, n_w, n_v): dq_w/dq_v = -S
+
+
+def evaluate(kern: IkKernel, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, *,
+             jac: bool = True, tol_phi: float = TOL_PHI,
+             max_iter: int = MAX_ITER_CLOSURE) -> _Eval:
+    r"""Loop closure (kim1995 §5.1), residual x (Eq. (8)) and reduced Jacobian for a batch.
+
+    The dependent joints are solved by Newton-Raphson from ``q_w0``
+    (:math:`\Delta q_w = -[\partial\phi_R/\partial q_w]^+\phi_R`); then
+
+    .. math:: J_r = \frac{\partial x}{\partial q_v} - \frac{\partial x}{\partial q_w}
+              \Big[\frac{\partial\phi_R}{\partial q_w}\Big]^+\frac{\partial\phi_R}{\partial q_v}
+
+    (kim1995 Eq. (10)).
+
+    Parameters
+    ----------
+    q_v : (m, n_v); q_w0 : (m, n_w); T_P : (m, 4, 4) precision points.
+    """
+    m = q_v.shape[0]
+    q = np.empty((m, kern.n))
+    q[:, kern.iv] = q_v
+    q[:, kern.iw] = q_w0
+    closed = np.ones(m, dtype=bool)
+    phin = np.zeros(m)
+    iters = np.zeros(m, dtype=int)
+    if kern.n_cuts == 0 or kern.iw.size == 0:
+        T = kern.links(q)
+        if not jac:
+            return _Eval(q, kern.residual(T, T_P), None, closed, phin, iters)
+        z, o = kern.axes(T)
+        x, Jq = kern.residual_jacobian(T, z, o, T_P)
+        return _Eval(q, x, Jq[:, :, kern.iv], closed, phin, iters)
+    # batched Newton-Raphson with a per-row active set
+    act = np.arange(m)
+    T_all = np.empty((m, kern.mech.n_links, 4, 4))
+    z_all = np.empty((m, kern.n, 3))
+    o_all = np.empty((m, kern.n, 3))
+    Phi_all = np.empty((m, 0, kern.n))
+    closed[:] = False
+    prev = np.full(m, np.inf)
+    for it in range(max_iter + 1):
+        T = kern.links(q[act])
+        z, o = kern.axes(T)
+        phi, Phi = kern.closure(T, z, o)
+        assert Phi is not None
+        nphi = np.linalg.norm(phi, axis=1)
+        if it == 0:
+            Phi_all = np.empty((m,) + Phi.shape[1:])
+        T_all[act], z_all[act], o_all[act], Phi_all[act] = T, z, o, Phi
+        phin[act] = nphi
+        done = nphi < tol_phi
+        stall = (it > 0) & (nphi >= prev[act] * 0.999) & (nphi < 1e3 * tol_phi)
+        fin = done | stall | (it == max_iter)
+        closed[act[done | stall]] = True
+        keep = ~fin
+        if not keep.any():
+            break
+        a2 = act[keep]
+        try:
+            dq = _lstsq_steps(Phi[keep][:, :, kern.iw], phi[keep][:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            dq = np.stack([np.linalg.lstsq(P[:, kern.iw], r, rcond=None)[0]
+                           for P, r in zip(Phi[keep], phi[keep], strict=False)])
+        nd = np.linalg.norm(dq, axis=1, keepdims=True)
+        dq *= np.minimum(1.0, 0.5 / np.maximum(nd, 1e-300))  # trust region (rad | m)
+        prev[a2] = nphi[keep]
+        q[a2[:, None], kern.iw[None, :]] -= dq
+        iters[a2] += 1
+        act = a2
+    closed &= np.isfinite(phin)
+    x, Jq = kern.residual_jacobian(T_all, z_all, o_all, T_P) if jac else (
+        kern.residual(T_all, T_P), None)
+    if not jac:
+        return _Eval(q, x, None, closed, phin, iters)
+    assert Jq is not None
+    Pw = Phi_all[:, :, kern.iw]
+    Pv = Phi_all[:, :, kern.iv]
+    try:
+        S = _lstsq_steps(Pw, Pv)  # dq_w/dq_v = -S
+    except np.linalg.LinAlgError:
+        S = np.stack([np.linalg.lstsq(a, b, rcond=None)[0] for a, b in zip(Pw, Pv, strict=False)])
+        closed &= False
+    Jr = Jq[:, :, kern.iv] - Jq[:, :, kern.iw] @ S  # kim1995 Eq. (10)
+    return _Eval(q, x, Jr, closed, phin, iters, S)
+
+
+# ---- objective and gradient (public, used by the tests) ----------------------------------------
+
+
+def objective(mech: Mechanism, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+              weights: np.ndarray, *, frame: int | None = None,
+              kernel: IkKernel | None = None) -> tuple[float, np.ndarray, np.ndarray]:
+    r"""f(q_v) = 1/2 x^T W x (kim1995 Eq. (9)) after the loop closure (Eq. (6)).
+
+    Returns
+    -------
+    f : float; x : (6,) residual (Eq. (8)); q : (n,) all joints.
+    """
+    kern = kernel or IkKernel(mech, frame)
+    ev = evaluate(kern, np.atleast_2d(q_v), np.atleast_2d(q_w0).reshape(1, -1),
+                  np.asarray(T_P, dtype=float)[None], jac=False)
+    x = ev.x[0]
+    return 0.5 * float(x @ (np.asarray(weights) * x)), x, ev.q[0]
+
+
+def reduced_jacobian(mech: Mechanism, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, *,
+                     frame: int | None = None, kernel: IkKernel | None = None,
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x (6,), dx/dq_v (6, n_v) (kim1995 Eq. (10)) and q (n,) after the loop closure."""
+    kern = kernel or IkKernel(mech, frame)
+    ev = evaluate(kern, np.atleast_2d(q_v), np.atleast_2d(q_w0).reshape(1, -1),
+                  np.asarray(T_P, dtype=float)[None])
+    assert ev.J is not None
+    return ev.x[0], ev.J[0], ev.q[0]
+
+
+def gradient(mech: Mechanism, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+             weights: np.ndarray, *, frame: int | None = None,
+             kernel: IkKernel | None = None) -> np.ndarray:
+    r"""df/dq_v (n_v,) = (W x)^T dx/dq_v, kim1995 Eq. (10)."""
+    x, J, _ = reduced_jacobian(mech, q_v, q_w0, T_P, frame=frame, kernel=kernel)
+    return J.T @ (np.asarray(weights) * x)
+
+
+# ---- verification -------------------------------------------------------------------------------
+
+
+def pose_errors(T_E: np.ndarray, T_P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Position error ||p_E - p_P|| [m] and orientation error angle(R_P^T R_E) [rad]; (m,)."""
+    dp = np.linalg.norm(T_E[..., :3, 3] - T_P[..., :3, 3], axis=-1)
+    e = quat_from_matrix(np.swapaxes(T_P[..., :3, :3], -1, -2) @ T_E[..., :3, :3])
+    ang = 2.0 * np.arctan2(np.linalg.norm(e[..., 1:], axis=-1), np.abs(e[..., 0]))
+    return dp, ang
+
+
+def _weighted_errors(T_E: np.ndarray, T_P: np.ndarray, w: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Errors of the components that carry weight (zero weight: not determined, not counted)."""
+    RPt = np.swapaxes(T_P[..., :3, :3], -1, -2)
+    xp = np.einsum("...ij,...j->...i", RPt, T_E[..., :3, 3] - T_P[..., :3, 3])
+    e = quat_from_matrix(RPt @ T_E[..., :3, :3])
+    wp, wo = w[..., :3] > 0, w[..., 3:] > 0
+    pe = np.linalg.norm(np.where(wp, xp, 0.0), axis=-1)
+    ev = np.where(wo, e[..., 1:], 0.0)
+    oe = 2.0 * np.arctan2(np.linalg.norm(ev, axis=-1), np.abs(e[..., 0]))
+    return pe, oe
+
+
+def verify(kern: IkKernel, q: np.ndarray, T_P: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pose of {E} (m, 4, 4) by forward kinematics at q (m, n) and its errors to T_P."""
+    T_E = kern.end_effector(kern.links(q))
+    pe, oe = pose_errors(T_E, T_P)
+    return T_E, pe, oe
+
+
+# ---- Levenberg-Marquardt, batched ----------------------------------------------------------------
+
+
+def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+              w: np.ndarray, opts: IkOptions, history: bool = False):
+    r"""Levenberg-Marquardt on the reduced Jacobian for m targets at once.
+
+    .. math:: (J_r^T W J_r + \lambda\,\mathrm{diag}(J_r^T W J_r + \mu I))\,\delta
+              = -J_r^T W x
+
+    with projection of q_v onto the limits after each step; a step is accepted when f
+    decreases, and lambda shrinks (x 1/3) or grows (x 4) accordingly.
+    """
+    m, nv = q_v0.shape
+    max_iter = opts.max_iter or MAX_ITER_LM
+    lo, hi = kern.bound_lo, kern.bound_hi
+    qv = kern.project(q_v0)
+    ev = evaluate(kern, qv, q_w0, T_P, tol_phi=opts.tol_phi)
+    qw = ev.q[:, kern.iw]
+    x, J = ev.x, ev.J
+    assert J is not None
+    f = 0.5 * np.einsum("mi,mi->m", x, w * x)
+    ev_S = ev.S
+    lam = np.full(m, 1e-3)
+    iters = np.zeros(m, dtype=int)
+    nev = np.ones(m, dtype=int)
+    gnorm = np.zeros(m)
+    closed_ok = ev.closed.copy()
+    done = ~closed_ok
+    stalled = np.zeros(m, dtype=bool)
+    hist: list[list[float]] = [[float(v)] for v in f] if history else []
+    eye = np.eye(nv)
+    f_abs = 0.5 * min(opts.tol_pos, opts.tol_ori) ** 2 * 1e-6
+    for _ in range(max_iter):
+        act = np.flatnonzero(~done)
+        if act.size == 0:
+            break
+        Ja, xa, wa = J[act], x[act], w[act]
+        JW = np.swapaxes(Ja, 1, 2) * wa[:, None, :]
+        g = np.einsum("mij,mj->mi", JW, xa)  # kim1995 Eq. (10)
+        gnorm[act] = np.linalg.norm(g, axis=1)
+        # projected gradient: components pushing out of an active bound do not count
+        qa = qv[act]
+        at_lo = (qa <= lo + 1e-12) & (g > 0)
+        at_hi = (qa >= hi - 1e-12) & (g < 0)
+        gp = np.where(at_lo | at_hi, 0.0, g)
+        fin = (np.linalg.norm(gp, axis=1) < opts.grad_tol) | (f[act] < f_abs)
+        if fin.any():
+            done[act[fin]] = True
+            act, Ja, JW, g, qa, at_lo, at_hi = (act[~fin], Ja[~fin], JW[~fin], g[~fin],
+                                                qa[~fin], at_lo[~fin], at_hi[~fin])
+            if act.size == 0:
+                break
+        H = JW @ Ja
+        free = ~(at_lo | at_hi)
+        # active bounds: freeze those joints (their rows/columns drop out of the step)
+        H = H * (free[:, :, None] & free[:, None, :]) + eye * (~free)[:, :, None]
+        g = np.where(free, g, 0.0)
+        dg = np.einsum("mii->mi", H)
+        A = H + lam[act, None, None] * (dg[:, :, None] * eye + 1e-9 * eye)
+        try:
+            step = -np.linalg.solve(A, g[:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            step = -np.stack([np.linalg.lstsq(a, b, rcond=None)[0] for a, b in zip(A, g, strict=False)])
+        qn = kern.project(qa + step)
+        qw_pred = qw[act]
+        if ev_S is not None:  # first-order predictor of the dependent joints
+            qw_pred = qw_pred - np.einsum("mij,mj->mi", ev_S[act], qn - qa)
+        evn = evaluate(kern, qn, qw_pred, T_P[act], tol_phi=opts.tol_phi)
+        assert evn.J is not None
+        fn = 0.5 * np.einsum("mi,mi->m", evn.x, w[act] * evn.x)
+        nev[act] += 1
+        iters[act] += 1
+        good = evn.closed & (fn < f[act])
+        ga, ba = act[good], act[~good]
+        qv[ga] = qn[good]
+        qw[ga] = evn.q[good][:, kern.iw]
+        x[ga], J[ga] = evn.x[good], evn.J[good]
+        if ev_S is not None and evn.S is not None:
+            ev_S[ga] = evn.S[good]
+        small = (f[ga] - fn[good]) <= 1e-15 * np.maximum(f[ga], 1e-300)
+        f[ga] = fn[good]
+        lam[ga] = np.maximum(lam[ga] / 3.0, 1e-9)
+        lam[ba] *= 4.0
+        # no progress possible: tiny steps rejected, or lambda huge
+        stuck = (lam[ba] > 1e10) | (np.linalg.norm(step[~good], axis=1) < 1e-14)
+        done[ba[stuck]] = True
+        stalled[ba[stuck]] = True
+        done[ga[small]] = True
+        if history:
+            for _k, a in enumerate(act):
+                hist[a].append(float(f[a]))
+    q = np.empty((m, kern.n))
+    q[:, kern.iv] = qv
+    q[:, kern.iw] = qw
+    converged = done  # stationary (gradient ~ 0) or no descent possible (stalled)
+    return dict(q=q, qv=qv, qw=qw, f=f, iters=iters, nev=nev, gnorm=gnorm,
+                closed=closed_ok, converged=converged, hist=hist, lam=lam)
+
+
+# ---- conjugate gradient + golden section (kim1995 §5.2) -------------------------------------------
+
+
+def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+               w: np.ndarray, opts: IkOptions):
+    """kim1995 §5.2 Steps 3-8 for one precision point (arrays (n_v,), (n_w,), (4, 4), (6,))."""
+    max_iter = opts.max_iter or MAX_ITER_CG
+    TP = T_P[None]
+    nv = q_v0.size
+    restart = nv if opts.cg_restart is None else opts.cg_restart
+    nev = 0
+
+    def fval(qv: np.ndarray, qw: np.ndarray) -> tuple[float, np.ndarray, bool]:
+        # kim1995 §5.2 Steps 7.1-7.3: closure warm-started from q_w^(k), then f
+        nonlocal nev
+        nev += 1
+        e = evaluate(kern, qv[None], qw[None], TP, jac=False, tol_phi=opts.tol_phi)
+        if not e.closed[0]:
+            return np.inf, qw, False
+        x = e.x[0]
+        return 0.5 * float(x @ (w * x)), e.q[0, kern.iw], True
+
+    qv = kern.project(q_v0)
+    ev = evaluate(kern, qv[None], q_w0[None], TP, tol_phi=opts.tol_phi)  # Step 3
+    nev += 1
+    if not ev.closed[0]:
+        return dict(qv=qv, qw=q_w0, f=np.inf, iters=0, nev=nev, gnorm=np.inf, closed=False,
+                    converged=False, hist=[np.inf])
+    qw = ev.q[0, kern.iw]
+    assert ev.J is not None
+    x = ev.x[0]
+    f = 0.5 * float(x @ (w * x))
+    g = ev.J[0].T @ (w * x)  # Step 4, kim1995 Eq. (10)
+    d = -g
+    g_prev_n2 = float(g @ g)
+    hist = [f]
+    k = 0
+    converged = False
+    alpha_prev = 0.0
+    for k in range(max_iter):  # noqa: B007 - k is reported
+        gn = float(np.sqrt(g @ g))
+        if gn < opts.grad_tol:  # Step 6
+            converged = True
+            break
+        if k > 0:  # Step 5: Fletcher-Reeves
+            beta = float(g @ g) / g_prev_n2
+            d = -g + beta * d
+            if (restart and k % restart == 0) or float(d @ g) >= 0.0:
+                d = -g
+        g_prev_n2 = float(g @ g)
+        # Step 7: golden-section search for alpha* along d, with bracketing
+        dn = float(np.linalg.norm(d))
+        delta = (alpha_prev * 0.5 if alpha_prev > 0 else 0.05 / dn)
+        alpha, f_new, qw_new = _golden_line(fval, qv, qw, d, f, delta, kern.project, opts.line_tol / dn)
+        if not np.isfinite(f_new) or f_new >= f:
+            # no decrease along d: steepest descent once more, then stop
+            if not np.array_equal(d, -g):
+                d = -g
+                dn = float(np.linalg.norm(d))
+                alpha, f_new, qw_new = _golden_line(fval, qv, qw, d, f, 0.05 / dn, kern.project,
+                                                    opts.line_tol / dn)
+            if not np.isfinite(f_new) or f_new >= f:
+                converged = True  # no descent along -grad: a numerical stationary point
+                break
+        alpha_prev = alpha
+        qv = kern.project(qv + alpha * d)  # Step 8
+        e = evaluate(kern, qv[None], qw_new[None], TP, tol_phi=opts.tol_phi)
+        nev += 1
+        assert e.J is not None
+        qw = e.q[0, kern.iw]
+        x = e.x[0]
+        f = 0.5 * float(x @ (w * x))
+        g = e.J[0].T @ (w * x)
+        hist.append(f)
+    else:
+        k = max_iter
+    gn = float(np.sqrt(g @ g))
+    converged = converged or gn < opts.grad_tol
+    return dict(qv=qv, qw=qw, f=f, iters=k, nev=nev, gnorm=gn, closed=True,
+                converged=converged, hist=hist)
+
+
+def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float, delta: float,
+                 project, tol: float, max_step: float = 0.1):
+    """Golden-section search of min_alpha f(q_v + alpha d) (Arora 1989 §8.2): bracket with
+    steps growing by the golden ratio, then shrink the interval until shorter than ``tol``."""
+    cache: dict[float, tuple[float, np.ndarray]] = {}
+
+    def F(a: float) -> float:
+        if a not in cache:
+            fa, qwa, ok = fval(project(qv + a * d), qw)
+            cache[a] = (fa if ok else np.inf, qwa)
+        return cache[a][0]
+
+    # phase 1: bracketing, alpha_q = sum_j delta (1.618)^j, up to a joint change of max_step
+    amax = max_step / max(float(np.abs(d).max()), 1e-300)
+    delta = min(delta, amax)
+    a_prev2, a_prev, f_prev = 0.0, 0.0, f0
+    a = delta
+    fa = F(a)
+    if fa >= f0:
+        lo_a, hi_a = 0.0, a
+    else:
+        step = delta
+        while True:
+            step *= 1.0 / GOLDEN
+            a_next = a + step
+            fn = F(a_next)
+            if fn >= fa or a_next > amax:
+                lo_a, hi_a = a_prev, a_next
+                break
+            a_prev2, a_prev, f_prev = a_prev, a, fa
+            a, fa = a_next, fn
+    del a_prev2, f_prev
+    # phase 2: golden-section reduction of [lo_a, hi_a]
+    aL, aU = lo_a, hi_a
+    a1 = aL + (1.0 - GOLDEN) * (aU - aL)
+    a2 = aL + GOLDEN * (aU - aL)
+    f1, f2 = F(a1), F(a2)
+    while aU - aL > tol:
+        if f1 < f2:
+            aU, a2, f2 = a2, a1, f1
+            a1 = aL + (1.0 - GOLDEN) * (aU - aL)
+            f1 = F(a1)
+        elif f1 > f2:
+            aL, a1, f1 = a1, a2, f2
+            a2 = aL + GOLDEN * (aU - aL)
+            f2 = F(a2)
+        else:
+            aL, aU = a1, a2
+            a1 = aL + (1.0 - GOLDEN) * (aU - aL)
+            a2 = aL + GOLDEN * (aU - aL)
+            f1, f2 = F(a1), F(a2)
+    # phase 3: the best point evaluated
+    best = min(cache, key=lambda t: cache[t][0])
+    return best, cache[best][0], cache[best][1]
+
+
+# ---- public solvers -------------------------------------------------------------------------------
+
+
+def _status(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, closed: bool,
+            converged: bool, opts: IkOptions, grad_norm: float = 0.0) -> tuple[IkStatus, float, float, tuple[str, ...]]:
+    T_E = kern.end_effector(kern.links(q[None]))
+    pe, oe = pose_errors(T_E, T_P[None])
+    wpe, woe = _weighted_errors(T_E, T_P[None], w[None])
+    mech = kern.mech
+    tol_j = 1e-9
+    at = tuple(mech.joint_names[j] for j in range(mech.n)
+               if q[j] <= mech.lower[j] + tol_j or q[j] >= mech.upper[j] - tol_j)
+    pos, ori = float(pe[0]), float(oe[0])
+    if not closed or not np.all(np.isfinite(q)):
+        return IkStatus.SINGULAR, pos, ori, at
+    if wpe[0] <= opts.tol_pos and woe[0] <= opts.tol_ori:
+        return IkStatus.OK, pos, ori, at
+    if converged:
+        # stationary above tolerance: a limit blocks the descent (at a limit) or the target is
+        # outside the workspace of the mechanism (unreachable)
+        iv = kern.iv
+        on = (q[iv] <= kern.bound_lo + tol_j) | (q[iv] >= kern.bound_hi - tol_j)
+        return (IkStatus.AT_LIMIT if on.any() else IkStatus.UNREACHABLE), pos, ori, at
+    if not np.isfinite(grad_norm) or grad_norm > 1e6:
+        return IkStatus.SINGULAR, pos, ori, at
+    return IkStatus.NOT_CONVERGED, pos, ori, at
+
+
+def _finite(a: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    return np.where(np.isfinite(a), a, fallback)
+
+
+def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
+             q_w0: np.ndarray | None = None, weights: np.ndarray | None = None,
+             options: IkOptions | None = None, frame: int | None = None,
+             kernel: IkKernel | None = None) -> IkResult:
+    r"""Independent joints that bring {E} onto the precision point T_P (kim1995 Eq. (5)-(6)).
+
+    .. math:: q_v^* = \arg\min f(q_v),\quad f = \tfrac12 x^T W x,\quad
+              \phi_R(q_v^*, q_w^*) = 0
+
+    Parameters
+    ----------
+    mech : Mechanism
+    T_P : array, shape (4, 4)
+        Precision point {P} in the base frame.
+    q_v0 : array, shape (n_v,), optional
+        Initial independent joints (default: home).
+    q_w0 : array, shape (n_w,), optional
+        Initial approximation of the dependent joints (default: home).
+    weights : array, shape (6,), optional
+        Diagonal of W: position (3), then orientation (3); zeros allowed (default ones).
+    options : IkOptions, optional
+    frame : int, optional
+        {E} (default ``mech.end_effector``).
+
+    Returns
+    -------
+    IkResult
+        With errors verified by forward kinematics at the returned joints. A failed solve is
+        retried ``options.restarts`` times from seeded random q_v within the limits.
+
+    References
+    ----------
+    kim1995_complex_chain_ik §5.2 (cg-golden) and Eq. (7)-(10).
+    """
+    opts = options or IkOptions()
+    kern = kernel or IkKernel(mech, frame)
+    T_P = np.asarray(T_P, dtype=np.float64)
+    w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
+    qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
+    qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
+    t0 = time.perf_counter()
+    rng: np.random.Generator | None = None
+    best: IkResult | None = None
+    tot_it = tot_ev = 0
+    for attempt in range(opts.restarts + 1):
+        if attempt > 0:
+            rng = rng or np.random.default_rng(opts.seed)
+            lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+            hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+            start_v = rng.uniform(lo, hi)
+            start_w = qw0 if best is None else best.q_w
+        else:
+            start_v, start_w = qv0, qw0
+        if opts.method == "cg-golden":
+            r = _cg_golden(kern, start_v, start_w, T_P, w, opts)
+            hist = np.asarray(r["hist"], dtype=float)
+            qv, qw = r["qv"], r["qw"]
+            f, iters, nev, gn = r["f"], r["iters"], r["nev"], r["gnorm"]
+            closed, conv = r["closed"], r["converged"]
+        elif opts.method == "lm":
+            r = _lm_batch(kern, start_v[None], start_w[None], T_P[None], w[None], opts,
+                          history=True)
+            hist = np.asarray(r["hist"][0], dtype=float)
+            qv, qw = r["qv"][0], r["qw"][0]
+            f, iters, nev, gn = (float(r["f"][0]), int(r["iters"][0]), int(r["nev"][0]),
+                                 float(r["gnorm"][0]))
+            closed, conv = bool(r["closed"][0]), bool(r["converged"][0])
+        else:
+            raise ValueError(f"method: expected 'lm' or 'cg-golden', got {opts.method!r}")
+        tot_it += int(iters)
+        tot_ev += int(nev)
+        q = np.empty(kern.n)
+        q[kern.iv], q[kern.iw] = qv, qw
+        q = _finite(q, mech.home)
+        st, pe, oe, at = _status(kern, q, T_P, w, closed, conv, opts, float(gn))
+        f_fin = float(f) if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
+        res = IkResult(q_v=q[kern.iv].copy(), q_w=q[kern.iw].copy(), q=q, status=st,
+                       position_error=pe, orientation_error=oe, f=f_fin,
+                       grad_norm=float(gn) if np.isfinite(gn) else 0.0, iterations=tot_it,
+                       evaluations=tot_ev, time_s=0.0,
+                       f_history=_finite(hist, np.full_like(hist, f_fin)), at_limit=at,
+                       restarts_used=attempt, method=opts.method)
+        if best is None or _better(res, best):
+            best = res
+        if best.status is IkStatus.OK:
+            break
+    assert best is not None
+    from dataclasses import replace
+
+    return replace(best, iterations=tot_it, evaluations=tot_ev,
+                   time_s=time.perf_counter() - t0)
+
+
+def _better(a: IkResult, b: IkResult) -> bool:
+    rank = {IkStatus.OK: 0, IkStatus.AT_LIMIT: 1, IkStatus.UNREACHABLE: 2,
+            IkStatus.NOT_CONVERGED: 2, IkStatus.SINGULAR: 3}
+    if rank[a.status] != rank[b.status]:
+        return rank[a.status] < rank[b.status]
+    return a.f < b.f
+
+
+def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
+                      q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
+                      weights: np.ndarray | list[np.ndarray] | None = None,
+                      options: IkOptions | None = None, frame: int | None = None,
+                      ) -> list[IkResult]:
+    """Solve precision points in order, each warm-started from the previous solution
+    (kim1995 §5.2 Step 2). ``weights`` (6,) for all or (k, 6) per point."""
+    kern = IkKernel(mech, frame)
+    Ts = np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4)
+    W = np.ones((len(Ts), 6)) if weights is None else np.broadcast_to(
+        np.asarray(weights, dtype=np.float64), (len(Ts), 6))
+    qv = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
+    qw = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
+    out = []
+    for T, w in zip(Ts, W, strict=False):
+        r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=options, kernel=kern)
+        out.append(r)
+        if r.status is not IkStatus.SINGULAR:
+            qv, qw = r.q_v, r.q_w
+    return out
+
+
+def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
+                   q_w0: np.ndarray | None = None, weights: np.ndarray | None = None,
+                   options: IkOptions | None = None, frame: int | None = None,
+                   ) -> IkBatchResult:
+    r"""Levenberg-Marquardt on many targets at once, vectorized across targets.
+
+    Parameters
+    ----------
+    T_P : array, shape (m, 4, 4)
+        Precision points (a trajectory, a grid), solved independently.
+    q_v0 : array, shape (m, n_v) or (n_v,), optional
+        Initial independent joints (default home).
+    q_w0 : array, shape (m, n_w) or (n_w,), optional
+    weights : array, shape (m, 6) or (6,), optional
+    options : IkOptions, optional
+        ``method`` is ignored (always lm); ``restarts`` re-solve the failed targets together
+        from seeded random starts.
+
+    Returns
+    -------
+    IkBatchResult
+        Errors verified by forward kinematics at the returned joints.
+
+    References
+    ----------
+    kim1995_complex_chain_ik Eq. (7)-(10); the step is Levenberg-Marquardt, not §5.2.
+    """
+    opts = options or IkOptions()
+    kern = IkKernel(mech, frame)
+    t0 = time.perf_counter()
+    T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
+    m = T_P.shape[0]
+    nv, nw = kern.iv.size, kern.iw.size
+    qv0 = np.broadcast_to(mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float),
+                          (m, nv)).copy()
+    qw0 = np.broadcast_to(mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float),
+                          (m, nw)).copy()
+    w = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
+                        (m, 6)).copy()
+    r = _lm_batch(kern, qv0, qw0, T_P, w, opts)
+    q, f, iters = r["q"], r["f"], r["iters"]
+    conv, closed = r["converged"], r["closed"]
+
+    def check(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray:
+        T_E = kern.end_effector(kern.links(qq))
+        pe, oe = _weighted_errors(T_E, TT, ww)
+        return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
+
+    ok = check(q, T_P, w) & closed
+    rng = np.random.default_rng(opts.seed)
+    lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+    hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+    for _ in range(opts.restarts):
+        bad = np.flatnonzero(~ok)
+        if bad.size == 0:
+            break
+        start = rng.uniform(lo, hi, size=(bad.size, nv))
+        r2 = _lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
+        iters[bad] += r2["iters"]
+        better = r2["f"] < f[bad]
+        sel = bad[better]
+        q[sel], f[sel] = r2["q"][better], r2["f"][better]
+        conv[sel], closed[sel] = r2["converged"][better], r2["closed"][better]
+        ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
+    T_E = kern.end_effector(kern.links(q))
+    pe, oe = pose_errors(T_E, T_P)
+    status = np.empty(m, dtype=object)
+    for i in range(m):
+        status[i] = (IkStatus.OK if ok[i] else IkStatus.SINGULAR if not closed[i]
+                     else IkStatus.UNREACHABLE if conv[i] else IkStatus.NOT_CONVERGED)
+    return IkBatchResult(q_v=q[:, kern.iv], q_w=q[:, kern.iw], q=q, status=status,
+                         position_error=pe, orientation_error=oe, f=f, iterations=iters,
+                         time_s=time.perf_counter() - t0)
