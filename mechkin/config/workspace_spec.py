@@ -1,0 +1,182 @@
+"""``workspace:`` section of scenario files (``mechkin workspace SCENARIO.yaml``).
+
+Registered with :func:`mechkin.config.scenario.register_task_section` on import. Two kinds:
+
+``kind: lee_spherical`` (lee §3, Figs. 2-5)
+    sigma_KI maps over an alpha-beta grid at named sets of gamma, and gamma_min/gamma_max over
+    the alpha-beta plane. ``parameters`` overrides the design (``r``, ``R``, ``center``,
+    ``stroke``); values missing there come from the mechanism file (when it names the frames
+    ``base_u1``, ``plate_s1``, ``center`` and the leg joint ``l1``), else from lee §3.2
+    (R = 1, P = (0, 0, 1), stroke 0.5..2).
+
+``kind: joint_sweep`` (any mechanism)
+    Sweep the independent joints on a grid (``method: grid``, every joint given ``n`` points)
+    or uniformly at random (``method: monte_carlo`` with ``samples`` and ``seed``) within their
+    limits (or the ``range`` given per joint), and map the reachable positions of a frame.
+
+Angles are in the scenario's angle unit, lengths in its length unit; :mod:`mechkin.cli.workspace`
+converts them to SI.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from mechkin.config.scenario import register_task_section
+from mechkin.config.schema import Name, NonNegNum, Num, PosNum, Spec
+
+Pair = Annotated[list[Num], Field(min_length=2, max_length=2)]
+GridN = Annotated[int, Field(strict=True, ge=2, le=100_001)]
+
+__all__ = [
+    "AxisGridSpec",
+    "GammaRangeSpec",
+    "JointRangeSpec",
+    "LeeParametersSpec",
+    "WorkspaceSpec",
+]
+
+
+def _increasing(p: list[float], what: str) -> None:
+    if not p[0] < p[1]:
+        raise ValueError(f"{what}: expected [lo, hi] with lo < hi, got {p}")
+
+
+class AxisGridSpec(Spec):
+    """A uniform grid axis: ``range`` [lo, hi] (inclusive, file angle unit) and ``n`` points."""
+
+    range: Pair
+    n: GridN
+
+    @model_validator(mode="after")
+    def _check(self) -> AxisGridSpec:
+        _increasing(self.range, "range")
+        return self
+
+
+class GammaRangeSpec(Spec):
+    """gamma_min/gamma_max over the alpha-beta plane (lee Fig. 2).
+
+    ``range`` and ``n``: the gamma grid searched; ``mode``: ``extent`` (smallest/largest grid
+    gamma in the workspace) or ``component`` (the run of workspace containing ``ref``; needs
+    ``ref``); ``n_alpha``/``n_beta``: the alpha-beta grid of this map, over the section's
+    alpha and beta ranges. See :mod:`mechkin.solvers.workspace`.
+    """
+
+    range: Pair
+    n: GridN = 361
+    mode: Literal["extent", "component"] = "extent"
+    ref: Num | None = None
+    n_alpha: GridN = 91
+    n_beta: GridN = 91
+
+    @model_validator(mode="after")
+    def _check(self) -> GammaRangeSpec:
+        _increasing(self.range, "range")
+        if self.mode == "component" and self.ref is None:
+            raise ValueError("mode component needs ref (the gamma the run must contain)")
+        return self
+
+
+class LeeParametersSpec(Spec):
+    """Design of lee's mechanism (lengths in the file's length unit): top-plate radius ``r``,
+    base radius ``R``, centre of rotation ``center`` and leg ``stroke`` [l_min, l_max]."""
+
+    r: PosNum | None = None
+    R: PosNum | None = None
+    center: Annotated[list[Num], Field(min_length=3, max_length=3)] | None = None
+    stroke: Pair | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> LeeParametersSpec:
+        if self.stroke is not None:
+            _increasing(self.stroke, "stroke")
+            if self.stroke[0] < 0:
+                raise ValueError(f"stroke: expected l_min >= 0, got {self.stroke}")
+        return self
+
+
+class JointRangeSpec(Spec):
+    """One swept joint: ``range`` [lo, hi] (default: its limits) and, for a grid, ``n``."""
+
+    range: Pair | None = None
+    n: GridN | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> JointRangeSpec:
+        if self.range is not None:
+            _increasing(self.range, "range")
+        return self
+
+
+class SlicesSpec(Spec):
+    """Section planes of the point-cloud plot: ``axis`` normal (x, y or z), ``at`` the plane
+    offsets (file length unit; default: the cloud's median) and ``thickness`` of each slab."""
+
+    axis: Literal["x", "y", "z"] = "z"
+    at: list[Num] | None = None
+    thickness: PosNum | None = None
+
+
+class WorkspaceSpec(Spec):
+    """``workspace:`` section, see the module docstring.
+
+    lee_spherical keys: ``parameters``, ``threshold``, ``alpha``, ``beta``, ``isotropy_maps``
+    (name -> list of gammas, e.g. ``text: [20, 30, 40]``, ``captions: [20, 40, 60]``),
+    ``gamma_range``, ``method`` (``closed_form`` or ``svd`` singular values).
+    joint_sweep keys: ``method`` (``grid`` or ``monte_carlo``), ``joints``, ``samples``,
+    ``seed``, ``frame`` (default: the end effector), ``voxel`` (edge of the cubes counted for
+    the volume), ``slices``, ``manipulability``, ``chunk``.
+    """
+
+    kind: Literal["lee_spherical", "joint_sweep"]
+    # lee_spherical
+    parameters: LeeParametersSpec | None = None
+    threshold: NonNegNum = 0.01
+    alpha: AxisGridSpec | None = None
+    beta: AxisGridSpec | None = None
+    isotropy_maps: dict[Name, Annotated[list[Num], Field(min_length=1, max_length=12)]] | None = (
+        None
+    )
+    gamma_range: GammaRangeSpec | None = None
+    # joint_sweep (and "closed_form"/"svd" for lee)
+    method: Literal["closed_form", "svd", "grid", "monte_carlo"] | None = None
+    joints: dict[Name, JointRangeSpec] | None = None
+    samples: Annotated[int, Field(strict=True, ge=1, le=10_000_000)] | None = None
+    seed: Annotated[int, Field(strict=True, ge=0)] = 0
+    frame: Name | None = None
+    voxel: PosNum | None = None
+    slices: SlicesSpec | None = None
+    manipulability: bool = True
+    chunk: Annotated[int, Field(strict=True, ge=1, le=1_000_000)] = 2000
+
+    @model_validator(mode="after")
+    def _check(self) -> WorkspaceSpec:
+        lee_keys = ("parameters", "alpha", "beta", "isotropy_maps", "gamma_range")
+        sweep_keys = ("joints", "samples", "frame", "voxel", "slices")
+        given = self.model_fields_set
+        if self.kind == "lee_spherical":
+            wrong = [k for k in sweep_keys if k in given]
+            if wrong:
+                raise ValueError(f"{', '.join(wrong)}: not used by kind lee_spherical")
+            if self.method not in (None, "closed_form", "svd"):
+                raise ValueError(f"method: expected closed_form or svd for kind lee_spherical, "
+                                 f"got {self.method}")
+            if not self.isotropy_maps and self.gamma_range is None:
+                raise ValueError("kind lee_spherical needs isotropy_maps and/or gamma_range")
+        else:
+            wrong = [k for k in lee_keys if k in given]
+            if wrong:
+                raise ValueError(f"{', '.join(wrong)}: not used by kind joint_sweep")
+            if self.method not in ("grid", "monte_carlo"):
+                raise ValueError("method: expected grid or monte_carlo for kind joint_sweep")
+            if self.method == "monte_carlo" and self.samples is None:
+                raise ValueError("method monte_carlo needs samples")
+            if self.method == "grid" and self.samples is not None:
+                raise ValueError("samples: only for method monte_carlo")
+        return self
+
+
+register_task_section("workspace", WorkspaceSpec)
