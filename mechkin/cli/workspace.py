@@ -12,12 +12,26 @@ Two kinds of ``workspace:`` section (:mod:`mechkin.config.workspace_spec`):
   of Yoshikawa's manipulability ``w = prod(sigma_i(J))`` and of the isotropy index
   ``sigma_min/sigma_max`` of the (reduced, for closed chains) Jacobian
   ``J = J_v + J_w dq_w/dq_v`` of the frame with respect to the independent joints.
+* ``task_space``: a grid (or seeded random set) of task-space poses through the batched ik
+  (:func:`mechkin.solvers.sweeps.task_space_sweep`): reachability and dexterity (isotropy,
+  condition number, Yoshikawa manipulability) at the solutions (``task_points.csv``,
+  ``task_space.png``).
+
+A lee scenario with ``design: {parameter, values}`` computes its maps once per value
+(:func:`mechkin.solvers.sweeps.lee_design_sweep`) and writes them side by side with a comparison
+table. Design values and task-space chunks run as jobs on ``--workers``/``workers:`` local
+processes or, with ``--scheduler ADDRESS`` or ``executor: {kind: dask, address}``, on a Dask
+cluster (``pip install 'mechkin[dask]'``). A progress bar is drawn on stderr when it is a
+terminal (``--progress/--no-progress`` to force); stdout carries only the result line or JSON.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
+import sys
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -44,19 +58,31 @@ def workspace_cli(
                                     "[default: outputs/<scenario name>]"),
     json_out: bool = typer.Option(False, "--json", help="Print summary.json to stdout too"),
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write PNG plots"),
+    workers: int | None = typer.Option(None, "--workers", "-j", min=1, help="Local worker "
+                                       "processes for sweeps [default: workers: of the "
+                                       "scenario, else min(cpu count, jobs)]"),
+    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address "
+                                         "(tcp://host:port): run the sweep jobs on that "
+                                         "cluster (needs mechkin[dask])"),
+    progress: bool | None = typer.Option(None, "--progress/--no-progress", help="Progress bar "
+                                         "on stderr [default: when stderr is a terminal]"),
 ) -> None:
-    """Workspace and isotropy maps (lee's spherical mechanism) or joint sweeps of any mechanism."""
-    code = _workspace(scenario, out, json_out, plots)
+    """Workspace and isotropy maps (lee's spherical mechanism), design sweeps, joint and
+    task-space sweeps of any mechanism."""
+    code = _workspace(scenario, out, json_out, plots, workers, scheduler, progress)
     raise typer.Exit(code)
 
 
 @handle_errors
-def _workspace(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
+def _workspace(scenario: Path, out: Path | None, json_out: bool, plots: bool,
+               workers: int | None = None, scheduler: str | None = None,
+               progress: bool | None = None) -> int:
     sc = load_scenario(scenario)
     if sc.spec.task != "workspace":
         raise ConfigError(f"{sc.doc.where(('task',))}: expected task workspace for 'mechkin "
                           f"workspace', got {sc.spec.task} (use 'mechkin {sc.spec.task}')")
-    summary, code = run_workspace(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots)
+    summary, code = run_workspace(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots,
+                                  workers=workers, scheduler=scheduler, progress=progress)
     if json_out:
         echo_json(summary)
     else:
@@ -65,7 +91,19 @@ def _workspace(scenario: Path, out: Path | None, json_out: bool, plots: bool) ->
 
 
 def _one_line(name: str, s: dict[str, Any]) -> str:
-    if s.get("kind") == "lee_spherical":
+    if "design" in s:
+        d = s["design"]
+        parts = []
+        for v in d["per_value"]:
+            fr = [f"{k} {e['volume_fraction']:.3f}" for k, e in v.get("isotropy", {}).items()]
+            if "gamma_range" in v:
+                fr.append(f"gamma range {v['gamma_range']['defined_fraction']:.3f}")
+            parts.append(f"{d['parameter']} = {v['value']:g}: {', '.join(fr)}")
+        body = "volume fractions " + "; ".join(parts)
+    elif s.get("kind") == "task_space":
+        body = (f"{s['n_reachable']}/{s['n_poses']} poses reached, isotropy median "
+                f"{s['isotropy'].get('median', 0.0):.3f}")
+    elif s.get("kind") == "lee_spherical":
         parts = []
         for set_name, e in s.get("isotropy", {}).items():
             parts.append(f"{set_name}: volume fraction {e['volume_fraction']:.3f}")
@@ -81,15 +119,86 @@ def _one_line(name: str, s: dict[str, Any]) -> str:
 
 
 def run_workspace(
-    *, scenario: Scenario, out_dir: Path, plots: bool = True
+    *,
+    scenario: Scenario,
+    out_dir: Path,
+    plots: bool = True,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool | None = None,
 ) -> tuple[dict[str, Any], int]:
     """Run a workspace scenario and write every output to ``out_dir``.
 
-    Returns the summary and the exit code (0 when every expect held, else 1).
+    Parameters
+    ----------
+    scenario : Scenario
+    out_dir : Path
+    plots : bool
+        Write PNG plots.
+    workers : int, optional
+        Local worker processes of design and task-space sweeps (overrides ``workers:``).
+    scheduler : str, optional
+        Dask scheduler address (overrides ``executor:``).
+    progress : bool, optional
+        Progress bar on stderr; None: when stderr is a terminal.
+
+    Returns
+    -------
+    summary : dict
+    code : int
+        0 when every expect held, else 1.
     """
-    if scenario.section.kind == "lee_spherical":
+    ex = _execution(scenario, workers, scheduler, progress)
+    kind = scenario.section.kind
+    if kind == "lee_spherical":
+        if scenario.section.design is not None:
+            return _run_lee_design(scenario, Path(out_dir), plots, ex)
         return _run_lee(scenario, Path(out_dir), plots)
+    if kind == "task_space":
+        return _run_task_space(scenario, Path(out_dir), plots, ex)
     return _run_joint_sweep(scenario, Path(out_dir), plots)
+
+
+def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
+               progress: bool | None) -> dict[str, Any]:
+    """workers / dask address / progress flag from the CLI, else the scenario."""
+    spec = sc.section
+    address = scheduler
+    if address is None and spec.executor is not None and spec.executor.kind == "dask":
+        address = spec.executor.address
+    if address is not None:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            where = "--scheduler" if scheduler is not None else sc.doc.where(
+                ("workspace", "executor"))
+            raise ConfigError(f"{where}: running on a Dask cluster needs the optional extra "
+                              "(pip install 'mechkin[dask]')") from None
+    show = sys.stderr.isatty() if progress is None else bool(progress)
+    return {"workers": workers if workers is not None else spec.workers, "address": address,
+            "progress": show, "force_terminal": progress is True}
+
+
+@contextlib.contextmanager
+def _progress_bar(ex: dict[str, Any], description: str
+                  ) -> Iterator[Callable[[int, int], None] | None]:
+    """A rich progress bar on stderr (never stdout) when enabled, as a progress callback."""
+    if not ex["progress"]:
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+        TimeElapsedColumn
+
+    console = Console(stderr=True, force_terminal=ex["force_terminal"] or None)
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), console=console, transient=False) as bar:
+        task = bar.add_task(description, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
 
 
 def _finish(scenario: Scenario, summary: dict[str, Any]) -> tuple[list[dict[str, Any]], bool]:
@@ -138,13 +247,10 @@ def lee_design(scenario: Scenario) -> dict[str, Any]:
     return design
 
 
-def _run_lee(sc: Scenario, out_dir: Path, plots: bool) -> tuple[dict[str, Any], int]:
-    from mechkin.io.summary import write_summary
-    from mechkin.solvers.workspace import run_lee_workspace
-
+def _lee_params(sc: Scenario, design: dict[str, Any]) -> dict[str, Any]:
+    """Keyword arguments of :func:`mechkin.solvers.workspace.lee_workspace` (SI)."""
     spec = sc.section
     A = angle_factor(sc.spec.units.angle)
-    design = lee_design(sc)
     full = (-90.0 * math.pi / 180.0, 90.0 * math.pi / 180.0)
     params: dict[str, Any] = {
         "r": design["r"],
@@ -170,30 +276,199 @@ def _run_lee(sc: Scenario, out_dir: Path, plots: bool) -> tuple[dict[str, Any], 
             gamma_mode=gr.mode,
             gamma_ref=None if gr.ref is None else gr.ref * A,
         )
+    return params
+
+
+def _head(sc: Scenario, kind: str) -> dict[str, Any]:
+    return {"scenario": sc.name, "task": "workspace", "kind": kind, "status": "ok"}
+
+
+def _tail(sc: Scenario, summary: dict[str, Any], out_dir: Path
+          ) -> tuple[dict[str, Any], list[dict[str, Any]], bool]:
+    """Evaluate the expects on the complete summary (before anything is written)."""
+    checks, ok = _finish(sc, summary)
+    extra: dict[str, Any] = {}
+    if checks:
+        extra["expect"] = checks
+    extra["out_dir"] = str(out_dir)
+    return extra, checks, ok
+
+
+def _run_lee(sc: Scenario, out_dir: Path, plots: bool) -> tuple[dict[str, Any], int]:
+    from mechkin.io.workspace_plots import write_lee_workspace
+    from mechkin.solvers.workspace import lee_workspace
+
+    design = lee_design(sc)
+    params = _lee_params(sc, design)
     t0 = time.perf_counter()
     try:
-        rec = run_lee_workspace(out_dir=out_dir, plots=plots, csv=sc.spec.outputs.csv, **params)
+        rec = lee_workspace(**params)
     except ValueError as exc:  # a grid the solver refuses (should not pass the schema)
         raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
-    elapsed = time.perf_counter() - t0
-    import json
-
-    written = json.loads((out_dir / "summary.json").read_text())
     summary: dict[str, Any] = {
-        "scenario": sc.name,
-        "task": "workspace",
-        "kind": "lee_spherical",
-        "status": "ok",
+        **_head(sc, "lee_spherical"),
         "design_source": design["source"],
-        **written,
-        "compute_time_s": elapsed,
+        **rec.summary,
+        "compute_time_s": time.perf_counter() - t0,
     }
-    checks, ok = _finish(sc, summary)
-    if checks:
-        summary["expect"] = checks
-    summary["out_dir"] = str(out_dir)
-    write_summary(out_dir / "summary.json", summary)
-    summary["files"] = list(rec.files)
+    extra, checks, ok = _tail(sc, summary, out_dir)
+    summary.update(extra)
+    files = write_lee_workspace(rec, out_dir, plots=plots, csv=sc.spec.outputs.csv,
+                                extra_summary=summary)
+    summary["files"] = [*files]
+    report_expect(checks, sc.path)
+    return summary, 0 if ok else 1
+
+
+def _run_lee_design(sc: Scenario, out_dir: Path, plots: bool, ex: dict[str, Any]
+                    ) -> tuple[dict[str, Any], int]:
+    from mechkin.io.workspace_plots import design_summary, write_lee_design_sweep
+    from mechkin.solvers.sweeps import default_workers, lee_design_sweep
+
+    spec = sc.section
+    dspec = spec.design
+    design = lee_design(sc)
+    params = _lee_params(sc, design)
+    L = length_factor(sc.spec.units.length)
+    values = [v * L for v in dspec.values]
+    if dspec.parameter in ("l_min", "l_max"):
+        lo, hi = design["stroke"]
+        bad = [v for v in values if (v >= hi if dspec.parameter == "l_min" else v <= lo)]
+        if bad:
+            raise ConfigError(f"{sc.doc.where(('workspace', 'design', 'values'))}: "
+                              f"{dspec.parameter} values {bad} do not leave l_min < l_max "
+                              f"(stroke {lo:g}..{hi:g})")
+    params.pop(dspec.parameter, None)
+    workers = ex["workers"] if ex["workers"] is not None else default_workers(len(values))
+    t0 = time.perf_counter()
+    with _progress_bar(ex, f"{sc.name}: {dspec.parameter} sweep") as cb:
+        try:
+            sweep = lee_design_sweep(dspec.parameter, values, workers=workers,
+                                     address=ex["address"], progress=cb, **params)
+        except ValueError as exc:
+            raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
+    design["source"][dspec.parameter if dspec.parameter in ("r", "R") else "stroke"] = "design"
+    summary: dict[str, Any] = {
+        **_head(sc, "lee_spherical"),
+        "design_source": design["source"],
+        **design_summary(sweep),
+        "execution": {"executor": "dask" if ex["address"] else "process",
+                      "workers": None if ex["address"] else min(workers, len(values)),
+                      "jobs": len(values)},
+        "compute_time_s": time.perf_counter() - t0,
+    }
+    extra, checks, ok = _tail(sc, summary, out_dir)
+    summary.update(extra)
+    files = write_lee_design_sweep(sweep, out_dir, plots=plots, csv=sc.spec.outputs.csv,
+                                   extra_summary=summary)
+    summary["files"] = [*files]
+    report_expect(checks, sc.path)
+    return summary, 0 if ok else 1
+
+
+# --------------------------------------------------------------------------- task space
+
+
+def _task_poses(sc: Scenario) -> np.ndarray:
+    """Target poses (m, 4, 4), SI, of a task_space section."""
+    from mechkin.solvers.sweeps import task_space_grid, task_space_random
+    from mechkin.spatial.euler_conventions import euler_matrix
+    from mechkin.spatial.rotations import matrix_from_quat
+
+    spec = sc.section
+    L = length_factor(sc.spec.units.length)
+    A = angle_factor(sc.spec.units.angle)
+    o = spec.orientation
+    R0: np.ndarray | None = np.eye(3)
+    if o is not None and o.euler is not None:
+        R0 = euler_matrix(o.euler.convention, np.asarray(o.euler.angles, dtype=float) * A)
+    elif o is not None and o.quaternion is not None:
+        R0 = matrix_from_quat(np.asarray(o.quaternion, dtype=float))
+    elif o is not None and o.random:
+        R0 = None
+    axes = [spec.positions[k] for k in "xyz"]
+    if spec.method == "grid":
+        vals = []
+        for a in axes:
+            if a.value is not None:
+                vals.append(np.array([a.value * L]))
+            elif a.n == 1:
+                vals.append(np.array([0.5 * (a.range[0] + a.range[1]) * L]))
+            else:
+                vals.append(np.linspace(a.range[0] * L, a.range[1] * L, a.n))
+        total = int(np.prod([v.size for v in vals]))
+        if total > MAX_SWEEP_SAMPLES:
+            raise ConfigError(f"{sc.doc.where(('workspace', 'positions'))}: the grid has "
+                              f"{total} poses, more than {MAX_SWEEP_SAMPLES}")
+        assert R0 is not None
+        return task_space_grid(vals, R0)
+    box = [(a.value * L, a.value * L) if a.value is not None else
+           (a.range[0] * L, a.range[1] * L) for a in axes]
+    return task_space_random(box, spec.samples, spec.seed, R0)
+
+
+def _run_task_space(sc: Scenario, out_dir: Path, plots: bool, ex: dict[str, Any]
+                    ) -> tuple[dict[str, Any], int]:
+    from mechkin.io.workspace_plots import write_task_space
+    from mechkin.model import load_mechanism
+    from mechkin.solvers.sweeps import task_space_summary, task_space_sweep
+
+    spec = sc.section
+    if sc.mechanism_path is None:
+        raise ConfigError(f"{sc.doc.where(('mechanism',))}: a task_space sweep needs a mechanism")
+    mech = load_mechanism(sc.mechanism_path)
+    if spec.frame is not None:
+        if spec.frame not in mech.frame_names:
+            raise ConfigError(f"{sc.doc.where(('workspace', 'frame'))}: unknown frame "
+                              f"{spec.frame!r}")
+        f = mech.frame_index(spec.frame)
+    elif mech.end_effector is not None:
+        f = int(mech.end_effector)
+    else:
+        raise ConfigError(f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; "
+                          "give frame")
+    T_P = _task_poses(sc)
+    t0 = time.perf_counter()
+    n_jobs = max(1, -(-T_P.shape[0] // spec.chunk))
+    with _progress_bar(ex, f"{sc.name}: ik chunks") as cb:
+        rec = task_space_sweep(sc.mechanism_path, T_P, frame=f, weights=spec.weights,
+                               restarts=spec.restarts, seed=spec.seed, max_iter=spec.max_iter,
+                               chunk=spec.chunk, workers=ex["workers"], address=ex["address"],
+                               progress=cb)
+    names = mech.independent_names
+    joint_cols = [f"{n}_{'m' if mech.s[mech.independent[i]] == 1 else 'rad'}"
+                  for i, n in enumerate(names)]
+    summary: dict[str, Any] = {
+        **_head(sc, "task_space"),
+        "mechanism": mech.name,
+        "method": spec.method,
+        "seed": spec.seed,
+        "frame": mech.frame_names[f],
+        "restarts": spec.restarts,
+        **task_space_summary(rec),
+        "definition": {
+            "reachable": "the batched lm ik (with seeded random restarts) reaches the pose: "
+                         "verified errors below 1e-6 m / 1e-6 rad with the joints within "
+                         "limits; a lower bound of the reachable set",
+            "isotropy": "sigma_min / sigma_max of the frame Jacobian (rows omega, v; SI) "
+                        "w.r.t. the independent joints at the solution (closed chains: "
+                        "J_v + J_w dq_w/dq_v); 0 at singular or unreached poses",
+            "isotropy_position": "the same for the position rows",
+            "condition_number": "sigma_max / sigma_min (1/isotropy), capped at 1e16",
+            "manipulability": "Yoshikawa w = product of the singular values of that Jacobian",
+        },
+        "execution": {"executor": "dask" if ex["address"] else "process", "jobs": n_jobs,
+                      "chunk": spec.chunk},
+        "compute_time_s": time.perf_counter() - t0,
+    }
+    extra, checks, ok = _tail(sc, summary, out_dir)
+    summary.update(extra)
+    files = write_task_space(rec, out_dir, summary, joint_columns=joint_cols, plots=plots,
+                             csv=sc.spec.outputs.csv,
+                             title=f"{mech.name}: task-space sweep of {mech.frame_names[f]} "
+                                   f"({int(rec.reachable.sum())}/{rec.reachable.size} poses "
+                                   f"reached, {spec.method})")
+    summary["files"] = [*files]
     report_expect(checks, sc.path)
     return summary, 0 if ok else 1
 

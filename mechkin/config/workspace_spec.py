@@ -14,6 +14,21 @@ Registered with :func:`mechkin.config.scenario.register_task_section` on import.
     or uniformly at random (``method: monte_carlo`` with ``samples`` and ``seed``) within their
     limits (or the ``range`` given per joint), and map the reachable positions of a frame.
 
+``kind: task_space`` (any mechanism)
+    Sweep task-space poses of a frame through the batched inverse kinematics
+    (:func:`mechkin.solvers.ik_optimize.solve_ik_batch`): a grid of positions (``positions``:
+    per axis ``{range, n}`` or ``{value}``) with a fixed ``orientation`` (``method: grid``), or
+    seeded random positions in the ``positions`` box (``method: monte_carlo`` with ``samples``,
+    ``seed``; ``orientation: {random: true}`` draws uniform random orientations too). Maps
+    reachability and dexterity (isotropy / condition number, Yoshikawa manipulability) at the
+    solutions.
+
+Design sweeps (``design: {parameter, values}``, kind lee_spherical): the maps are computed once
+per value of a design parameter (``r``, ``R``, ``l_min``, ``l_max``; lengths in the file's unit)
+and drawn side by side with a comparison table. Jobs (design values, task-space chunks) run on
+``workers`` processes (default min(cpu count, jobs)), or on a Dask cluster with ``executor:
+{kind: dask, address: "tcp://..."}`` (optional extra ``mechkin[dask]``).
+
 Angles are in the scenario's angle unit, lengths in its length unit; :mod:`mechkin.cli.workspace`
 converts them to SI.
 """
@@ -24,6 +39,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
+from mechkin.config.ik_spec import EulerSpec
 from mechkin.config.scenario import register_task_section
 from mechkin.config.schema import Name, NonNegNum, Num, PosNum, Spec
 
@@ -34,7 +50,11 @@ __all__ = [
     "AxisGridSpec",
     "GammaRangeSpec",
     "JointRangeSpec",
+    "DesignSpec",
+    "ExecutorSpec",
     "LeeParametersSpec",
+    "OrientationSpec",
+    "PositionAxisSpec",
     "WorkspaceSpec",
 ]
 
@@ -120,6 +140,77 @@ class SlicesSpec(Spec):
     thickness: PosNum | None = None
 
 
+class DesignSpec(Spec):
+    """A design sweep: the mechanism ``parameter`` and its ``values`` (file length unit).
+
+    One set of maps per value, drawn side by side (a row per value) with a comparison table.
+    """
+
+    parameter: Literal["r", "R", "l_min", "l_max"]
+    values: Annotated[list[PosNum], Field(min_length=1, max_length=64)]
+
+    @model_validator(mode="after")
+    def _check(self) -> DesignSpec:
+        if len(set(self.values)) != len(self.values):
+            raise ValueError(f"values: expected distinct values, got {self.values}")
+        return self
+
+
+class ExecutorSpec(Spec):
+    """Where the jobs of a sweep run: ``kind: process`` (local processes, ``workers`` of the
+    section) or ``kind: dask`` with the scheduler ``address`` (needs ``mechkin[dask]``)."""
+
+    kind: Literal["process", "dask"] = "process"
+    address: Annotated[str, Field(min_length=1)] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> ExecutorSpec:
+        if self.kind == "dask" and self.address is None:
+            raise ValueError("kind dask needs address (e.g. tcp://127.0.0.1:8786)")
+        if self.kind == "process" and self.address is not None:
+            raise ValueError("address: only for kind dask")
+        return self
+
+
+class PositionAxisSpec(Spec):
+    """One position axis of a task-space sweep: ``value`` (fixed), or ``range`` [lo, hi] with
+    ``n`` grid points (``method: grid``; n = 1 takes the midpoint) or as the box of random
+    positions (``method: monte_carlo``)."""
+
+    value: Num | None = None
+    range: Pair | None = None
+    n: Annotated[int, Field(strict=True, ge=1, le=100_001)] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> PositionAxisSpec:
+        if (self.value is None) == (self.range is None):
+            raise ValueError("give either value or range")
+        if self.range is not None:
+            _increasing(self.range, "range")
+        if self.value is not None and self.n is not None:
+            raise ValueError("n: only with range")
+        return self
+
+
+class OrientationSpec(Spec):
+    """Orientation of the task-space poses: intrinsic ``euler`` (``convention``, ``angles``),
+    a ``quaternion`` (w, x, y, z), or ``random: true`` (uniform, seeded; monte_carlo only).
+    Default: the identity."""
+
+    euler: EulerSpec | None = None
+    quaternion: Annotated[list[Num], Field(min_length=4, max_length=4)] | None = None
+    random: bool = False
+
+    @model_validator(mode="after")
+    def _check(self) -> OrientationSpec:
+        given = sum([self.euler is not None, self.quaternion is not None, self.random])
+        if given > 1:
+            raise ValueError("give one of euler, quaternion or random: true")
+        if self.quaternion is not None and sum(v * v for v in self.quaternion) < 1e-18:
+            raise ValueError("quaternion: expected a non-zero (w, x, y, z)")
+        return self
+
+
 class WorkspaceSpec(Spec):
     """``workspace:`` section, see the module docstring.
 
@@ -129,9 +220,13 @@ class WorkspaceSpec(Spec):
     joint_sweep keys: ``method`` (``grid`` or ``monte_carlo``), ``joints``, ``samples``,
     ``seed``, ``frame`` (default: the end effector), ``voxel`` (edge of the cubes counted for
     the volume), ``slices``, ``manipulability``, ``chunk``.
+    task_space keys: ``method``, ``positions`` (x, y, z), ``orientation``, ``samples``,
+    ``seed``, ``frame``, ``weights`` (6, diagonal of W), ``restarts``, ``max_iter``, ``chunk``
+    (poses per job).
+    Every kind: ``workers``, ``executor``; lee_spherical also ``design``.
     """
 
-    kind: Literal["lee_spherical", "joint_sweep"]
+    kind: Literal["lee_spherical", "joint_sweep", "task_space"]
     # lee_spherical
     parameters: LeeParametersSpec | None = None
     threshold: NonNegNum = 0.01
@@ -151,12 +246,50 @@ class WorkspaceSpec(Spec):
     slices: SlicesSpec | None = None
     manipulability: bool = True
     chunk: Annotated[int, Field(strict=True, ge=1, le=1_000_000)] = 2000
+    # task_space
+    positions: dict[Literal["x", "y", "z"], PositionAxisSpec] | None = None
+    orientation: OrientationSpec | None = None
+    weights: Annotated[list[NonNegNum], Field(min_length=6, max_length=6)] | None = None
+    restarts: Annotated[int, Field(strict=True, ge=0, le=1000)] = 8
+    max_iter: Annotated[int, Field(strict=True, ge=1, le=100_000)] | None = None
+    # design sweeps and execution
+    design: DesignSpec | None = None
+    workers: Annotated[int, Field(strict=True, ge=1, le=1024)] | None = None
+    executor: ExecutorSpec | None = None
 
     @model_validator(mode="after")
     def _check(self) -> WorkspaceSpec:
-        lee_keys = ("parameters", "alpha", "beta", "isotropy_maps", "gamma_range")
+        lee_keys = ("parameters", "alpha", "beta", "isotropy_maps", "gamma_range", "design")
         sweep_keys = ("joints", "samples", "frame", "voxel", "slices")
+        task_keys = ("positions", "orientation", "weights", "restarts", "max_iter")
         given = self.model_fields_set
+        if self.kind == "task_space":
+            wrong = [k for k in (*lee_keys, "joints", "voxel", "slices", "manipulability")
+                     if k in given]
+            if wrong:
+                raise ValueError(f"{', '.join(wrong)}: not used by kind task_space")
+            if self.method not in ("grid", "monte_carlo"):
+                raise ValueError("method: expected grid or monte_carlo for kind task_space")
+            if not self.positions or set(self.positions) != {"x", "y", "z"}:
+                raise ValueError("positions: expected x, y and z (each {value} or {range, n})")
+            if self.method == "grid":
+                if self.samples is not None:
+                    raise ValueError("samples: only for method monte_carlo")
+                if self.orientation is not None and self.orientation.random:
+                    raise ValueError("orientation.random: only for method monte_carlo")
+                no_n = [k for k, a in self.positions.items() if a.range is not None and a.n is None]
+                if no_n:
+                    raise ValueError(f"positions: method grid needs n for {', '.join(no_n)}")
+            else:
+                if self.samples is None:
+                    raise ValueError("method monte_carlo needs samples")
+                with_n = [k for k, a in self.positions.items() if a.n is not None]
+                if with_n:
+                    raise ValueError(f"positions: n is for method grid ({', '.join(with_n)})")
+            return self
+        wrong_task = [k for k in task_keys if k in given]
+        if wrong_task:
+            raise ValueError(f"{', '.join(wrong_task)}: only for kind task_space")
         if self.kind == "lee_spherical":
             wrong = [k for k in sweep_keys if k in given]
             if wrong:

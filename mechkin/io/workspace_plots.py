@@ -8,7 +8,7 @@ a temp name and renamed (:func:`mechkin.io.atomic.atomic_path`).
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,9 +21,19 @@ from matplotlib.ticker import MaxNLocator
 from mechkin.io.atomic import OutputDir, atomic_path
 
 if TYPE_CHECKING:
+    from mechkin.solvers.sweeps import DesignSweepRecord, TaskSpaceRecord
     from mechkin.solvers.workspace import LeeWorkspaceRecord
 
-__all__ = ["plot_gamma_range", "plot_isotropy_maps", "write_lee_workspace"]
+__all__ = [
+    "plot_design_gamma_range",
+    "plot_design_isotropy",
+    "plot_gamma_range",
+    "plot_isotropy_maps",
+    "plot_task_space",
+    "write_lee_design_sweep",
+    "write_lee_workspace",
+    "write_task_space",
+]
 
 _SIGMA_LEVELS = np.linspace(0.0, 1.0, 21)
 _SIGMA_LINES = np.round(np.arange(0.1, 1.0, 0.1), 1)
@@ -41,6 +51,54 @@ def _save(fig: Figure, path: str | os.PathLike[str], dpi: int) -> Path:
     with atomic_path(final) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     return final
+
+
+def _sigma_panel(ax: Any, a_deg: np.ndarray, b_deg: np.ndarray, sigma: np.ndarray,
+                 within: np.ndarray, threshold: float) -> Any:
+    """One sigma_KI contour panel over alpha-beta (grey outside the strokes); returns the
+    filled contour set (for the colour bar)."""
+    S = np.asarray(sigma, dtype=np.float64).T  # (n_b, n_a): rows follow beta (y)
+    inside = np.asarray(within, dtype=bool).T
+    ax.set_facecolor("white")
+    cf = ax.contourf(
+        a_deg,
+        b_deg,
+        np.ma.masked_where(~inside, S),
+        levels=_SIGMA_LEVELS,
+        cmap="viridis",
+        vmin=0.0,
+        vmax=1.0,
+    )
+    if (~inside).any():
+        ax.contourf(
+            a_deg,
+            b_deg,
+            (~inside).astype(float),
+            levels=[0.5, 1.5],
+            cmap=ListedColormap([_OUT_COLOR]),
+        )
+    if np.ptp(S) > 0:
+        cs = ax.contour(
+            a_deg,
+            b_deg,
+            np.ma.masked_where(~inside, S),
+            levels=_SIGMA_LINES,
+            colors="k",
+            linewidths=0.6,
+        )
+        ax.clabel(cs, fmt="%.1f", fontsize=7, inline_spacing=2)
+        if S.min() < threshold < S.max():
+            ax.contour(
+                a_deg,
+                b_deg,
+                np.ma.masked_where(~inside, S),
+                levels=[threshold],
+                colors="red",
+                linewidths=1.0,
+                linestyles="--",
+            )
+    ax.set_aspect("equal")
+    return cf
 
 
 def plot_isotropy_maps(
@@ -85,46 +143,7 @@ def plot_isotropy_maps(
     axes = fig.subplots(1, n, squeeze=False)[0]
     cf = None
     for g, ax in enumerate(axes):
-        S = np.asarray(sigma[g], dtype=np.float64).T  # (n_b, n_a): rows follow beta (y)
-        inside = np.asarray(within_limits[g], dtype=bool).T
-        ax.set_facecolor("white")
-        cf = ax.contourf(
-            a_deg,
-            b_deg,
-            np.ma.masked_where(~inside, S),
-            levels=_SIGMA_LEVELS,
-            cmap="viridis",
-            vmin=0.0,
-            vmax=1.0,
-        )
-        if (~inside).any():
-            ax.contourf(
-                a_deg,
-                b_deg,
-                (~inside).astype(float),
-                levels=[0.5, 1.5],
-                cmap=ListedColormap([_OUT_COLOR]),
-            )
-        if np.ptp(S) > 0:
-            cs = ax.contour(
-                a_deg,
-                b_deg,
-                np.ma.masked_where(~inside, S),
-                levels=_SIGMA_LINES,
-                colors="k",
-                linewidths=0.6,
-            )
-            ax.clabel(cs, fmt="%.1f", fontsize=7, inline_spacing=2)
-            if S.min() < threshold < S.max():
-                ax.contour(
-                    a_deg,
-                    b_deg,
-                    np.ma.masked_where(~inside, S),
-                    levels=[threshold],
-                    colors="red",
-                    linewidths=1.0,
-                    linestyles="--",
-                )
+        cf = _sigma_panel(ax, a_deg, b_deg, sigma[g], within_limits[g], threshold)
         ax.set_title(f"({chr(ord('a') + g)}) $\\gamma$ = {np.rad2deg(gammas[g]):g}°")
         ax.set_xlabel(r"$\alpha$ [deg]")
         ax.set_ylabel(r"$\beta$ [deg]")
@@ -226,8 +245,12 @@ def write_lee_workspace(
     *,
     plots: bool = True,
     csv: bool = True,
+    extra_summary: Mapping[str, Any] | None = None,
 ) -> list[str]:
     """Write the figures, CSV grids and summary.json of a lee workspace record.
+
+    ``extra_summary`` entries (scenario name, expect results, ...) are merged into
+    ``record.summary`` (they win on equal keys); summary.json is written once, last.
 
     Files (in ``out_dir``): per gamma set ``NAME`` of ``record.isotropy``:
     ``sigma_ki_NAME.png`` and ``sigma_ki_NAME.csv`` (one row per grid pose: ``alpha_deg,
@@ -242,67 +265,320 @@ def write_lee_workspace(
     list of str
         Names written, relative to ``out_dir``.
     """
-    geom = record.geometry
-    summary: dict[str, Any] = dict(record.summary)
+    summary: dict[str, Any] = {**record.summary, **(extra_summary or {})}
     with OutputDir(out_dir) as od:
-        for name, maps in record.isotropy.items():
-            gam_txt = "/".join(f"{g:g}" for g in _deg(maps.gamma))
-            if plots:
-                plot_isotropy_maps(
-                    od.path_for(f"sigma_ki_{name}.png"),
-                    maps.alpha,
-                    maps.beta,
-                    maps.gamma,
-                    maps.sigma,
-                    maps.within_limits,
-                    threshold=maps.threshold,
-                    title=f"lee: $\\sigma_{{KI}}$ over $\\alpha$-$\\beta$, r = {geom.r:g}, "
-                    f"$\\gamma$ = {gam_txt}° ({name})",
-                )
-            if csv:
-                G, A, B = np.meshgrid(maps.gamma, maps.alpha, maps.beta, indexing="ij")
-                cols: dict[str, np.ndarray] = {
-                    "alpha_deg": _deg(A).ravel(),
-                    "beta_deg": _deg(B).ravel(),
-                    "gamma_deg": _deg(G).ravel(),
-                }
-                if maps.actuators is not None:
-                    for i in range(maps.actuators.shape[-1]):
-                        cols[f"l{i + 1}_m"] = maps.actuators[..., i].ravel()
-                cols["sigma_ki"] = maps.sigma.ravel()
-                cols["within_stroke"] = maps.within_limits.ravel()
-                cols["in_workspace"] = maps.in_workspace.ravel()
-                od.write_csv(f"sigma_ki_{name}.csv", cols)
-        gr = record.gamma_range
-        if gr is not None:
-            if plots:
-                plot_gamma_range(
-                    od.path_for("gamma_range.png"),
-                    gr.alpha,
-                    gr.beta,
-                    gr.gamma_min,
-                    gr.gamma_max,
-                    title=f"lee Fig. 2: $\\gamma_{{min}}$, $\\gamma_{{max}}$ ({gr.mode}), "
-                    f"r = {geom.r:g}, $\\sigma_{{KI}}$ ≥ {gr.threshold:g}, legs within stroke",
-                )
-            if csv:
-                A, B = np.meshgrid(gr.alpha, gr.beta, indexing="ij")
-                d = gr.defined
-                od.write_csv(
-                    "gamma_range.csv",
-                    {
-                        "alpha_deg": _deg(A[d]),
-                        "beta_deg": _deg(B[d]),
-                        "n_gamma_in": gr.n_in[d],
-                        "n_runs": gr.n_runs[d],
-                        "gamma_min_deg": _deg(gr.gamma_min[d]),
-                        "gamma_max_deg": _deg(gr.gamma_max[d]),
-                    },
-                )
-                summary.setdefault("gamma_range", {})
-                summary["gamma_range"] = dict(summary["gamma_range"])
-                summary["gamma_range"]["csv_rows"] = int(d.sum())
-                summary["gamma_range"]["rows_without_workspace"] = int((~d).sum())
+        _write_lee_files(od, record, plots=plots, csv=csv)
         summary["files"] = [*od.files, "summary.json"]
         od.write_json("summary.json", summary)
+        return od.files
+
+
+def _write_lee_files(od: OutputDir, record: LeeWorkspaceRecord, *, plots: bool, csv: bool,
+                     prefix: str = "") -> None:
+    """PNGs and CSV grids of one record into ``od`` (names prefixed by ``prefix``)."""
+    geom = record.geometry
+    for name, maps in record.isotropy.items():
+        gam_txt = "/".join(f"{g:g}" for g in _deg(maps.gamma))
+        if plots:
+            plot_isotropy_maps(
+                od.path_for(f"{prefix}sigma_ki_{name}.png"),
+                maps.alpha,
+                maps.beta,
+                maps.gamma,
+                maps.sigma,
+                maps.within_limits,
+                threshold=maps.threshold,
+                title=f"lee: $\\sigma_{{KI}}$ over $\\alpha$-$\\beta$, r = {geom.r:g}, "
+                f"$\\gamma$ = {gam_txt}° ({name})",
+            )
+        if csv:
+            G, A, B = np.meshgrid(maps.gamma, maps.alpha, maps.beta, indexing="ij")
+            cols: dict[str, np.ndarray] = {
+                "alpha_deg": _deg(A).ravel(),
+                "beta_deg": _deg(B).ravel(),
+                "gamma_deg": _deg(G).ravel(),
+            }
+            if maps.actuators is not None:
+                for i in range(maps.actuators.shape[-1]):
+                    cols[f"l{i + 1}_m"] = maps.actuators[..., i].ravel()
+            cols["sigma_ki"] = maps.sigma.ravel()
+            cols["within_stroke"] = maps.within_limits.ravel()
+            cols["in_workspace"] = maps.in_workspace.ravel()
+            od.write_csv(f"{prefix}sigma_ki_{name}.csv", cols)
+    gr = record.gamma_range
+    if gr is not None:
+        if plots:
+            plot_gamma_range(
+                od.path_for(f"{prefix}gamma_range.png"),
+                gr.alpha,
+                gr.beta,
+                gr.gamma_min,
+                gr.gamma_max,
+                title=f"lee Fig. 2: $\\gamma_{{min}}$, $\\gamma_{{max}}$ ({gr.mode}), "
+                f"r = {geom.r:g}, $\\sigma_{{KI}}$ ≥ {gr.threshold:g}, legs within stroke",
+            )
+        if csv:
+            A, B = np.meshgrid(gr.alpha, gr.beta, indexing="ij")
+            d = gr.defined
+            od.write_csv(
+                f"{prefix}gamma_range.csv",
+                {
+                    "alpha_deg": _deg(A[d]),
+                    "beta_deg": _deg(B[d]),
+                    "n_gamma_in": gr.n_in[d],
+                    "n_runs": gr.n_runs[d],
+                    "gamma_min_deg": _deg(gr.gamma_min[d]),
+                    "gamma_max_deg": _deg(gr.gamma_max[d]),
+                },
+            )
+
+
+# --------------------------------------------------------------------------- design sweeps
+
+
+def _value_label(parameter: str, value: float) -> str:
+    return f"{parameter} = {value:g}"
+
+
+def plot_design_isotropy(
+    path: str | os.PathLike[str],
+    parameter: str,
+    values: Sequence[float],
+    maps: Sequence[Any],
+    *,
+    title: str = "",
+    dpi: int = 100,
+) -> Path:
+    """sigma_KI maps of a design sweep side by side: a row per design value, a column per gamma.
+
+    Parameters
+    ----------
+    path : path-like
+    parameter : str
+        Name of the swept parameter (row labels).
+    values : sequence of float
+    maps : sequence of OrientationMaps
+        ``maps[i]`` for ``values[i]``; all on the same gammas.
+    title : str
+
+    Returns
+    -------
+    Path
+    """
+    n_r = len(values)
+    n_c = int(np.asarray(maps[0].gamma).size)
+    fig = Figure(figsize=(3.6 * n_c + 1.2, 3.4 * n_r + 0.8), layout="constrained")
+    axes = fig.subplots(n_r, n_c, squeeze=False)
+    cf = None
+    for i, (v, mp) in enumerate(zip(values, maps, strict=True)):
+        a_deg, b_deg = np.rad2deg(mp.alpha), np.rad2deg(mp.beta)
+        for g in range(n_c):
+            ax = axes[i, g]
+            cf = _sigma_panel(ax, a_deg, b_deg, mp.sigma[g], mp.within_limits[g], mp.threshold)
+            frac = float(np.mean(mp.in_workspace[g]))
+            ax.set_title(f"{_value_label(parameter, v)}, $\\gamma$ = "
+                         f"{np.rad2deg(mp.gamma[g]):g}° (area {frac:.3f})", fontsize=9)
+            ax.set_xlabel(r"$\alpha$ [deg]" if i == n_r - 1 else "")
+            ax.set_ylabel(r"$\beta$ [deg]" if g == 0 else "")
+    if cf is not None:
+        cb = fig.colorbar(cf, ax=axes.ravel().tolist(), shrink=0.6, ticks=np.linspace(0, 1, 11))
+        cb.set_label(r"$\sigma_{KI}$")
+    note = (f"grey: leg outside stroke; red dashed: $\\sigma_{{KI}}$ = {maps[0].threshold:g}; "
+            "area: in-workspace fraction of the grid")
+    fig.suptitle(f"{title}\n{note}" if title else note, fontsize=10)
+    return _save(fig, path, dpi)
+
+
+def plot_design_gamma_range(
+    path: str | os.PathLike[str],
+    parameter: str,
+    values: Sequence[float],
+    ranges: Sequence[Any],
+    *,
+    title: str = "",
+    dpi: int = 100,
+) -> Path:
+    """gamma_min / gamma_max contour maps of a design sweep: a row per value (lee Fig. 2)."""
+    n_r = len(values)
+    fig = Figure(figsize=(9.0, 3.6 * n_r + 0.8), layout="constrained")
+    axes = fig.subplots(n_r, 2, squeeze=False)
+    for i, (v, gr) in enumerate(zip(values, ranges, strict=True)):
+        a_deg, b_deg = np.rad2deg(gr.alpha), np.rad2deg(gr.beta)
+        for j, (which, G) in enumerate((("min", gr.gamma_min), ("max", gr.gamma_max))):
+            ax = axes[i, j]
+            Gd = np.rad2deg(np.asarray(G, dtype=np.float64))
+            fin = np.isfinite(Gd)
+            if fin.any():
+                lo, hi = float(Gd[fin].min()), float(Gd[fin].max())
+                levels = MaxNLocator(nbins=14).tick_values(lo, hi if hi > lo else lo + 1.0)
+                cf = ax.contourf(a_deg, b_deg, np.ma.masked_invalid(Gd).T, levels=levels,
+                                 cmap="viridis")
+                fig.colorbar(cf, ax=ax, shrink=0.9, label=f"$\\gamma_{{{which}}}$ [deg]")
+            ax.set_aspect("equal")
+            ax.set_title(f"{_value_label(parameter, v)}: $\\gamma_{{{which}}}$ "
+                         f"(defined on {float(fin.mean()):.3f})", fontsize=9)
+            ax.set_xlabel(r"$\alpha$ [deg]" if i == n_r - 1 else "")
+            ax.set_ylabel(r"$\beta$ [deg]" if j == 0 else "")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return _save(fig, path, dpi)
+
+
+def _value_dir(parameter: str, value: float) -> str:
+    return f"{parameter}_{value:g}/"
+
+
+def write_lee_design_sweep(
+    sweep: DesignSweepRecord,
+    out_dir: str | os.PathLike[str],
+    *,
+    plots: bool = True,
+    csv: bool = True,
+    extra_summary: Mapping[str, Any] | None = None,
+) -> list[str]:
+    """Write a design sweep: side-by-side figures, the comparison table, per-value grids.
+
+    Files: ``design_sigma_ki_NAME.png`` (a row per value, a column per gamma of the set
+    ``NAME``), ``design_gamma_range.png`` (when the gamma range was computed),
+    ``design_comparison.csv`` (:func:`mechkin.solvers.sweeps.design_comparison`), per value
+    the CSV grids of :func:`write_lee_workspace` under ``PARAM_VALUE/`` (e.g.
+    ``r_0.25/sigma_ki_text.csv``), and ``summary.json`` written once with ``extra_summary``
+    merged in. All files appear together or not at all.
+
+    Returns
+    -------
+    list of str
+        Names written, relative to ``out_dir``.
+    """
+    summary: dict[str, Any] = {**design_summary(sweep), **(extra_summary or {})}
+    par, vals, recs = sweep.parameter, sweep.values, sweep.records
+    with OutputDir(out_dir) as od:
+        if plots:
+            for name in recs[0].isotropy:
+                plot_design_isotropy(
+                    od.path_for(f"design_sigma_ki_{name}.png"), par, vals,
+                    [r.isotropy[name] for r in recs],
+                    title=f"lee design sweep over {par}: $\\sigma_{{KI}}$ ({name})",
+                )
+            if recs[0].gamma_range is not None:
+                plot_design_gamma_range(
+                    od.path_for("design_gamma_range.png"), par, vals,
+                    [r.gamma_range for r in recs],
+                    title=f"lee design sweep over {par}: $\\gamma_{{min}}$, "
+                          f"$\\gamma_{{max}}$ ({recs[0].gamma_range.mode})",
+                )
+        if sweep.comparison:
+            keys = list(dict.fromkeys(k for row in sweep.comparison for k in row))
+            od.write_csv("design_comparison.csv", {
+                k: [("" if row.get(k) is None else row.get(k, "")) for row in sweep.comparison]
+                for k in keys
+            })
+        if csv:
+            for v, rec in zip(vals, recs, strict=True):
+                _write_lee_files(od, rec, plots=False, csv=True, prefix=_value_dir(par, v))
+        summary["files"] = [*od.files, "summary.json"]
+        od.write_json("summary.json", summary)
+        return od.files
+
+
+def design_summary(sweep: DesignSweepRecord) -> dict[str, Any]:
+    """JSON-ready summary of a design sweep: ``design`` (parameter, values, per value the lee
+    summary: fractions, sigma_KI statistics, sigma_KI at the origin per gamma, gamma range) and
+    the ``comparison`` table."""
+    per_value = []
+    for v, rec in zip(sweep.values, sweep.records, strict=True):
+        s = dict(rec.summary)
+        s.pop("definition", None)
+        per_value.append({"value": float(v), **s})
+    first = sweep.records[0].summary
+    return {
+        "mechanism": first.get("mechanism"),
+        "threshold": first.get("threshold"),
+        "definition": first.get("definition"),
+        "design": {"parameter": sweep.parameter, "values": list(sweep.values),
+                   "per_value": per_value},
+        "comparison": sweep.comparison,
+    }
+
+
+# --------------------------------------------------------------------------- task space
+
+
+def plot_task_space(
+    path: str | os.PathLike[str],
+    rec: TaskSpaceRecord,
+    *,
+    title: str = "",
+    dpi: int = 100,
+) -> Path:
+    """Reachability and dexterity of task-space poses, projected on the plane of the two
+    position coordinates that vary most: (a) isotropy, (b) position-row isotropy, (c)
+    Yoshikawa manipulability; unreached poses are grey crosses."""
+    P = rec.T_P[:, :3, 3]
+    spread = np.ptp(P, axis=0) if P.shape[0] else np.zeros(3)
+    i, j = sorted(np.argsort(-spread, kind="stable")[:2])
+    names = "xyz"
+    ok = rec.reachable
+    fig = Figure(figsize=(15.0, 4.8), layout="constrained")
+    axes = fig.subplots(1, 3)
+    panels = (("isotropy", rec.isotropy, "isotropy $\\sigma_{min}/\\sigma_{max}$", (0, 1)),
+              ("isotropy_position", rec.isotropy_position, "isotropy, position rows", (0, 1)),
+              ("manipulability", rec.manipulability, "manipulability $\\prod \\sigma_i$",
+               None))
+    size = max(4.0, min(60.0, 12000.0 / max(1, P.shape[0])))
+    for ax, (_, val, label, lim) in zip(axes, panels, strict=True):
+        if (~ok).any():
+            ax.scatter(P[~ok, i], P[~ok, j], s=size * 0.6, c=_OUT_COLOR, marker="x",
+                       label="not reached")
+        if ok.any():
+            kw: dict[str, Any] = {"vmin": lim[0], "vmax": lim[1]} if lim else {}
+            sc = ax.scatter(P[ok, i], P[ok, j], s=size, c=val[ok], cmap="viridis", **kw)
+            fig.colorbar(sc, ax=ax, shrink=0.85, label=label)
+        ax.set_xlabel(f"{names[i]} [m]")
+        ax.set_ylabel(f"{names[j]} [m]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(label, fontsize=10)
+        if (~ok).any():
+            ax.legend(loc="upper right", fontsize=7)
+    fig.suptitle(title or "task-space sweep", fontsize=11)
+    return _save(fig, path, dpi)
+
+
+def write_task_space(
+    rec: TaskSpaceRecord,
+    out_dir: str | os.PathLike[str],
+    summary: Mapping[str, Any],
+    *,
+    joint_columns: Sequence[str],
+    plots: bool = True,
+    csv: bool = True,
+    title: str = "",
+) -> list[str]:
+    """Write ``task_points.csv`` (one row per target pose: position, quaternion (w, x, y, z),
+    status, reachable, errors, independent joints, dexterity), ``task_space.png`` and
+    ``summary.json`` (once, last)."""
+    from mechkin.spatial.rotations import quat_from_matrix
+
+    out = dict(summary)
+    with OutputDir(out_dir) as od:
+        if csv:
+            m = rec.reachable.size
+            quat = quat_from_matrix(rec.T_P[:, :3, :3]) if m else np.zeros((0, 4))
+            cols: dict[str, Any] = {"pose": np.arange(m), "x_m": rec.T_P[:, 0, 3],
+                                    "y_m": rec.T_P[:, 1, 3], "z_m": rec.T_P[:, 2, 3]}
+            for k, c in enumerate("wxyz"):
+                cols[f"q{c}"] = quat[:, k]
+            cols.update(status=rec.status, reachable=rec.reachable,
+                        position_error_m=rec.position_error,
+                        orientation_error_rad=rec.orientation_error, iterations=rec.iterations)
+            for k, name in enumerate(joint_columns):
+                cols[name] = rec.q_v[:, k]
+            cols.update(isotropy=rec.isotropy, isotropy_position=rec.isotropy_position,
+                        condition_number=rec.condition_number,
+                        manipulability=rec.manipulability)
+            od.write_csv("task_points.csv", cols)
+        if plots and rec.reachable.size:
+            plot_task_space(od.path_for("task_space.png"), rec, title=title)
+        out["files"] = [*od.files, "summary.json"]
+        od.write_json("summary.json", out)
         return od.files

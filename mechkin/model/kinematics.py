@@ -239,8 +239,15 @@ def relative_jacobians(
     fa: np.ndarray | None,
     fb: np.ndarray,
     T_a_fixed: np.ndarray | None = None,
+    *,
+    rotation: str = "euler",
 ) -> tuple[np.ndarray, np.ndarray]:
     r"""Residuals x (m, k, 6) of frames fb (k,) relative to frames fa (k,) and dx/dq (m, k, 6, n).
+
+    ``rotation="euler"`` (default): the orientation part is the vector part of the Euler
+    parameters (kim1995 Eq. (8)) with its exact Jacobian. ``rotation="log"``: the rotation
+    vector (angle times axis) of R_a^T R_b, with the angular-velocity Jacobian R_a^T sum sigma_j
+    omega_j (exact at zero rotation; the Gauss-Newton model used by Levenberg-Marquardt).
 
     ``fa = None`` means fixed frames ``T_a_fixed`` (k, 4, 4) or (m, k, 4, 4) in the base frame
     (precision points, kim1995 Eq. (7)). With sigma_j = [j before b] - [j before a] in the tree,
@@ -273,16 +280,29 @@ def relative_jacobians(
     Jw = w @ R_a
     e = quat_from_matrix(np.swapaxes(R_a, -1, -2) @ T_b[..., :3, :3])  # (m, k, 4)
     e0, ev = e[..., 0], e[..., 1:]
-    E = 0.5 * (e0[..., None, None] * np.eye(3) - skew(ev))
-    Je = Jw @ np.swapaxes(E, -1, -2)  # (E Jw^T)^T
     x = np.empty((m, k, 6))
     x[..., :3] = (np.swapaxes(R_a, -1, -2) @ (p_b - T_a[..., :3, 3])[..., None])[..., 0]
-    x[..., 3:] = ev
+    if rotation == "log":
+        x[..., 3:] = rotation_vector(e)
+        Je = Jw
+    else:
+        E = 0.5 * (e0[..., None, None] * np.eye(3) - skew(ev))
+        Je = Jw @ np.swapaxes(E, -1, -2)  # (E Jw^T)^T
+        x[..., 3:] = ev
     Jt = np.zeros((m, k, mech.n + 1, 6))
     Jt[:, np.arange(k)[:, None], idx, :3] = Jp
     Jt[:, np.arange(k)[:, None], idx, 3:] = Je
     Jt = Jt[:, :, : mech.n]
     return x, np.swapaxes(Jt, -1, -2)
+
+
+def rotation_vector(e: np.ndarray) -> np.ndarray:
+    """Rotation vector (angle * axis) from Euler parameters (..., 4) with e0 >= 0: (..., 3)."""
+    ev = e[..., 1:]
+    s = np.linalg.norm(ev, axis=-1)
+    ang = 2.0 * np.arctan2(s, e[..., 0])
+    scale = np.where(s > 1e-12, ang / np.where(s > 1e-12, s, 1.0), 2.0)
+    return ev * scale[..., None]
 
 
 def relative_jacobian(

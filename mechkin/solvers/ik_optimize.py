@@ -26,9 +26,8 @@ Joint limits and leg strokes of the independent joints are respected by projecti
 q_v after every step and every line-search trial). Every result carries the position and
 orientation error of {E} recomputed by forward kinematics at the returned joints.
 
-Speed: the kinematics here are evaluated by a private kernel (:class:`IkKernel`) that folds each
-joint's constant transforms into three matrices (``A Z(q) B = c K_c + s K_s + d K_d + K_0``) and
-avoids ``np.cross``; it is checked against :mod:`mechkin.model.kinematics` in the tests.
+The kinematics (forward kinematics, the residual Jacobian, the loop closure) are those of
+:mod:`mechkin.model`; :class:`IkKernel` only holds the per-mechanism constants of the objective.
 
 References
 ----------
@@ -45,6 +44,15 @@ from typing import Literal
 
 import numpy as np
 
+from mechkin.model.closure import solve_closure
+from mechkin.model.kinematics import (
+    Kinematics,
+    closure_jacobian,
+    forward_kinematics,
+    relative_jacobians,
+    relative_residual,
+    rotation_vector,
+)
 from mechkin.model.mechanism import Mechanism
 from mechkin.spatial.rotations import quat_from_matrix
 
@@ -56,9 +64,11 @@ TOL_POS_M = 1e-6  # a target counts as reached below these verified errors
 TOL_ORI_RAD = 1e-6
 GRAD_TOL = 1e-10
 MAX_ITER_LM = 100
+LM_DAMPING = "marquardt"
 MAX_ITER_CG = 2000
 TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v
 MAX_ITER_CLOSURE = 30
+TOL_DQ_CLOSURE = 1e-10  # ||dq_w|| of the last Newton step (kim1995 §5.1 epsilon_w)
 GOLDEN = 0.5 * (np.sqrt(5.0) - 1.0)  # 0.618...
 
 
@@ -178,44 +188,8 @@ class IkBatchResult:
 # ---- kinematics kernel -------------------------------------------------------------------------
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b over the last axis (np.cross is slow on small arrays)."""
-    return a[..., _I1] * b[..., _I2] - a[..., _I2] * b[..., _I1]
-
-
-_I1 = np.array([1, 2, 0])
-_I2 = np.array([2, 0, 1])
-
-
-_QA = np.array([7, 2, 3])  # R21, R02, R10 of the flattened matrix
-_QB = np.array([5, 6, 1])  # R12, R20, R01
-
-
-def quat_vector_fast(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(e0 (...,), e (..., 3)) Euler parameters of rotation matrices, e0 >= 0 (kim1995 Eq. (8)).
-
-    Uses the trace branch where the rotation angle is below about 170 deg and Shepperd's method
-    (:func:`quat_from_matrix`) elsewhere.
-    """
-    tr = np.trace(R, axis1=-2, axis2=-1)
-    far = tr < -0.9
-    e0 = 0.5 * np.sqrt(np.maximum(1.0 + tr, 1e-300))
-    Rf = R.reshape(R.shape[:-2] + (9,))
-    ev = (Rf[..., _QA] - Rf[..., _QB]) * (0.25 / e0)[..., None]
-    if np.any(far):
-        e = quat_from_matrix(R[far])
-        e0 = e0.copy()
-        e0[far] = e[:, 0]
-        ev[far] = e[:, 1:]
-    return e0, ev
-
-
 class IkKernel:
-    """Per-mechanism constants for fast batched kinematics of the IK objective.
-
-    ``T_parent_child(q) = A Z(q) B = c K_c + s K_s + d K_d + K_0`` with ``c, s = cos q, sin q``
-    for revolute joints (``c = 1, s = 0`` for prismatic ones) and ``d = q`` for prismatic joints
-    (kim1995 Eq. (2)).
+    """Per-mechanism constants of the IK objective; the kinematics are the model's.
 
     Parameters
     ----------
@@ -230,47 +204,11 @@ class IkKernel:
         if f is None:
             raise ValueError("the mechanism has no end_effector frame; give frame=")
         self.frame = int(f)
-        n = mech.n
-        A, B = mech.A, mech.B
-        Pc = np.diag([1.0, 1.0, 0.0, 0.0])
-        Ps = np.zeros((4, 4))
-        Ps[0, 1], Ps[1, 0] = -1.0, 1.0
-        P0 = np.diag([0.0, 0.0, 1.0, 1.0])
-        Pd = np.zeros((4, 4))
-        Pd[2, 3] = 1.0
-        self.Kc = A @ Pc @ B
-        self.Ks = A @ Ps @ B
-        self.K0 = A @ P0 @ B
-        self.Kd = A @ Pd @ B
-        self.rev = mech.s == 0
-        self.az = A[:, :3, 2].copy()  # joint axis in the parent link frame
-        self.ao = A[:, :3, 3].copy()
-        self.n = n
+        self.fb = np.array([self.frame])
+        self.n = mech.n
         self.iv = np.asarray(mech.independent, dtype=int)
         self.iw = np.asarray(mech.dependent, dtype=int)
-        self.parent = mech.joint_parent_link
-        self.child = mech.joint_child_link
-        self.levels = mech.levels
-        self.serial = all(len(lv) == 1 for lv in mech.levels) and all(
-            int(mech.joint_parent_link[lv[0]]) == (0 if k == 0 else
-                                                   int(mech.joint_child_link[mech.levels[k - 1][0]]))
-            for k, lv in enumerate(mech.levels))
-        self.chain = [int(lv[0]) for lv in mech.levels] if self.serial else []
-        self.fl = int(mech.frame_link[self.frame])
-        self.foff = mech.frame_offset[self.frame]
-        self.anc_e = mech.link_ancestors[self.fl].astype(float)  # (n,)
-        cuts = mech.cuts
-        self.n_cuts = len(cuts)
-        if cuts:
-            ca = np.array([c.a for c in cuts])
-            cb = np.array([c.b for c in cuts])
-            self.cut_la = mech.frame_link[ca]
-            self.cut_lb = mech.frame_link[cb]
-            self.cut_oa = mech.frame_offset[ca]
-            self.cut_ob = mech.frame_offset[cb]
-            self.anc_a = mech.link_ancestors[self.cut_la].astype(float)  # (nc, n)
-            self.anc_b = mech.link_ancestors[self.cut_lb].astype(float)
-            self.cut_mask = np.stack([c.mask for c in cuts]).astype(bool)  # (nc, 6)
+        self.n_cuts = len(mech.cuts)
         self.lower_v = mech.lower[self.iv]
         self.upper_v = mech.upper[self.iv]
         # a revolute joint whose range spans a full turn is continuous: wrap, do not clamp
@@ -286,105 +224,30 @@ class IkKernel:
             q = np.where(self.cont_v, lo + np.mod(q - lo, 2 * np.pi), q)
         return q
 
-    # -- forward kinematics --
-    def links(self, q: np.ndarray) -> np.ndarray:
-        """Link poses T_links (m, nl, 4, 4) for q (m, n)."""
-        m = q.shape[0]
-        rev = self.rev
-        c = np.where(rev, np.cos(q), 1.0)[..., None, None]
-        s = np.where(rev, np.sin(q), 0.0)[..., None, None]
-        d = np.where(rev, 0.0, q)[..., None, None]
-        M = c * self.Kc + s * self.Ks + d * self.Kd + self.K0  # (m, n, 4, 4)
-        T = np.empty((m, self.mech.n_links, 4, 4))
-        T[:, 0] = np.eye(4)
-        if self.serial:
-            prev = T[:, 0]
-            for j in self.chain:
-                prev = prev @ M[:, j]
-                T[:, self.child[j]] = prev
-        else:
-            for lvl in self.levels:
-                T[:, self.child[lvl]] = T[:, self.parent[lvl]] @ M[:, lvl]
-        return T
+    def kinematics(self, q: np.ndarray) -> Kinematics:
+        """Forward kinematics of configurations q (m, n) (mechkin.model)."""
+        return forward_kinematics(self.mech, q)
 
-    def axes(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Joint axes z (m, n, 3) and points o (m, n, 3) on them, in the base frame."""
-        Tp = T[:, self.parent]
-        R = Tp[..., :3, :3]
-        z = np.einsum("mnij,nj->mni", R, self.az)
-        o = np.einsum("mnij,nj->mni", R, self.ao) + Tp[..., :3, 3]
-        return z, o
-
-    def end_effector(self, T: np.ndarray) -> np.ndarray:
+    def end_effector(self, kin: Kinematics) -> np.ndarray:
         """Pose of {E} (m, 4, 4)."""
-        return T[:, self.fl] @ self.foff
+        return kin.frames(self.mech, self.fb)[:, 0]
 
-    def residual_jacobian(self, T: np.ndarray, z: np.ndarray, o: np.ndarray,
-                          T_P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r"""x (m, 6) of {E} relative to {P} (kim1995 Eq. (7)-(8)) and dx/dq (m, 6, n).
+    def residual_jacobian(self, kin: Kinematics, T_P: np.ndarray, rotation: str = "euler"
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """x (m, 6) of {E} relative to {P} (kim1995 Eq. (7)-(8)) and dx/dq (m, 6, n).
 
-        .. math:: \dot x_p = R_P^T v_E,\qquad \dot e = \tfrac12 (e_0 I - [e]_\times) R_P^T
-                  \omega_E
-        """
-        T_E = self.end_effector(T)
-        RPt = np.swapaxes(T_P[:, :3, :3], 1, 2)
-        p = T_E[:, :3, 3]
-        xp = np.einsum("mij,mj->mi", RPt, p - T_P[:, :3, 3])
-        e0, ev = quat_vector_fast(RPt @ T_E[:, :3, :3])
-        zz = z * self.anc_e[None, :, None]
-        v = np.where(self.rev[None, :, None], _cross(zz, p[:, None, :] - o), zz)  # (m, n, 3)
-        w = np.where(self.rev[None, :, None], zz, 0.0)
-        Jp = RPt @ np.swapaxes(v, 1, 2)  # (m, 3, n)
-        Jw = RPt @ np.swapaxes(w, 1, 2)
-        E = 0.5 * (e0[:, None, None] * np.eye(3) - _skew(ev))
-        return np.concatenate([xp, ev], axis=1), np.concatenate([Jp, E @ Jw], axis=1)
+        ``rotation="log"``: the orientation part is the rotation vector (for lm)."""
+        x, J = relative_jacobians(self.mech, kin, None, self.fb, T_P[:, None],
+                                  rotation=rotation)
+        return x[:, 0], J[:, 0]
 
-    def residual(self, T: np.ndarray, T_P: np.ndarray) -> np.ndarray:
-        """x (m, 6) of {E} relative to {P} (kim1995 Eq. (8))."""
-        T_E = self.end_effector(T)
-        RPt = np.swapaxes(T_P[:, :3, :3], 1, 2)
-        xp = np.einsum("mij,mj->mi", RPt, T_E[:, :3, 3] - T_P[:, :3, 3])
-        _, ev = quat_vector_fast(RPt @ T_E[:, :3, :3])
-        return np.concatenate([xp, ev], axis=1)
-
-    def closure(self, T: np.ndarray, z: np.ndarray | None, o: np.ndarray | None,
-                jac: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-        """phi_R (m, n_eq) and d(phi_R)/dq (m, n_eq, n) (kim1995 Eq. (4)), cuts masked."""
-        m = T.shape[0]
-        Ta = T[:, self.cut_la] @ self.cut_oa  # (m, nc, 4, 4)
-        Tb = T[:, self.cut_lb] @ self.cut_ob
-        Rat = np.swapaxes(Ta[..., :3, :3], -1, -2)
-        pa, pb = Ta[..., :3, 3], Tb[..., :3, 3]
-        xp = np.einsum("mcij,mcj->mci", Rat, pb - pa)
-        e0, ev = quat_vector_fast(Rat @ Tb[..., :3, :3])
-        phi = np.concatenate([xp, ev], axis=-1)[:, self.cut_mask]
-        if not jac:
-            return phi, None
-        assert z is not None and o is not None
-        rev = self.rev[None, None, :, None]
-        za = z[:, None] * self.anc_a[None, :, :, None]  # (m, nc, n, 3)
-        zb = z[:, None] * self.anc_b[None, :, :, None]
-        dd = self.anc_b - self.anc_a  # only joints on one branch move b relative to a
-        zr = z[:, None] * dd[None, :, :, None]
-        # v_b - v_a - w_a x (p_b - p_a) = z x (p_b - o) (b only) - z x (p_a - o) (a only) - ...
-        # for a joint on both branches the terms cancel; on branch b: z x (p_b - o);
-        # on branch a only: -z x (p_a - o) - z x (p_b - p_a) = -z x (p_b - o).
-        v = np.where(rev, _cross(zr, pb[:, :, None, :] - o[:, None]), zr)
-        w = np.where(rev, zr, 0.0)
-        del za, zb
-        Jp = Rat @ np.swapaxes(v, -1, -2)  # (m, nc, 3, n)
-        Jw = Rat @ np.swapaxes(w, -1, -2)
-        E = 0.5 * (e0[..., None, None] * np.eye(3) - _skew(ev))
-        J = np.concatenate([Jp, E @ Jw], axis=-2)  # (m, nc, 6, n)
-        return phi, J[:, self.cut_mask].reshape(m, -1, self.n)
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
+    def residual(self, kin: Kinematics, T_P: np.ndarray, rotation: str = "euler") -> np.ndarray:
+        """x (m, 6) of {E} relative to {P} (kim1995 Eq. (8)); rotation vector if "log"."""
+        x = relative_residual(T_P, self.end_effector(kin))
+        if rotation == "log":
+            e0 = np.sqrt(np.maximum(1.0 - np.sum(x[:, 3:] ** 2, axis=1), 0.0))
+            x[:, 3:] = rotation_vector(np.concatenate([e0[:, None], x[:, 3:]], axis=1))
+        return x
 
 
 def _lstsq_steps(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -411,11 +274,11 @@ class _Eval:
 
 def evaluate(kern: IkKernel, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, *,
              jac: bool = True, tol_phi: float = TOL_PHI,
-             max_iter: int = MAX_ITER_CLOSURE) -> _Eval:
+             max_iter: int = MAX_ITER_CLOSURE, rotation: str = "euler") -> _Eval:
     r"""Loop closure (kim1995 §5.1), residual x (Eq. (8)) and reduced Jacobian for a batch.
 
     The dependent joints are solved by Newton-Raphson from ``q_w0``
-    (:math:`\Delta q_w = -[\partial\phi_R/\partial q_w]^+\phi_R`); then
+    (:func:`mechkin.model.closure.solve_closure`); then
 
     .. math:: J_r = \frac{\partial x}{\partial q_v} - \frac{\partial x}{\partial q_w}
               \Big[\frac{\partial\phi_R}{\partial q_w}\Big]^+\frac{\partial\phi_R}{\partial q_v}
@@ -426,72 +289,39 @@ def evaluate(kern: IkKernel, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
     ----------
     q_v : (m, n_v); q_w0 : (m, n_w); T_P : (m, 4, 4) precision points.
     """
+    mech = kern.mech
     m = q_v.shape[0]
-    q = np.empty((m, kern.n))
-    q[:, kern.iv] = q_v
-    q[:, kern.iw] = q_w0
-    closed = np.ones(m, dtype=bool)
-    phin = np.zeros(m)
-    iters = np.zeros(m, dtype=int)
     if kern.n_cuts == 0 or kern.iw.size == 0:
-        T = kern.links(q)
+        q = np.empty((m, kern.n))
+        q[:, kern.iv] = q_v
+        q[:, kern.iw] = q_w0
+        kin = kern.kinematics(q)
+        closed = np.ones(m, dtype=bool)
+        zero = np.zeros(m)
+        iters = np.zeros(m, dtype=int)
         if not jac:
-            return _Eval(q, kern.residual(T, T_P), None, closed, phin, iters)
-        z, o = kern.axes(T)
-        x, Jq = kern.residual_jacobian(T, z, o, T_P)
-        return _Eval(q, x, Jq[:, :, kern.iv], closed, phin, iters)
-    # batched Newton-Raphson with a per-row active set
-    act = np.arange(m)
-    T_all = np.empty((m, kern.mech.n_links, 4, 4))
-    z_all = np.empty((m, kern.n, 3))
-    o_all = np.empty((m, kern.n, 3))
-    Phi_all = np.empty((m, 0, kern.n))
-    closed[:] = False
-    prev = np.full(m, np.inf)
-    for it in range(max_iter + 1):
-        T = kern.links(q[act])
-        z, o = kern.axes(T)
-        phi, Phi = kern.closure(T, z, o)
-        assert Phi is not None
-        nphi = np.linalg.norm(phi, axis=1)
-        if it == 0:
-            Phi_all = np.empty((m,) + Phi.shape[1:])
-        T_all[act], z_all[act], o_all[act], Phi_all[act] = T, z, o, Phi
-        phin[act] = nphi
-        done = nphi < tol_phi
-        stall = (it > 0) & (nphi >= prev[act] * 0.999) & (nphi < 1e3 * tol_phi)
-        fin = done | stall | (it == max_iter)
-        closed[act[done | stall]] = True
-        keep = ~fin
-        if not keep.any():
-            break
-        a2 = act[keep]
-        try:
-            dq = _lstsq_steps(Phi[keep][:, :, kern.iw], phi[keep][:, :, None])[:, :, 0]
-        except np.linalg.LinAlgError:
-            dq = np.stack([np.linalg.lstsq(P[:, kern.iw], r, rcond=None)[0]
-                           for P, r in zip(Phi[keep], phi[keep], strict=False)])
-        nd = np.linalg.norm(dq, axis=1, keepdims=True)
-        dq *= np.minimum(1.0, 0.5 / np.maximum(nd, 1e-300))  # trust region (rad | m)
-        prev[a2] = nphi[keep]
-        q[a2[:, None], kern.iw[None, :]] -= dq
-        iters[a2] += 1
-        act = a2
-    closed &= np.isfinite(phin)
-    x, Jq = kern.residual_jacobian(T_all, z_all, o_all, T_P) if jac else (
-        kern.residual(T_all, T_P), None)
+            return _Eval(q, kern.residual(kin, T_P, rotation), None, closed, zero, iters)
+        x, Jq = kern.residual_jacobian(kin, T_P, rotation)
+        return _Eval(q, x, Jq[:, :, kern.iv], closed, zero, iters)
+    res = solve_closure(mech, q_v, q_w0, tol_phi=tol_phi, tol_dq=TOL_DQ_CLOSURE,
+                        max_iter=max_iter)
+    q = res.q
+    closed = res.ok & np.all(np.isfinite(q), axis=1)
+    kin = kern.kinematics(q)
     if not jac:
-        return _Eval(q, x, None, closed, phin, iters)
-    assert Jq is not None
-    Pw = Phi_all[:, :, kern.iw]
-    Pv = Phi_all[:, :, kern.iv]
+        return _Eval(q, kern.residual(kin, T_P, rotation), None, closed, res.residual,
+                     res.iterations)
+    x, Jq = kern.residual_jacobian(kin, T_P, rotation)
+    _, Phi = closure_jacobian(mech, kin)
+    Pw = Phi[:, :, kern.iw]
+    Pv = Phi[:, :, kern.iv]
     try:
         S = _lstsq_steps(Pw, Pv)  # dq_w/dq_v = -S
     except np.linalg.LinAlgError:
         S = np.stack([np.linalg.lstsq(a, b, rcond=None)[0] for a, b in zip(Pw, Pv, strict=False)])
         closed &= False
     Jr = Jq[:, :, kern.iv] - Jq[:, :, kern.iw] @ S  # kim1995 Eq. (10)
-    return _Eval(q, x, Jr, closed, phin, iters, S)
+    return _Eval(q, x, Jr, closed, res.residual, res.iterations, S)
 
 
 # ---- objective and gradient (public, used by the tests) ----------------------------------------
@@ -559,7 +389,7 @@ def _weighted_errors(T_E: np.ndarray, T_P: np.ndarray, w: np.ndarray
 def verify(kern: IkKernel, q: np.ndarray, T_P: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pose of {E} (m, 4, 4) by forward kinematics at q (m, n) and its errors to T_P."""
-    T_E = kern.end_effector(kern.links(q))
+    T_E = kern.end_effector(kern.kinematics(q))
     pe, oe = pose_errors(T_E, T_P)
     return T_E, pe, oe
 
@@ -568,100 +398,106 @@ def verify(kern: IkKernel, q: np.ndarray, T_P: np.ndarray
 
 
 def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
-              w: np.ndarray, opts: IkOptions, history: bool = False):
+              w: np.ndarray, opts: IkOptions, history: bool = False,
+              stop_on_first: bool = False):
     r"""Levenberg-Marquardt on the reduced Jacobian for m targets at once.
 
-    .. math:: (J_r^T W J_r + \lambda\,\mathrm{diag}(J_r^T W J_r + \mu I))\,\delta
-              = -J_r^T W x
+    The residual is kim1995's x (Eq. (8)) with the orientation written as a rotation vector
+    (angle times axis) instead of the vector part of the Euler parameters: both vanish at the
+    same point, but the rotation vector does not flatten out for large errors, so far targets
+    converge in a few steps. With E = 1/2 x^T W x and the damping of Sugihara (2011),
 
-    with projection of q_v onto the limits after each step; a step is accepted when f
-    decreases, and lambda shrinks (x 1/3) or grows (x 4) accordingly.
+    .. math:: (J_r^T W J_r + \lambda I)\,\delta = -J_r^T W x,\qquad
+              \lambda = E + \lambda_0
+
+    and q_v projected onto its limits after each step; a step is kept when E decreases.
+    Rows that have converged leave the working set (vectorized across targets). With
+    ``stop_on_first`` (several starts for one target) the run ends when one row converges.
     """
     m, nv = q_v0.shape
     max_iter = opts.max_iter or MAX_ITER_LM
     lo, hi = kern.bound_lo, kern.bound_hi
     qv = kern.project(q_v0)
-    ev = evaluate(kern, qv, q_w0, T_P, tol_phi=opts.tol_phi)
-    qw = ev.q[:, kern.iw]
+    ev = evaluate(kern, qv, q_w0, T_P, tol_phi=opts.tol_phi, rotation="log")
+    qw = ev.q[:, kern.iw].copy()
     x, J = ev.x, ev.J
     assert J is not None
+    S = ev.S
     f = 0.5 * np.einsum("mi,mi->m", x, w * x)
-    ev_S = ev.S
-    lam = np.full(m, 1e-3)
     iters = np.zeros(m, dtype=int)
     nev = np.ones(m, dtype=int)
     gnorm = np.zeros(m)
     closed_ok = ev.closed.copy()
     done = ~closed_ok
-    stalled = np.zeros(m, dtype=bool)
     hist: list[list[float]] = [[float(v)] for v in f] if history else []
     eye = np.eye(nv)
-    f_abs = 0.5 * min(opts.tol_pos, opts.tol_ori) ** 2 * 1e-6
+    # converged: weighted errors far below the verification tolerances
+    f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
+    lam0 = 1e-4
+    lam = np.full(m, 1e-2)
+    done |= f < f_abs
+    act = np.flatnonzero(~done)
     for _ in range(max_iter):
-        act = np.flatnonzero(~done)
         if act.size == 0:
             break
-        Ja, xa, wa = J[act], x[act], w[act]
+        Ja, xa, wa, qa = J[act], x[act], w[act], qv[act]
         JW = np.swapaxes(Ja, 1, 2) * wa[:, None, :]
-        g = np.einsum("mij,mj->mi", JW, xa)  # kim1995 Eq. (10)
+        g = (JW @ xa[:, :, None])[:, :, 0]
+        # active bounds: a joint on a limit whose gradient pushes outward is frozen
+        blocked = ((qa <= lo + 1e-12) & (g > 0)) | ((qa >= hi - 1e-12) & (g < 0))
+        g = np.where(blocked, 0.0, g)
         gnorm[act] = np.linalg.norm(g, axis=1)
-        # projected gradient: components pushing out of an active bound do not count
-        qa = qv[act]
-        at_lo = (qa <= lo + 1e-12) & (g > 0)
-        at_hi = (qa >= hi - 1e-12) & (g < 0)
-        gp = np.where(at_lo | at_hi, 0.0, g)
-        fin = (np.linalg.norm(gp, axis=1) < opts.grad_tol) | (f[act] < f_abs)
-        if fin.any():
-            done[act[fin]] = True
-            act, Ja, JW, g, qa, at_lo, at_hi = (act[~fin], Ja[~fin], JW[~fin], g[~fin],
-                                                qa[~fin], at_lo[~fin], at_hi[~fin])
-            if act.size == 0:
-                break
         H = JW @ Ja
-        free = ~(at_lo | at_hi)
-        # active bounds: freeze those joints (their rows/columns drop out of the step)
-        H = H * (free[:, :, None] & free[:, None, :]) + eye * (~free)[:, :, None]
-        g = np.where(free, g, 0.0)
-        dg = np.einsum("mii->mi", H)
-        A = H + lam[act, None, None] * (dg[:, :, None] * eye + 1e-9 * eye)
+        if blocked.any():
+            free = ~blocked
+            H = H * (free[:, :, None] & free[:, None, :]) + eye * blocked[:, :, None]
+        if LM_DAMPING == "sugihara":
+            A = H + (f[act] + lam0)[:, None, None] * eye
+        else:
+            dg = np.einsum("mii->mi", H)
+            A = H + lam[act, None, None] * (dg[:, :, None] * eye + 1e-9 * eye)
         try:
             step = -np.linalg.solve(A, g[:, :, None])[:, :, 0]
         except np.linalg.LinAlgError:
-            step = -np.stack([np.linalg.lstsq(a, b, rcond=None)[0] for a, b in zip(A, g, strict=False)])
+            step = -np.stack([np.linalg.lstsq(a, b, rcond=None)[0]
+                              for a, b in zip(A, g, strict=False)])
         qn = kern.project(qa + step)
         qw_pred = qw[act]
-        if ev_S is not None:  # first-order predictor of the dependent joints
-            qw_pred = qw_pred - np.einsum("mij,mj->mi", ev_S[act], qn - qa)
-        evn = evaluate(kern, qn, qw_pred, T_P[act], tol_phi=opts.tol_phi)
+        if S is not None:  # first-order predictor of the dependent joints
+            qw_pred = qw_pred - np.einsum("mij,mj->mi", S[act], qn - qa)
+        evn = evaluate(kern, qn, qw_pred, T_P[act], tol_phi=opts.tol_phi, rotation="log")
         assert evn.J is not None
-        fn = 0.5 * np.einsum("mi,mi->m", evn.x, w[act] * evn.x)
+        fn = 0.5 * np.einsum("mi,mi->m", evn.x, wa * evn.x)
         nev[act] += 1
         iters[act] += 1
         good = evn.closed & (fn < f[act])
-        ga, ba = act[good], act[~good]
+        ga = act[good]
         qv[ga] = qn[good]
         qw[ga] = evn.q[good][:, kern.iw]
         x[ga], J[ga] = evn.x[good], evn.J[good]
-        if ev_S is not None and evn.S is not None:
-            ev_S[ga] = evn.S[good]
-        small = (f[ga] - fn[good]) <= 1e-15 * np.maximum(f[ga], 1e-300)
+        if S is not None and evn.S is not None:
+            S[ga] = evn.S[good]
+        gain = f[ga] - fn[good]
         f[ga] = fn[good]
-        lam[ga] = np.maximum(lam[ga] / 3.0, 1e-9)
-        lam[ba] *= 4.0
-        # no progress possible: tiny steps rejected, or lambda huge
-        stuck = (lam[ba] > 1e10) | (np.linalg.norm(step[~good], axis=1) < 1e-14)
-        done[ba[stuck]] = True
-        stalled[ba[stuck]] = True
-        done[ga[small]] = True
+        lam[ga] = np.maximum(lam[ga] / 10.0, 1e-12)
+        lam[act[~good]] *= 4.0
+        # finished: converged, no measurable progress, or a rejected step that is already tiny
+        fin = np.zeros(act.size, dtype=bool)
+        fin[good] = (fn[good] < f_abs) | (gain <= 1e-14 * np.maximum(fn[good], 1e-300))
+        fin[~good] = (np.linalg.norm(qn[~good] - qa[~good], axis=1) < 1e-13) | (
+            lam[act[~good]] > 1e10)
         if history:
-            for _k, a in enumerate(act):
+            for a in act:
                 hist[a].append(float(f[a]))
+        done[act[fin]] = True
+        act = act[~fin]
+        if stop_on_first and np.any(f < f_abs):
+            break
     q = np.empty((m, kern.n))
     q[:, kern.iv] = qv
     q[:, kern.iw] = qw
-    converged = done  # stationary (gradient ~ 0) or no descent possible (stalled)
     return dict(q=q, qv=qv, qw=qw, f=f, iters=iters, nev=nev, gnorm=gnorm,
-                closed=closed_ok, converged=converged, hist=hist, lam=lam)
+                closed=closed_ok, converged=done, hist=hist)
 
 
 # ---- conjugate gradient + golden section (kim1995 §5.2) -------------------------------------------
@@ -807,7 +643,7 @@ def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float,
 
 def _status(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, closed: bool,
             converged: bool, opts: IkOptions, grad_norm: float = 0.0) -> tuple[IkStatus, float, float, tuple[str, ...]]:
-    T_E = kern.end_effector(kern.links(q[None]))
+    T_E = kern.end_effector(kern.kinematics(q[None]))
     pe, oe = pose_errors(T_E, T_P[None])
     wpe, woe = _weighted_errors(T_E, T_P[None], w[None])
     mech = kern.mech
@@ -878,29 +714,39 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     rng: np.random.Generator | None = None
     best: IkResult | None = None
     tot_it = tot_ev = 0
-    for attempt in range(opts.restarts + 1):
-        if attempt > 0:
-            rng = rng or np.random.default_rng(opts.seed)
-            lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
-            hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
-            start_v = rng.uniform(lo, hi)
-            start_w = qw0 if best is None else best.q_w
+    lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+    hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+    attempt = 0
+    while attempt <= opts.restarts:
+        if attempt == 0:
+            starts_v, start_w = qv0[None], qw0
         else:
-            start_v, start_w = qv0, qw0
+            rng = rng or np.random.default_rng(opts.seed)
+            # lm: every remaining restart at once, as rows of one batch that stops at the
+            # first success; cg-golden: one at a time (kim1995 §5.2 is sequential)
+            k = opts.restarts if opts.method == "lm" else 1
+            starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
+            start_w = qw0 if best is None else best.q_w
         if opts.method == "cg-golden":
-            r = _cg_golden(kern, start_v, start_w, T_P, w, opts)
+            r = _cg_golden(kern, starts_v[0], start_w, T_P, w, opts)
             hist = np.asarray(r["hist"], dtype=float)
             qv, qw = r["qv"], r["qw"]
             f, iters, nev, gn = r["f"], r["iters"], r["nev"], r["gnorm"]
             closed, conv = r["closed"], r["converged"]
+            attempt += 1
         elif opts.method == "lm":
-            r = _lm_batch(kern, start_v[None], start_w[None], T_P[None], w[None], opts,
-                          history=True)
-            hist = np.asarray(r["hist"][0], dtype=float)
-            qv, qw = r["qv"][0], r["qw"][0]
-            f, iters, nev, gn = (float(r["f"][0]), int(r["iters"][0]), int(r["nev"][0]),
-                                 float(r["gnorm"][0]))
-            closed, conv = bool(r["closed"][0]), bool(r["converged"][0])
+            k = starts_v.shape[0]
+            r = _lm_batch(kern, starts_v, np.broadcast_to(start_w, (k, kern.iw.size)),
+                          np.broadcast_to(T_P, (k, 4, 4)), np.broadcast_to(w, (k, 6)), opts,
+                          history=True, stop_on_first=k > 1)
+            fr = np.where(r["closed"], r["f"], np.inf)
+            b = int(np.argmin(fr)) if np.isfinite(fr).any() else 0
+            hist = np.asarray(r["hist"][b], dtype=float)
+            qv, qw = r["qv"][b], r["qw"][b]
+            f, iters, nev, gn = (float(r["f"][b]), int(r["iters"].max()),
+                                 int(r["nev"].sum()), float(r["gnorm"][b]))
+            closed, conv = bool(r["closed"][b]), bool(r["converged"][b])
+            attempt += k
         else:
             raise ValueError(f"method: expected 'lm' or 'cg-golden', got {opts.method!r}")
         tot_it += int(iters)
@@ -915,7 +761,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
                        grad_norm=float(gn) if np.isfinite(gn) else 0.0, iterations=tot_it,
                        evaluations=tot_ev, time_s=0.0,
                        f_history=_finite(hist, np.full_like(hist, f_fin)), at_limit=at,
-                       restarts_used=attempt, method=opts.method)
+                       restarts_used=attempt - 1, method=opts.method)
         if best is None or _better(res, best):
             best = res
         if best.status is IkStatus.OK:
@@ -1001,7 +847,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     conv, closed = r["converged"], r["closed"]
 
     def check(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray:
-        T_E = kern.end_effector(kern.links(qq))
+        T_E = kern.end_effector(kern.kinematics(qq))
         pe, oe = _weighted_errors(T_E, TT, ww)
         return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
 
@@ -1021,7 +867,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         q[sel], f[sel] = r2["q"][better], r2["f"][better]
         conv[sel], closed[sel] = r2["converged"][better], r2["closed"][better]
         ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
-    T_E = kern.end_effector(kern.links(q))
+    T_E = kern.end_effector(kern.kinematics(q))
     pe, oe = pose_errors(T_E, T_P)
     status = np.empty(m, dtype=object)
     for i in range(m):

@@ -568,6 +568,8 @@ def lee_workspace(
             "volume_fraction": float(gr.n_in.sum() / (gr.gamma_grid.size * gr.n_in.size)),
             "defined_fraction": float(d.mean()),
             "split_fraction": float(np.mean(gr.n_runs > 1)),
+            "csv_rows": int(d.sum()),
+            "rows_without_workspace": int((~d).sum()),
         }
         if d.any():
             entry["gamma_min_deg"] = {
@@ -583,21 +585,36 @@ def lee_workspace(
 
 
 def run_lee_workspace(
-    *, out_dir: str | Path, plots: bool = True, csv: bool = True, **params: Any
+    *,
+    out_dir: str | Path,
+    plots: bool = True,
+    csv: bool = True,
+    extra_summary: Mapping[str, Any] | Callable[[dict[str, Any]], Mapping[str, Any]] | None = None,
+    **params: Any,
 ) -> LeeWorkspaceRecord:
     """:func:`lee_workspace` then write its PNGs, CSV grids and summary.json to ``out_dir``.
 
     A convenience for wiring ``mechkin workspace SCENARIO.yaml``: ``params`` are the keyword
     arguments of :func:`lee_workspace`. Files are staged and moved into ``out_dir`` only when
-    all of them were written (:class:`mechkin.io.atomic.OutputDir`).
+    all of them were written (:class:`mechkin.io.atomic.OutputDir`); summary.json is written
+    once.
+
+    Parameters
+    ----------
+    extra_summary : mapping or callable, optional
+        Entries merged into summary.json (e.g. the scenario name and the ``expect`` results).
+        A callable receives the computed summary and returns the entries, so checks can be
+        evaluated on the values before anything is written.
 
     Returns
     -------
     LeeWorkspaceRecord
-        With ``files`` set to the names written.
+        With ``files`` set to the names written and ``summary`` as written (without
+        ``files``).
     """
     from mechkin.io.workspace_plots import write_lee_workspace
 
     record = lee_workspace(**params)
-    files = write_lee_workspace(record, out_dir, plots=plots, csv=csv)
-    return replace(record, files=tuple(files))
+    extra = extra_summary(dict(record.summary)) if callable(extra_summary) else extra_summary
+    files = write_lee_workspace(record, out_dir, plots=plots, csv=csv, extra_summary=extra)
+    return replace(record, summary={**record.summary, **(extra or {})}, files=tuple(files))

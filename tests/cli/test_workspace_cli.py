@@ -183,3 +183,183 @@ def test_stewart_joint_sweep_closed_chain(tmp_path):
         rows = list(csv.DictReader(fh))
     assert len(rows) == 64  # unreachable samples are marked, not dropped
     _no_nan_in_csvs(out)
+
+
+# --------------------------------------------------------------------------- design sweeps
+
+
+def _design_copy(tmp_path: Path, **ws_extra) -> Path:
+    """The bundled r design sweep on small grids."""
+    d = yaml.safe_load((SCEN / "lee_design_sweep_r.yaml").read_text())
+    d["mechanism"] = str((SCEN / d["mechanism"]).resolve())
+    ws = d["workspace"]
+    ws["alpha"]["n"] = ws["beta"]["n"] = 9
+    ws["gamma_range"].update(n=25, n_alpha=7, n_beta=7)
+    ws.update(ws_extra)
+    p = tmp_path / "design.yaml"
+    p.write_text(yaml.safe_dump(d, sort_keys=False))
+    return p
+
+
+def test_design_sweep_side_by_side_and_table(tmp_path):
+    out = tmp_path / "o"
+    res = _run(_design_copy(tmp_path), out, "--workers", "1")
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert s["design"]["parameter"] == "r" and s["design"]["values"] == [0.25, 0.5, 0.75]
+    assert [v["r"] for v in s["design"]["per_value"]] == [0.25, 0.5, 0.75]
+    assert s["design_source"]["r"] == "design"
+    assert s["expect"] and all(c["ok"] for c in s["expect"])
+    for f in s["files"]:
+        assert (out / f).is_file(), f
+    for name in ("design_sigma_ki_text.png", "design_sigma_ki_captions.png",
+                 "design_gamma_range.png"):
+        assert (out / name).stat().st_size > 20_000
+    assert (out / "r_0.25" / "sigma_ki_text.csv").is_file()
+    with (out / "design_comparison.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 3 * 6  # 3 values x (3 + 3) gammas
+    assert rows[0]["r"] == "0.25" and rows[0]["gamma_set"] == "text"
+    assert abs(float(rows[0]["sigma_ki_at_origin"]) - 0.483690) <= 5e-7
+    assert len(s["comparison"]) == 18
+    _no_nan_in_csvs(out)
+
+
+def test_design_sweep_workers_1_and_2_identical(tmp_path):
+    p = _design_copy(tmp_path)
+    o1, o2 = tmp_path / "o1", tmp_path / "o2"
+    assert _run(p, o1, "--no-plots", "--workers", "1").exit_code == 0
+    assert _run(p, o2, "--no-plots", "--workers", "2").exit_code == 0
+    for f in sorted(o1.rglob("*.csv")):
+        assert f.read_bytes() == (o2 / f.relative_to(o1)).read_bytes(), f
+    s1, s2 = (json.loads((o / "summary.json").read_text()) for o in (o1, o2))
+    assert s1["design"] == s2["design"] and s1["comparison"] == s2["comparison"]
+    assert s2["execution"] == {"executor": "process", "workers": 2, "jobs": 3}
+
+
+def test_progress_bar_never_touches_stdout(tmp_path):
+    res = _run(_design_copy(tmp_path, workers=1), tmp_path / "o", "--no-plots", "--json",
+               "--progress")
+    assert res.exit_code == 0
+    s = json.loads(res.stdout)  # stdout is exactly the JSON summary
+    assert s["design"]["values"] == [0.25, 0.5, 0.75]
+    assert "r sweep" in res.stderr and "3/3" in res.stderr
+    quiet = _run(_design_copy(tmp_path, workers=1), tmp_path / "o2", "--no-plots",
+                 "--no-progress")
+    assert quiet.exit_code == 0 and quiet.stderr == ""
+    assert quiet.stdout.startswith("lee_design_sweep_r: ok (volume fractions r = 0.25")
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")
+@pytest.mark.filterwarnings("ignore::ResourceWarning")
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_design_sweep_on_dask_scheduler_option(tmp_path):
+    pytest.importorskip("dask")
+    distributed = pytest.importorskip("distributed")
+    p = _design_copy(tmp_path)
+    ref = tmp_path / "ref"
+    assert _run(p, ref, "--no-plots", "--workers", "1").exit_code == 0
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        out = tmp_path / "o"
+        res = _run(p, out, "--no-plots", "--scheduler", cluster.scheduler_address)
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert s["execution"]["executor"] == "dask"
+    assert (out / "design_comparison.csv").read_bytes() == \
+        (ref / "design_comparison.csv").read_bytes()
+
+
+BAD_DESIGN = {
+    "unknown parameter": ("{parameter: d, values: [1]}", r"workspace\.design\.parameter"),
+    "repeated values": ("{parameter: r, values: [0.5, 0.5]}", r"workspace\.design"),
+    "l_min above stroke": ("{parameter: l_min, values: [3.0]}", r"workspace\.design\.values"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_DESIGN))
+def test_bad_design_exit_2(tmp_path, case):
+    import re
+
+    value, pattern = BAD_DESIGN[case]
+    mech = (ROOT / "mechanisms" / "lee_spherical_rrps.yaml").resolve()
+    p = tmp_path / "bad.yaml"
+    p.write_text(f"name: bad\ntask: workspace\nmechanism: {mech}\nunits: {{angle: deg}}\n"
+                 "workspace:\n  kind: lee_spherical\n  isotropy_maps: {text: [20]}\n"
+                 f"  alpha: {{range: [-10, 10], n: 3}}\n  design: {value}\n")
+    res = _run(p, tmp_path / "o")
+    assert res.exit_code == 2, res.output
+    assert re.search(pattern, res.output), res.output
+    assert not (tmp_path / "o").exists()
+
+
+# --------------------------------------------------------------------------- task space
+
+
+def _reach_copy(tmp_path: Path, n: int = 4) -> Path:
+    d = yaml.safe_load((SCEN / "puma560_reachability.yaml").read_text())
+    d["mechanism"] = str((SCEN / d["mechanism"]).resolve())
+    ws = d["workspace"]
+    ws["positions"]["x"]["n"] = ws["positions"]["y"]["n"] = n
+    ws["chunk"] = 8
+    d["expect"] = [e for e in d["expect"] if e["key"] != "n_poses"]
+    p = tmp_path / "reach.yaml"
+    p.write_text(yaml.safe_dump(d, sort_keys=False))
+    return p
+
+
+def test_puma_task_space_sweep(tmp_path):
+    out = tmp_path / "o"
+    res = _run(_reach_copy(tmp_path), out, "--workers", "1")
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert s["kind"] == "task_space" and s["n_poses"] == 16
+    assert 0 < s["n_reachable"] < 16 and sum(s["status_counts"].values()) == 16
+    assert s["max_position_error_m"] <= 1e-6
+    assert 0 < s["isotropy"]["min"] <= s["isotropy"]["max"] <= 1
+    assert s["condition_number"]["min"] >= 1 and s["manipulability"]["min"] > 0
+    with (out / "task_points.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 16  # unreached poses are marked, not dropped
+    assert {r["reachable"] for r in rows} == {"True", "False"} or \
+        {r["reachable"] for r in rows} == {"1", "0"}
+    assert all(abs(float(r["z_m"]) - 0.2) < 1e-12 for r in rows)
+    assert (out / "task_space.png").stat().st_size > 10_000
+    _no_nan_in_csvs(out)
+    out2 = tmp_path / "o2"
+    assert _run(_reach_copy(tmp_path), out2, "--workers", "2", "--no-plots").exit_code == 0
+    assert (out / "task_points.csv").read_bytes() == (out2 / "task_points.csv").read_bytes()
+
+
+def test_task_space_monte_carlo_random_orientation(tmp_path):
+    mech = (ROOT / "mechanisms" / "puma560.yaml").resolve()
+    p = tmp_path / "mc.yaml"
+    p.write_text(f"name: mc\ntask: workspace\nmechanism: {mech}\nunits: {{angle: deg}}\n"
+                 "workspace:\n  kind: task_space\n  method: monte_carlo\n  samples: 6\n"
+                 "  seed: 4\n  restarts: 2\n  orientation: {random: true}\n"
+                 "  positions: {x: {range: [0.3, 0.5]}, y: {range: [-0.2, 0.2]}, "
+                 "z: {value: 0.1}}\n")
+    out = tmp_path / "o"
+    res = _run(p, out, "--no-plots", "--workers", "1")
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert s["n_poses"] == 6 and s["seed"] == 4
+
+
+@pytest.mark.parametrize("extra, pattern", [
+    ("  method: grid\n  positions: {x: {value: 0}, y: {value: 0}}\n", r"workspace: positions"),
+    ("  method: grid\n  positions: {x: {range: [0, 1]}, y: {value: 0}, z: {value: 0}}\n",
+     r"needs n for x"),
+    ("  method: grid\n  joints: {q1: {n: 2}}\n  positions: {x: {value: 0}, y: {value: 0}, "
+     "z: {value: 0}}\n", r"joints: not used by kind task_space"),
+])
+def test_bad_task_space_exit_2(tmp_path, extra, pattern):
+    import re
+
+    mech = (ROOT / "mechanisms" / "puma560.yaml").resolve()
+    p = tmp_path / "bad.yaml"
+    p.write_text(f"name: bad\ntask: workspace\nmechanism: {mech}\n"
+                 "workspace:\n  kind: task_space\n" + extra)
+    res = _run(p, tmp_path / "o")
+    assert res.exit_code == 2, res.output
+    assert re.search(pattern, res.output), res.output

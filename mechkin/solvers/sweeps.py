@@ -1,0 +1,511 @@
+r"""Sweeps: design sweeps of lee's mechanism, task-space reachability/dexterity, job execution.
+
+Three pieces, all independent of the CLI:
+
+* :func:`run_jobs` runs a list of independent jobs (a picklable top-level function and one
+  argument per job) in order, sequentially (``workers=1``), on local processes
+  (:class:`concurrent.futures.ProcessPoolExecutor`) or on a Dask cluster (``address`` of a
+  scheduler; needs the optional extra ``mechkin[dask]``). Results come back in job order and a
+  job never depends on how many workers there are, so every executor gives identical results.
+  A ``progress(done, total)`` callback reports completed jobs (the CLI draws a bar from it).
+* :func:`lee_design_sweep`: :func:`mechkin.solvers.workspace.lee_workspace` once per value of a
+  design parameter (``r``, ``R``, ``l_min``, ``l_max``), one job per value, and a comparison
+  table (:func:`design_comparison`).
+* :func:`task_space_sweep`: task-space poses of a frame through the batched Levenberg-Marquardt
+  inverse kinematics (:func:`mechkin.solvers.ik_optimize.solve_ik_batch`), chunks of poses as
+  jobs, and at every solution the dexterity of the frame Jacobian ``J`` (rows omega, v; SI) with
+  respect to the independent joints (closed chains: ``J_v + J_w dq_w/dq_v``, kim1995 Eq. (10)):
+
+  - isotropy ``sigma_min / sigma_max`` (the inverse condition number; 0 at singular poses),
+    of the full Jacobian and of its position rows,
+  - condition number ``sigma_max / sigma_min``, capped at :data:`COND_CAP` (never inf),
+  - Yoshikawa's manipulability ``w = sqrt(det(J J^T)) = prod sigma_i``.
+
+  A pose is **reachable** when the solver reaches it (status ok: verified position and
+  orientation errors below the tolerances, joints within their limits). With seeded random
+  restarts this is a lower bound of the true reachable set: a reachable pose the solver misses
+  is reported unreachable, never the opposite. Dexterity is 0 at poses not reached.
+
+References
+----------
+lee_spherical_3dof_parallel §3.2, Eq. (21); kim1995_complex_chain_ik Eq. (7)-(10);
+Yoshikawa (1985), Manipulability of robotic mechanisms, IJRR 4(2).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+
+from mechkin.solvers.workspace import LeeWorkspaceRecord, lee_workspace, sigma_statistics
+
+__all__ = [
+    "COND_CAP",
+    "DESIGN_PARAMETERS",
+    "DesignSweepRecord",
+    "ProgressCallback",
+    "TaskSpaceRecord",
+    "default_workers",
+    "design_comparison",
+    "dexterity",
+    "lee_design_sweep",
+    "run_jobs",
+    "task_space_grid",
+    "task_space_random",
+    "task_space_summary",
+    "task_space_sweep",
+]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+ProgressCallback = Callable[[int, int], None]
+"""``progress(done, total)``: called once with ``done = 0`` and after every completed job."""
+
+DESIGN_PARAMETERS = ("r", "R", "l_min", "l_max")
+"""Design parameters of lee's mechanism a sweep may vary (lengths, SI)."""
+
+COND_CAP = 1e16
+"""Condition numbers above this (numerically singular Jacobians) are reported as this value."""
+
+
+# --------------------------------------------------------------------------- execution
+
+
+def default_workers(n_jobs: int) -> int:
+    """min(cpu count, number of jobs), at least 1."""
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(cpus or 1, n_jobs))
+
+
+def _mp_context() -> multiprocessing.context.BaseContext:
+    """forkserver on POSIX (no fork of a threaded parent, e.g. a progress-bar thread), else
+    spawn; the server preloads this module so workers start without re-importing numpy."""
+    if sys.platform != "win32" and "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["mechkin.solvers.sweeps"])
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
+def run_jobs(
+    fn: Callable[[T], R],
+    jobs: Sequence[T],
+    *,
+    workers: int | None = None,
+    address: str | None = None,
+    progress: ProgressCallback | None = None,
+) -> list[R]:
+    """Run ``fn(job)`` for every job and return the results in job order.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level (picklable) function.
+    jobs : sequence
+        One picklable argument per job.
+    workers : int, optional
+        Local processes (default :func:`default_workers`); 1 runs in this process. Ignored
+        when ``address`` is given.
+    address : str, optional
+        Address of a Dask scheduler (``tcp://host:port``): the jobs run on that cluster
+        (``pip install mechkin[dask]``).
+    progress : callable, optional
+        ``progress(done, total)``.
+
+    Returns
+    -------
+    list
+        ``[fn(job) for job in jobs]``, whatever the executor.
+
+    Raises
+    ------
+    ImportError
+        ``address`` given but dask.distributed is not installed.
+    """
+    total = len(jobs)
+    if progress is not None:
+        progress(0, total)
+    if total == 0:
+        return []
+    if address is not None:
+        return _run_dask(fn, jobs, address, progress)
+    n = default_workers(total) if workers is None else max(1, min(int(workers), total))
+    if n == 1:
+        out: list[R] = []
+        for i, job in enumerate(jobs):
+            out.append(fn(job))
+            if progress is not None:
+                progress(i + 1, total)
+        return out
+    results: list[Any] = [None] * total
+    with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context()) as pool:
+        futures: dict[Future[R], int] = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
+        _collect(as_completed(futures), futures, results, total, progress)
+    return results
+
+
+def _collect(done_iter: Iterable[Any], index: Mapping[Any, int], results: list[Any], total: int,
+             progress: ProgressCallback | None) -> None:
+    for k, fut in enumerate(done_iter, start=1):
+        results[index[fut]] = fut.result()
+        if progress is not None:
+            progress(k, total)
+
+
+def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
+              progress: ProgressCallback | None) -> list[R]:
+    try:
+        from distributed import Client, as_completed as dask_as_completed
+    except ImportError as exc:  # pragma: no cover - depends on the optional extra
+        raise ImportError("running on a Dask cluster needs the optional extra: "
+                          "pip install 'mechkin[dask]'") from exc
+    results: list[Any] = [None] * len(jobs)
+    with Client(address) as client:
+        futures = [client.submit(fn, job, pure=False) for job in jobs]
+        index = {f.key: i for i, f in enumerate(futures)}
+        for k, fut in enumerate(dask_as_completed(futures), start=1):
+            results[index[fut.key]] = fut.result()
+            if progress is not None:
+                progress(k, len(jobs))
+    return results
+
+
+# --------------------------------------------------------------------------- lee design sweeps
+
+
+@dataclass(frozen=True)
+class DesignSweepRecord:
+    """One lee workspace record per value of a design parameter.
+
+    Attributes
+    ----------
+    parameter : str
+        ``r``, ``R``, ``l_min`` or ``l_max``.
+    values : tuple of float
+        The values swept (SI).
+    records : tuple of LeeWorkspaceRecord
+        ``records[i]`` computed with ``parameter = values[i]``.
+    comparison : list of dict
+        :func:`design_comparison` of the records (JSON-ready).
+    """
+
+    parameter: str
+    values: tuple[float, ...]
+    records: tuple[LeeWorkspaceRecord, ...]
+    comparison: list[dict[str, Any]]
+
+
+def _lee_job(params: dict[str, Any]) -> LeeWorkspaceRecord:
+    """One design value: :func:`lee_workspace` (module level, so it pickles)."""
+    return lee_workspace(**params)
+
+
+def _with_value(base: Mapping[str, Any], parameter: str, value: float) -> dict[str, Any]:
+    p = dict(base)
+    if parameter in ("r", "R"):
+        p[parameter] = float(value)
+    elif parameter in ("l_min", "l_max"):
+        lo, hi = p.get("stroke", (0.5, 2.0))
+        p["stroke"] = (float(value), float(hi)) if parameter == "l_min" else (float(lo),
+                                                                               float(value))
+        if not p["stroke"][0] < p["stroke"][1]:
+            raise ValueError(f"{parameter} = {value}: expected l_min < l_max, got stroke "
+                             f"{p['stroke']}")
+    else:
+        raise ValueError(f"parameter: expected one of {', '.join(DESIGN_PARAMETERS)}, got "
+                         f"{parameter!r}")
+    return p
+
+
+def lee_design_sweep(
+    parameter: str,
+    values: Sequence[float],
+    *,
+    workers: int | None = None,
+    address: str | None = None,
+    progress: ProgressCallback | None = None,
+    **params: Any,
+) -> DesignSweepRecord:
+    """:func:`mechkin.solvers.workspace.lee_workspace` for every value of one design parameter.
+
+    Parameters
+    ----------
+    parameter : {"r", "R", "l_min", "l_max"}
+        The design parameter varied (lee §3.2 varies r: Figs. 3-5).
+    values : sequence of float
+        Its values (SI); one job each.
+    workers, address, progress
+        See :func:`run_jobs`.
+    **params
+        The other keyword arguments of :func:`lee_workspace` (``r`` is required unless it is the
+        swept parameter).
+
+    Returns
+    -------
+    DesignSweepRecord
+    """
+    vals = tuple(float(v) for v in values)
+    if not vals:
+        raise ValueError("values: expected at least one value")
+    base = dict(params)
+    base.setdefault("r", vals[0])
+    jobs = [_with_value(base, parameter, v) for v in vals]
+    recs = run_jobs(_lee_job, jobs, workers=workers, address=address, progress=progress)
+    return DesignSweepRecord(parameter, vals, tuple(recs), design_comparison(parameter, vals,
+                                                                             recs))
+
+
+def design_comparison(parameter: str, values: Sequence[float],
+                      records: Sequence[LeeWorkspaceRecord]) -> list[dict[str, Any]]:
+    """Comparison table of a design sweep: one row per (value, gamma set, gamma).
+
+    Columns: the parameter value, gamma set, gamma [deg], the set's volume fraction, the area
+    fraction at that gamma, sigma_KI at alpha = beta = 0, and the sigma_KI statistics (mean,
+    median, min, max, count) over the in-workspace poses of that gamma. Values without maps
+    (only a gamma range) give one row with the gamma-range volume and defined fractions.
+    """
+    rows: list[dict[str, Any]] = []
+    for v, rec in zip(values, records, strict=True):
+        s = rec.summary
+        gr = s.get("gamma_range", {})
+        gr_cols = {
+            "gamma_range_volume_fraction": gr.get("volume_fraction"),
+            "gamma_range_defined_fraction": gr.get("defined_fraction"),
+        }
+        sets = s.get("isotropy", {})
+        if not sets:
+            rows.append({parameter: float(v), "gamma_set": "", **gr_cols})
+            continue
+        for name, e in sets.items():
+            for pg in e["per_gamma"]:
+                st = pg["sigma_ki_in_workspace"]
+                rows.append({
+                    parameter: float(v),
+                    "gamma_set": name,
+                    "gamma_deg": pg["gamma_deg"],
+                    "volume_fraction": e["volume_fraction"],
+                    "area_fraction": pg["area_fraction"],
+                    "sigma_ki_at_origin": pg["sigma_ki_at_origin"],
+                    "sigma_ki_mean": st.get("mean", 0.0),
+                    "sigma_ki_median": st.get("median", 0.0),
+                    "sigma_ki_min": st.get("min", 0.0),
+                    "sigma_ki_max": st.get("max", 0.0),
+                    "sigma_ki_count": st["count"],
+                    **gr_cols,
+                })
+    return rows
+
+
+# --------------------------------------------------------------------------- task-space sweeps
+
+
+def task_space_grid(axes: Sequence[np.ndarray], R0: np.ndarray) -> np.ndarray:
+    """Poses (m, 4, 4) on the grid ``axes`` = (x, y, z) values [m] (C order: z fastest),
+    all with the rotation ``R0`` (3, 3)."""
+    X, Y, Z = np.meshgrid(*[np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in axes],
+                          indexing="ij")
+    T = np.tile(np.eye(4), (X.size, 1, 1))
+    T[:, :3, :3] = R0
+    T[:, 0, 3], T[:, 1, 3], T[:, 2, 3] = X.ravel(), Y.ravel(), Z.ravel()
+    return T
+
+
+def task_space_random(box: Sequence[tuple[float, float]], samples: int, seed: int,
+                      R0: np.ndarray | None) -> np.ndarray:
+    """Seeded random poses (samples, 4, 4): positions uniform in ``box`` ((lo, hi) per axis,
+    lo == hi for a fixed coordinate) and rotation ``R0``, or uniform random rotations (Shoemake
+    quaternions) when ``R0`` is None."""
+    from mechkin.spatial.rotations import matrix_from_quat
+
+    rng = np.random.default_rng(seed)
+    T = np.tile(np.eye(4), (samples, 1, 1))
+    for k, (lo, hi) in enumerate(box):
+        T[:, k, 3] = rng.uniform(lo, hi, size=samples) if hi > lo else lo
+    if R0 is None:
+        u1, u2, u3 = rng.random((3, samples))
+        a, b = np.sqrt(1.0 - u1), np.sqrt(u1)
+        quat = np.column_stack([a * np.sin(2 * np.pi * u2), a * np.cos(2 * np.pi * u2),
+                                b * np.sin(2 * np.pi * u3), b * np.cos(2 * np.pi * u3)])
+        T[:, :3, :3] = matrix_from_quat(quat)
+    else:
+        T[:, :3, :3] = R0
+    return T
+
+
+@dataclass(frozen=True)
+class TaskSpaceRecord:
+    """Reachability and dexterity of ``m`` task-space poses (rows follow the input poses).
+
+    Attributes
+    ----------
+    T_P : ndarray, shape (m, 4, 4)
+        Target poses.
+    q_v : ndarray, shape (m, n_v)
+        Independent joints at the solutions (best attempt where not reached).
+    status : ndarray of str, shape (m,)
+        :class:`mechkin.solvers.ik_optimize.IkStatus` values.
+    reachable : ndarray of bool, shape (m,)
+        Status ok.
+    position_error, orientation_error : ndarray, shape (m,)
+        Verified by forward kinematics [m], [rad].
+    iterations : ndarray of int, shape (m,)
+    isotropy, isotropy_position, condition_number, manipulability : ndarray, shape (m,)
+        Dexterity at the solutions (see the module docstring); 0 (condition number: 0 too)
+        where not reachable.
+    """
+
+    T_P: np.ndarray
+    q_v: np.ndarray
+    status: np.ndarray
+    reachable: np.ndarray
+    position_error: np.ndarray
+    orientation_error: np.ndarray
+    iterations: np.ndarray
+    isotropy: np.ndarray
+    isotropy_position: np.ndarray
+    condition_number: np.ndarray
+    manipulability: np.ndarray
+
+
+def dexterity(J: np.ndarray) -> dict[str, np.ndarray]:
+    """Isotropy, position-row isotropy, condition number (capped) and Yoshikawa manipulability
+    of a batch of Jacobians ``J`` (m, 6, n_v), rows (omega, v); finite everywhere."""
+    J = np.where(np.isfinite(J), J, 0.0)
+    s = np.linalg.svd(J, compute_uv=False)
+    sp = np.linalg.svd(J[:, 3:6, :], compute_uv=False)
+    smax, smin = s[:, 0], s[:, -1]
+    iso = np.where(smax > 0, smin / np.maximum(smax, 1e-300), 0.0)
+    iso_p = np.where(sp[:, 0] > 0, sp[:, -1] / np.maximum(sp[:, 0], 1e-300), 0.0)
+    cond = np.where(iso > 1.0 / COND_CAP, 1.0 / np.maximum(iso, 1e-300), COND_CAP)
+    return {"isotropy": iso, "isotropy_position": iso_p, "condition_number": cond,
+            "manipulability": np.prod(s, axis=1)}
+
+
+def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
+    """One chunk of task-space poses: batched lm, then the Jacobian at the solutions."""
+    from mechkin.model import load_mechanism
+    from mechkin.model.closure import dependent_sensitivity
+    from mechkin.model.kinematics import forward_kinematics, frame_jacobian
+    from mechkin.solvers.ik_optimize import IkOptions, solve_ik_batch
+
+    mech = load_mechanism(job["mechanism"])
+    f = job["frame"]
+    opts = IkOptions(restarts=job["restarts"], seed=job["seed"], max_iter=job["max_iter"],
+                     tol_pos=job["tol_pos"], tol_ori=job["tol_ori"])
+    res = solve_ik_batch(mech, job["T_P"], weights=job["weights"], options=opts, frame=f)
+    q = np.where(np.isfinite(res.q), res.q, mech.home)
+    kin = forward_kinematics(mech, q)
+    J = frame_jacobian(mech, kin, f)
+    Jr = J[:, :, mech.independent]
+    if mech.is_closed and len(mech.dependent) > 0:
+        Jr = Jr + J[:, :, mech.dependent] @ dependent_sensitivity(mech, q)
+    dex = dexterity(Jr)
+    ok = res.ok
+    out = {k: np.where(ok, v, 0.0) for k, v in dex.items()}
+    out.update(q_v=q[:, mech.independent], status=np.array([s.value for s in res.status]),
+               reachable=ok, position_error=np.nan_to_num(res.position_error, nan=0.0),
+               orientation_error=np.nan_to_num(res.orientation_error, nan=0.0),
+               iterations=np.asarray(res.iterations, dtype=np.int64))
+    return out
+
+
+def task_space_sweep(
+    mechanism: str | Path,
+    T_P: np.ndarray,
+    *,
+    frame: int | None = None,
+    weights: Sequence[float] | None = None,
+    restarts: int = 8,
+    seed: int = 0,
+    max_iter: int | None = None,
+    tol_pos: float = 1e-6,
+    tol_ori: float = 1e-6,
+    chunk: int = 2000,
+    workers: int | None = None,
+    address: str | None = None,
+    progress: ProgressCallback | None = None,
+) -> TaskSpaceRecord:
+    """Reachability and dexterity of task-space poses through the batched inverse kinematics.
+
+    Parameters
+    ----------
+    mechanism : path
+        Mechanism file (each job loads it; a path pickles where a Mechanism may not).
+    T_P : array, shape (m, 4, 4)
+        Target poses of ``frame`` in the base frame (SI).
+    frame : int, optional
+        Frame index (default: the end effector).
+    weights : sequence of 6 floats, optional
+        Diagonal of W (kim1995 Eq. (9)): position, then orientation.
+    restarts, seed, max_iter, tol_pos, tol_ori
+        :class:`mechkin.solvers.ik_optimize.IkOptions`; every chunk uses the same seed, so the
+        result depends on ``chunk`` but not on the executor or the number of workers.
+    chunk : int
+        Poses per job.
+    workers, address, progress
+        See :func:`run_jobs`.
+
+    Returns
+    -------
+    TaskSpaceRecord
+    """
+    from mechkin.model import load_mechanism
+
+    mech = load_mechanism(mechanism)
+    f = int(mech.end_effector) if frame is None else int(frame)
+    T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
+    m = T_P.shape[0]
+    w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
+    jobs = [
+        {"mechanism": str(mechanism), "frame": f, "T_P": T_P[a : a + chunk], "weights": w,
+         "restarts": int(restarts), "seed": int(seed), "max_iter": max_iter,
+         "tol_pos": float(tol_pos), "tol_ori": float(tol_ori)}
+        for a in range(0, m, max(1, int(chunk)))
+    ]
+    parts = run_jobs(_task_job, jobs, workers=workers, address=address, progress=progress)
+    cat = {k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0)
+           for k in (parts[0] if parts else {})}
+    if not parts:
+        nv = len(mech.independent)
+        z = np.zeros(0)
+        return TaskSpaceRecord(T_P, np.zeros((0, nv)), np.zeros(0, dtype=str),
+                               np.zeros(0, dtype=bool), z, z, np.zeros(0, dtype=np.int64), z, z,
+                               z, z)
+    return TaskSpaceRecord(T_P, cat["q_v"], cat["status"], cat["reachable"],
+                           cat["position_error"], cat["orientation_error"], cat["iterations"],
+                           cat["isotropy"], cat["isotropy_position"], cat["condition_number"],
+                           cat["manipulability"])
+
+
+def task_space_summary(rec: TaskSpaceRecord) -> dict[str, Any]:
+    """JSON-ready counts and dexterity statistics (over the reached poses) of a sweep."""
+    m = int(rec.reachable.size)
+    ok = rec.reachable
+    statuses, counts = np.unique(rec.status, return_counts=True)
+    out: dict[str, Any] = {
+        "n_poses": m,
+        "n_reachable": int(ok.sum()),
+        "reachable_fraction": float(ok.mean()) if m else 0.0,
+        "status_counts": {str(s): int(c) for s, c in zip(statuses, counts, strict=True)},
+        "isotropy": sigma_statistics(rec.isotropy, ok),
+        "isotropy_position": sigma_statistics(rec.isotropy_position, ok),
+        "condition_number": sigma_statistics(rec.condition_number, ok),
+        "manipulability": sigma_statistics(rec.manipulability, ok),
+        "iterations": sigma_statistics(rec.iterations.astype(float)),
+    }
+    if ok.any():
+        out["max_position_error_m"] = float(rec.position_error[ok].max())
+        out["max_orientation_error_rad"] = float(rec.orientation_error[ok].max())
+        P = rec.T_P[ok, :3, 3]
+        out["reachable_bounding_box"] = {"min_m": P.min(axis=0).tolist(),
+                                         "max_m": P.max(axis=0).tolist()}
+    return out
