@@ -187,8 +187,7 @@ def _progress_bar(ex: dict[str, Any], description: str
         yield None
         return
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
-        TimeElapsedColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     console = Console(stderr=True, force_terminal=ex["force_terminal"] or None)
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),

@@ -37,12 +37,14 @@ class Kinematics:
         cache = self.__dict__.get("_axes")
         if cache is None:
             mech = self.mech
-            Tp = self.T_links[:, mech.joint_parent_link]  # (m, n, 4, 4)
+            # link-major (the layout forward_kinematics builds): one contiguous gather
+            Tp = np.moveaxis(self.T_links, 1, 0)[mech.joint_parent_link]  # (n, m, 4, 4)
             Rp = Tp[..., :3, :3]
             az = mech.A[:, :3, 2]
-            ao = mech.A[None, :, :3, 3] + az[None] * np.where(mech.s == 1, self.q, 0.0)[..., None]
-            z = np.einsum("mnij,nj->mni", Rp, az)
-            o = np.einsum("mnij,mnj->mni", Rp, ao) + Tp[..., :3, 3]
+            d = np.where(mech.s == 1, self.q, 0.0).T  # (n, m)
+            ao = mech.A[:, None, :3, 3] + az[:, None, :] * d[..., None]  # (n, m, 3)
+            z = np.moveaxis((Rp @ az[:, None, :, None])[..., 0], 0, 1)
+            o = np.moveaxis((Rp @ ao[..., None])[..., 0] + Tp[..., :3, 3], 0, 1)
             cache = (z, o)
             object.__setattr__(self, "_axes", cache)
         return cache
@@ -140,19 +142,50 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
 LARGE_BATCH = 256
 
 
+def _a_as_rz_tz(mech: Mechanism) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each joint, whether A = Rz(theta0) Tz(d0) (as in standard D-H), and theta0, d0."""
+    cache = mech.__dict__.get("_a_rz_tz")
+    if cache is None:
+        A = mech.A
+        theta0 = np.arctan2(A[:, 1, 0], A[:, 0, 0])
+        c, s = np.cos(theta0), np.sin(theta0)
+        R = np.zeros((mech.n, 3, 3))
+        R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1], R[:, 2, 2] = c, -s, s, c, 1.0
+        simple = (np.abs(A[:, :3, :3] - R).max(axis=(1, 2)) < 1e-15) & (
+            np.abs(A[:, :2, 3]).max(axis=1) < 1e-15)
+        cache = (theta0, A[:, 2, 3].copy(), simple)
+        object.__setattr__(mech, "_a_rz_tz", cache)
+    return cache
+
+
 def _fk_large_batch(mech: Mechanism, qs: np.ndarray, T: np.ndarray) -> None:
     """Joint by joint for large batches: T_parent @ A and (.) @ B are each one GEMM over the
     whole batch ((m*4, 4) @ (4, 4)), and Z(q) only mixes two columns (or shifts one)."""
     m = qs.shape[0]
     rev = mech.s == 0
-    c = np.cos(qs)
-    s = np.sin(qs)
+    theta0, d0, simple = _a_as_rz_tz(mech)
+    phi = np.where(rev, qs, 0.0) + theta0  # rotation about z after T_parent (simple A)
+    c = np.cos(phi)
+    s = np.sin(phi)
     for j in np.concatenate(mech.levels):
+        if simple[j]:
+            # A = Rz(theta0) Tz(d0) (standard D-H): no GEMM, two columns mix and one shifts
+            Tp = T[mech.joint_parent_link[j]]
+            X = np.empty((m, 4, 4))
+            cj, sj = c[:, j, None], s[:, j, None]
+            X[:, :, 0] = Tp[:, :, 0] * cj + Tp[:, :, 1] * sj
+            X[:, :, 1] = Tp[:, :, 1] * cj - Tp[:, :, 0] * sj
+            X[:, :, 2] = Tp[:, :, 2]
+            shift = d0[j] + (qs[:, j, None] if not rev[j] else 0.0)
+            X[:, :, 3] = Tp[:, :, 3] + Tp[:, :, 2] * shift
+            np.matmul(X.reshape(m * 4, 4), mech.B[j],
+                      out=T[mech.joint_child_link[j]].reshape(m * 4, 4))
+            continue
         X = (T[mech.joint_parent_link[j]].reshape(m * 4, 4) @ mech.A[j]).reshape(m, 4, 4)
         if rev[j]:
             x0 = X[:, :, 0].copy()
             x1 = X[:, :, 1]
-            cj, sj = c[:, j, None], s[:, j, None]
+            cj, sj = np.cos(qs[:, j, None]), np.sin(qs[:, j, None])
             X[:, :, 0] = x0 * cj + x1 * sj
             X[:, :, 1] = x1 * cj - x0 * sj
         else:

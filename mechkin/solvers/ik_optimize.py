@@ -65,6 +65,10 @@ TOL_ORI_RAD = 1e-6
 GRAD_TOL = 1e-10
 MAX_ITER_LM = 100
 LM_DAMPING = "marquardt"
+LM_ROTATION = "auto"  # lm residual: rotation vector (open chains) or Euler parameters (closed)
+LM_MU = 1e-9  # isotropic part of the damping: keeps steps small along unweighted directions
+SEED_CODEBOOK = 8192
+STALL_WINDOW = 8  # lm with restarts: a row that has not halved E in this many steps restarts  # configurations searched for the start of a solve without an initial guess
 MAX_ITER_CG = 2000
 TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v
 MAX_ITER_CLOSURE = 30
@@ -223,6 +227,51 @@ class IkKernel:
             lo = self.lower_v
             q = np.where(self.cont_v, lo + np.mod(q - lo, 2 * np.pi), q)
         return q
+
+    def seed_starts(self, T_P: np.ndarray, w: np.ndarray, size: int = SEED_CODEBOOK
+                    ) -> np.ndarray | None:
+        """Initial independent joints (m, n_v) for targets T_P (m, 4, 4): the nearest pose of a
+        seeded codebook of random configurations within the limits (open chains only).
+
+        Distance: position error [m] plus 0.5 m per radian of rotation, each counted only where
+        ``w`` weights it, so far targets start in the right region and LM needs few steps.
+        """
+        if self.n_cuts or self.iw.size:
+            return None
+        wp = (w[:, :3] > 0).any(axis=1)  # (m,)
+        wo = (w[:, 3:] > 0).any(axis=1)
+        out = np.empty((T_P.shape[0], self.iv.size))
+        # features: position [m] and 0.5 m per unit of ||R_t - R||_F (= 2 sqrt(2) sin(theta/2))
+        feats = np.concatenate([T_P[:, :3, 3], 0.5 * T_P[:, :3, :3].reshape(-1, 9)], axis=1)
+        for mode in {(bool(a), bool(b)) for a, b in zip(wp, wo, strict=True)}:
+            rows = np.flatnonzero((wp == mode[0]) & (wo == mode[1]))
+            cols = np.r_[np.arange(3) if mode[0] else [], np.arange(3, 12) if mode[1] else []]
+            if cols.size == 0:
+                out[rows] = self._codebook(size)[0][0]
+                continue
+            qs, tree = self._codebook(size, tuple(cols.astype(int)))
+            _, nearest = tree.query(feats[rows][:, cols.astype(int)])
+            out[rows] = qs[nearest]
+        return out
+
+    def _codebook(self, size: int, cols: tuple[int, ...] = tuple(range(12))):
+        """Seeded random configurations within the limits and a KD-tree of their poses."""
+        from scipy.spatial import cKDTree
+
+        cache = self.__dict__.setdefault("_codebooks", {})
+        hit = cache.get((size, cols))
+        if hit is None:
+            rng = np.random.default_rng(12345)
+            lo = np.where(np.isfinite(self.lower_v), self.lower_v, -np.pi)
+            hi = np.where(np.isfinite(self.upper_v), self.upper_v, np.pi)
+            qs = rng.uniform(lo, hi, size=(size, self.iv.size))
+            q = np.zeros((size, self.n))
+            q[:, self.iv] = qs
+            T = self.end_effector(self.kinematics(q))
+            feats = np.concatenate([T[:, :3, 3], 0.5 * T[:, :3, :3].reshape(size, 9)], axis=1)
+            hit = (qs, cKDTree(feats[:, list(cols)]))
+            cache[(size, cols)] = hit
+        return hit
 
     def kinematics(self, q: np.ndarray) -> Kinematics:
         """Forward kinematics of configurations q (m, n) (mechkin.model)."""
@@ -402,10 +451,12 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
               stop_on_first: bool = False):
     r"""Levenberg-Marquardt on the reduced Jacobian for m targets at once.
 
-    The residual is kim1995's x (Eq. (8)) with the orientation written as a rotation vector
-    (angle times axis) instead of the vector part of the Euler parameters: both vanish at the
-    same point, but the rotation vector does not flatten out for large errors, so far targets
-    converge in a few steps. With E = 1/2 x^T W x and the damping of Sugihara (2011),
+    The residual is kim1995's x (Eq. (8)); for open chains its orientation part is written as a
+    rotation vector (angle times axis) instead of the vector part of the Euler parameters: both
+    vanish at the same point, but the rotation vector does not flatten out for large errors, so
+    far targets converge in a few steps. Closed chains keep the Euler parameters (measured on
+    the kim1995 end-effector robot: with position weight 0 the rotation-vector steps drift along
+    the unweighted directions onto the leg strokes and the next precision point fails). With E = 1/2 x^T W x and the damping of Sugihara (2011),
 
     .. math:: (J_r^T W J_r + \lambda I)\,\delta = -J_r^T W x,\qquad
               \lambda = E + \lambda_0
@@ -418,7 +469,8 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     max_iter = opts.max_iter or MAX_ITER_LM
     lo, hi = kern.bound_lo, kern.bound_hi
     qv = kern.project(q_v0)
-    ev = evaluate(kern, qv, q_w0, T_P, tol_phi=opts.tol_phi, rotation="log")
+    rot = LM_ROTATION if LM_ROTATION != "auto" else ("euler" if kern.n_cuts else "log")
+    ev = evaluate(kern, qv, q_w0, T_P, tol_phi=opts.tol_phi, rotation=rot)
     qw = ev.q[:, kern.iw].copy()
     x, J = ev.x, ev.J
     assert J is not None
@@ -437,7 +489,9 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     lam = np.full(m, 1e-2)
     done |= f < f_abs
     act = np.flatnonzero(~done)
-    for _ in range(max_iter):
+    stall_check = opts.restarts > 0
+    f_ref = f.copy()
+    for it in range(max_iter):
         if act.size == 0:
             break
         Ja, xa, wa, qa = J[act], x[act], w[act], qv[act]
@@ -455,7 +509,7 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
             A = H + (f[act] + lam0)[:, None, None] * eye
         else:
             dg = np.einsum("mii->mi", H)
-            A = H + lam[act, None, None] * (dg[:, :, None] * eye + 1e-9 * eye)
+            A = H + lam[act, None, None] * (dg[:, :, None] * eye + LM_MU * eye)
         try:
             step = -np.linalg.solve(A, g[:, :, None])[:, :, 0]
         except np.linalg.LinAlgError:
@@ -465,7 +519,7 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
         qw_pred = qw[act]
         if S is not None:  # first-order predictor of the dependent joints
             qw_pred = qw_pred - np.einsum("mij,mj->mi", S[act], qn - qa)
-        evn = evaluate(kern, qn, qw_pred, T_P[act], tol_phi=opts.tol_phi, rotation="log")
+        evn = evaluate(kern, qn, qw_pred, T_P[act], tol_phi=opts.tol_phi, rotation=rot)
         assert evn.J is not None
         fn = 0.5 * np.einsum("mi,mi->m", evn.x, wa * evn.x)
         nev[act] += 1
@@ -489,6 +543,12 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
         if history:
             for a in act:
                 hist[a].append(float(f[a]))
+        if stall_check and (it + 1) % STALL_WINDOW == 0:
+            # a row whose E has not halved in STALL_WINDOW steps is crawling (a limit, a
+            # singularity or a local minimum): let the restarts have it
+            crawl = f[act] > 0.5 * f_ref[act]
+            fin |= crawl
+            f_ref[act] = f[act]
         done[act[fin]] = True
         act = act[~fin]
         if stop_on_first and np.any(f < f_abs):
@@ -708,9 +768,13 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     kern = kernel or IkKernel(mech, frame)
     T_P = np.asarray(T_P, dtype=np.float64)
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
-    qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
-    qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
     t0 = time.perf_counter()
+    qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
+    if q_v0 is None and opts.method == "lm":
+        seeded = kern.seed_starts(T_P[None], w[None])
+        if seeded is not None:
+            qv0 = seeded[0]
+    qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
     rng: np.random.Generator | None = None
     best: IkResult | None = None
     tot_it = tot_ev = 0
@@ -838,6 +902,12 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     nv, nw = kern.iv.size, kern.iw.size
     qv0 = np.broadcast_to(mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float),
                           (m, nv)).copy()
+    w_seed = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
+                             (m, 6))
+    if q_v0 is None:
+        seeded = kern.seed_starts(T_P, w_seed)
+        if seeded is not None:
+            qv0 = seeded
     qw0 = np.broadcast_to(mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float),
                           (m, nw)).copy()
     w = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),

@@ -164,7 +164,8 @@ def _collect(done_iter: Iterable[Any], index: Mapping[Any, int], results: list[A
 def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
               progress: ProgressCallback | None) -> list[R]:
     try:
-        from distributed import Client, as_completed as dask_as_completed
+        from distributed import Client
+        from distributed import as_completed as dask_as_completed
     except ImportError as exc:  # pragma: no cover - depends on the optional extra
         raise ImportError("running on a Dask cluster needs the optional extra: "
                           "pip install 'mechkin[dask]'") from exc
