@@ -55,6 +55,14 @@ def _debug() -> bool:
     return os.environ.get("MECHKIN_DEBUG", "") not in ("", "0")
 
 
+def joint_factor(mech: Any, j: int, units: Any) -> float:
+    """SI factor of joint j's values in a file's units: length for prismatic, angle for
+    revolute joints."""
+    from mechkin.config.units import angle_factor, length_factor
+
+    return length_factor(units.length) if mech.s[j] == 1 else angle_factor(units.angle)
+
+
 def default_out_dir(name: str, out: Path | None) -> Path:
     """``--out`` if given, else ``outputs/<scenario name>/`` under the working directory."""
     return Path(out) if out is not None else Path("outputs") / name

@@ -14,10 +14,11 @@ from mechkin.cli.common import (
     echo_json,
     evaluate_expect,
     handle_errors,
+    joint_factor,
     report_expect,
 )
 from mechkin.config.scenario import FkSpec, Scenario, load_scenario
-from mechkin.config.units import angle_factor, length_factor
+from mechkin.config.units import angle_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.closure import ClosureStatus, solve_trajectory
@@ -53,9 +54,6 @@ def _fk(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
     return code
 
 
-def _joint_factor(mech: Mechanism, j: int, units) -> float:
-    return length_factor(units.length) if mech.s[j] == 1 else angle_factor(units.angle)
-
 
 def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
     """Times (m,) [s] and independent joint values (m, n_v) in SI from the fk section."""
@@ -83,7 +81,7 @@ def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.nd
                 problems.append(f"{doc.where(('fk', 'motion'))}: no motion for independent "
                                 f"joint {name!r}")
                 continue
-            f = _joint_factor(mech, mech.independent[i], sc.spec.units)
+            f = joint_factor(mech, mech.independent[i], sc.spec.units)
             if mo.type == "constant":
                 qv[:, i] = mo.value * f
             elif mo.type == "ramp":
@@ -113,7 +111,7 @@ def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.nd
         t = np.asarray(tab["t"], dtype=float)
         qv = np.column_stack([
             np.asarray(tab[name], dtype=float)
-            * _joint_factor(mech, mech.independent[i], sc.spec.units)
+            * joint_factor(mech, mech.independent[i], sc.spec.units)
             for i, name in enumerate(names)
         ])
     else:
@@ -164,7 +162,7 @@ def initial_dependent(sc: Scenario, mech: Mechanism) -> np.ndarray:
                            f"(dependent: {', '.join(dep)})" for k in bad])
     for k, v in guess.items():
         j = mech.joint_index(k)
-        q_w0[dep.index(k)] = v * _joint_factor(mech, j, sc.spec.units)
+        q_w0[dep.index(k)] = v * joint_factor(mech, j, sc.spec.units)
     return q_w0
 
 

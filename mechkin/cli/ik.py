@@ -14,6 +14,7 @@ from mechkin.cli.common import (
     echo_json,
     evaluate_expect,
     handle_errors,
+    joint_factor,
     report_expect,
 )
 from mechkin.config.ik_spec import IkSpec, target_matrix
@@ -75,9 +76,6 @@ def _ik(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
     return code
 
 
-def _joint_factor(mech: Mechanism, j: int, units: Any) -> float:
-    return length_factor(units.length) if mech.s[j] == 1 else angle_factor(units.angle)
-
 
 def _targets(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Precision points (k, 4, 4) [SI], weights (k, 6) and labels."""
@@ -114,7 +112,7 @@ def _initial(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
         raise ConfigError([f"{sc.doc.where(('ik', 'initial_guess', k))}: not a joint of "
                            f"{mech.name} (independent: {', '.join(ind)})" for k in bad])
     for k, v in guess.items():
-        val = v * _joint_factor(mech, mech.joint_index(k), sc.spec.units)
+        val = v * joint_factor(mech, mech.joint_index(k), sc.spec.units)
         if k in ind:
             qv[ind.index(k)] = val
         else:

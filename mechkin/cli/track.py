@@ -24,11 +24,12 @@ from mechkin.cli.common import (
     echo_json,
     evaluate_expect,
     handle_errors,
+    joint_factor,
     report_expect,
 )
 from mechkin.config.scenario import Scenario, load_scenario
 from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, point_si
-from mechkin.config.units import angle_factor, length_factor
+from mechkin.config.units import length_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.kinematics import forward_kinematics, frame_jacobian, frame_poses
@@ -96,9 +97,6 @@ def _track(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int
 # ---- model pieces -----------------------------------------------------------------------------
 
 
-def _joint_factor(mech: Mechanism, j: int, units: Any) -> float:
-    return length_factor(units.length) if mech.s[j] == 1 else angle_factor(units.angle)
-
 
 def _dynamics(sc: Scenario, mech: Mechanism) -> InverseDynamics:
     spec: TrackSpec = sc.section
@@ -141,7 +139,7 @@ class _HandIK:
             except KeyError as exc:
                 raise ConfigError(f"{doc.where(('track', 'ik', 'initial_guess', name))}: "
                                   f"{exc.args[0]}") from None
-            q0[j] = v * _joint_factor(mech, j, sc.spec.units)
+            q0[j] = v * joint_factor(mech, j, sc.spec.units)
         branch = spec.ik.branch or {}
         for name in branch:
             try:

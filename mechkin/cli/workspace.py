@@ -406,6 +406,20 @@ def _task_poses(sc: Scenario) -> np.ndarray:
     return task_space_random(box, spec.samples, spec.seed, R0)
 
 
+def _sweep_frame(sc: Scenario, mech: Any) -> int:
+    """The frame a sweep maps: ``workspace.frame`` or the mechanism's end effector."""
+    spec = sc.section
+    if spec.frame is not None:
+        if spec.frame not in mech.frame_names:
+            raise ConfigError(f"{sc.doc.where(('workspace', 'frame'))}: unknown frame "
+                              f"{spec.frame!r}")
+        return mech.frame_index(spec.frame)
+    if mech.end_effector is not None:
+        return int(mech.end_effector)
+    raise ConfigError(f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; "
+                      "give frame")
+
+
 def _run_task_space(sc: Scenario, out_dir: Path, plots: bool, ex: dict[str, Any]
                     ) -> tuple[dict[str, Any], int]:
     from mechkin.io.workspace_plots import write_task_space
@@ -416,16 +430,7 @@ def _run_task_space(sc: Scenario, out_dir: Path, plots: bool, ex: dict[str, Any]
     if sc.mechanism_path is None:
         raise ConfigError(f"{sc.doc.where(('mechanism',))}: a task_space sweep needs a mechanism")
     mech = load_mechanism(sc.mechanism_path)
-    if spec.frame is not None:
-        if spec.frame not in mech.frame_names:
-            raise ConfigError(f"{sc.doc.where(('workspace', 'frame'))}: unknown frame "
-                              f"{spec.frame!r}")
-        f = mech.frame_index(spec.frame)
-    elif mech.end_effector is not None:
-        f = int(mech.end_effector)
-    else:
-        raise ConfigError(f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; "
-                          "give frame")
+    f = _sweep_frame(sc, mech)
     T_P = _task_poses(sc)
     t0 = time.perf_counter()
     n_jobs = max(1, -(-T_P.shape[0] // spec.chunk))
@@ -549,16 +554,7 @@ def _run_joint_sweep(sc: Scenario, out_dir: Path, plots: bool) -> tuple[dict[str
     if sc.mechanism_path is None:
         raise ConfigError(f"{sc.doc.where(('mechanism',))}: a joint_sweep needs a mechanism")
     mech = load_mechanism(sc.mechanism_path)
-    if spec.frame is not None:
-        if spec.frame not in mech.frame_names:
-            raise ConfigError(f"{sc.doc.where(('workspace', 'frame'))}: unknown frame "
-                              f"{spec.frame!r}")
-        f = mech.frame_index(spec.frame)
-    elif mech.end_effector is not None:
-        f = int(mech.end_effector)
-    else:
-        raise ConfigError(f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; "
-                          "give frame")
+    f = _sweep_frame(sc, mech)
     qv, swept = _sweep_values(sc, mech)
     m = qv.shape[0]
     L = length_factor(sc.spec.units.length)

@@ -7,7 +7,7 @@ from collections import deque
 import numpy as np
 
 from mechkin.config.load import YamlDoc
-from mechkin.config.schema import JointSpec, MechanismSpec
+from mechkin.config.schema import MechanismSpec
 from mechkin.errors import ConfigError
 from mechkin.model.mechanism import AXIS_NAMES, Cut, JointGroup, Mechanism
 from mechkin.spatial.dh import dh_modified, dh_standard

@@ -71,7 +71,7 @@ def _pinv_solve(J: np.ndarray, r: np.ndarray, rcond: float = 1e-12):
 def _svd_solve(J: np.ndarray, r: np.ndarray, rcond: float = 1e-12):
     U, S, Vt = np.linalg.svd(J, full_matrices=False)
     smax = S[:, :1]
-    keep = S > rcond * np.maximum(smax, 1e-300)
+    keep = rcond * np.maximum(smax, 1e-300) < S
     Sinv = np.where(keep, 1.0 / np.where(keep, S, 1.0), 0.0)
     step = np.einsum("mji,mj->mi", Vt, Sinv * np.einsum("mkj,mk->mj", U, r))
     return step, _cond_from_s(S, J.shape[2])

@@ -6,20 +6,20 @@ its rotation, ``p_a_b`` the position of b's origin in a. Quaternions (Euler para
 scalar first, ``(e0, e1, e2, e3)``. Batches put the sample axis first: ``Ts (m, 4, 4)``.
 """
 
+from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import (
-    quat_from_matrix,
+    euler_vector_from_matrix,
     matrix_from_quat,
+    matrix_from_rpy,
+    quat_from_matrix,
+    rot_axis,
     rot_x,
     rot_y,
     rot_z,
-    rot_axis,
-    matrix_from_rpy,
     rpy_from_matrix,
     skew,
-    euler_vector_from_matrix,
 )
-from mechkin.spatial.transforms import T_from, invert, translation, transform_from_xyz_rpy
-from mechkin.spatial.dh import dh_standard, dh_modified
+from mechkin.spatial.transforms import T_from, invert, transform_from_xyz_rpy, translation
 
 __all__ = [
     "quat_from_matrix",
