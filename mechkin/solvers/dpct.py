@@ -53,7 +53,6 @@ park_conveyor_tracking_dp, §2-§4, Eq. (1)-(35); §5 for the reproduced cases.
 
 from __future__ import annotations
 
-import enum
 import logging
 import time
 from collections.abc import Sequence
@@ -65,6 +64,7 @@ import numpy as np
 from mechkin.errors import ConfigError
 from mechkin.solvers.dynamics import InverseDynamics
 from mechkin.solvers.path import JointPath, PhaseCoefficients, phase_coefficients
+from mechkin.solvers.result import Status
 
 logger = logging.getLogger(__name__)
 
@@ -84,11 +84,7 @@ _REACH_MARGIN = 0.01
 _FAMILIES = ("torque", "qd", "qdd", "jerk")
 
 
-class TrackStatus(enum.Enum):
-    """Outcome of a DPCT solve."""
-
-    OK = "ok"
-    INFEASIBLE = "infeasible"
+TrackStatus = Status  # ok or infeasible (mechkin.solvers.result)
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,6 @@ kim1995_complex_chain_ik §3-§5, Eq. (4)-(10); §5.1 (loop closure) and §5.2 (
 
 from __future__ import annotations
 
-import enum
 import logging
 import time
 from dataclasses import dataclass, field
@@ -54,6 +53,7 @@ from mechkin.model.kinematics import (
     rotation_vector,
 )
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.result import Status
 from mechkin.spatial.rotations import quat_from_matrix
 
 log = logging.getLogger(__name__)
@@ -76,14 +76,7 @@ TOL_DQ_CLOSURE = 1e-10  # ||dq_w|| of the last Newton step (kim1995 §5.1 epsilo
 GOLDEN = 0.5 * (np.sqrt(5.0) - 1.0)  # 0.618...
 
 
-class IkStatus(enum.Enum):
-    """Outcome of one inverse-kinematics solve (DESIGN.md: results carry a status)."""
-
-    OK = "ok"
-    NOT_CONVERGED = "not converged"
-    UNREACHABLE = "unreachable"
-    SINGULAR = "singular"
-    AT_LIMIT = "at a limit"
+IkStatus = Status  # the statuses of mechkin.solvers.result (ok, not converged, ...)
 
 
 @dataclass(frozen=True)

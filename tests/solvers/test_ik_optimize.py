@@ -8,7 +8,6 @@ import pytest
 from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import (
-    closure_jacobian,
     forward_kinematics,
     relative_jacobian,
 )

@@ -252,7 +252,7 @@ def test_forward_agrees_with_plain_newton_from_the_inverse_pose():
 def test_newton_reports_singular_and_not_converged():
     g = LeeGeometry(r=0.5)
     lengths = inverse_position(g, np.array([0.1, 0.2, 0.3]))
-    assert forward_position_newton(g, lengths, np.zeros(3)).status == "singular Jacobian"
+    assert forward_position_newton(g, lengths, np.zeros(3)).status == "singular"
     assert forward_position_newton(g, lengths, np.array([0.1, 0.2, 0.2]), max_iter=1).status == (
         "not converged"
     )

@@ -31,7 +31,7 @@ print ``- (1 - cos beta_Y) u_Z'``, which would put E below the plane on the righ
 and this module use the sign above (PAPER_NOTES, hwang2023).
 
 Units: SI (m, rad). Results are :class:`LegSolution` records with a status string (``"ok"``,
-``"not converged"``, ``"singular Jacobian"``, ``"target outside workspace"``, the values of
+``"not converged"``, ``"singular"``, ``"unreachable"``, the values of
 ``mechkin.solvers.result.Status``) and the forward-kinematics errors of the solution.
 
 References
@@ -52,6 +52,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 
+from mechkin.solvers.result import Status
 from mechkin.spatial.euler_conventions import (
     Side,
     blade_matrix,
@@ -95,10 +96,10 @@ __all__ = [
 
 ContactKind = Literal["foot", "blade"]
 
-STATUS_OK = "ok"
-STATUS_NOT_CONVERGED = "not converged"
-STATUS_SINGULAR = "singular Jacobian"
-STATUS_UNREACHABLE = "target outside workspace"
+STATUS_OK = Status.OK.value
+STATUS_NOT_CONVERGED = Status.NOT_CONVERGED.value
+STATUS_SINGULAR = Status.SINGULAR.value
+STATUS_UNREACHABLE = Status.UNREACHABLE.value
 
 Q_MAX = np.deg2rad([90.0, 90.0, 90.0, 150.0, 90.0, 90.0])
 """hwang2023 §2.2: joint ranges theta1..6 are +-Q_MAX [rad]."""

@@ -180,7 +180,7 @@ class NewtonResult:
     """Outcome of :func:`forward_position_newton`.
 
     ``status`` is one of the ``mechkin.solvers.result.Status`` values ``"ok"``,
-    ``"not converged"``, ``"singular Jacobian"``.
+    ``"not converged"``, ``"singular"``.
     """
 
     mu: np.ndarray
@@ -835,7 +835,7 @@ def forward_position_newton(
     Returns
     -------
     NewtonResult
-        ``status`` "ok", "not converged" or "singular Jacobian" (sigma_KI < 1e-12).
+        ``status`` "ok", "not converged" or "singular" (sigma_KI < 1e-12).
     """
     target = np.asarray(lengths, dtype=np.float64).reshape(3)
     mu = np.asarray(mu0, dtype=np.float64).reshape(3).copy()
@@ -849,6 +849,6 @@ def forward_position_newton(
             break
         G = jacobian(geom, mu)
         if isotropy_from_jacobian(G) < 1e-12:
-            return NewtonResult(mu, "singular Jacobian", it, res)
+            return NewtonResult(mu, "singular", it, res)
         mu = mu - np.linalg.solve(G, err)  # lee Eq. (19)-(20) as a Newton step
     return NewtonResult(mu, "not converged", max_iter, res)
