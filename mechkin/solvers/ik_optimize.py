@@ -68,6 +68,7 @@ LM_DAMPING = "marquardt"
 LM_ROTATION = "auto"  # lm residual: rotation vector (open chains) or Euler parameters (closed)
 LM_MU = 1e-9  # isotropic part of the damping: keeps steps small along unweighted directions
 SEED_CODEBOOK = 8192
+SEED_RESTARTS = 8  # restarts that start from the next-nearest codebook poses
 STALL_WINDOW = 8  # lm with restarts: a row that has not halved E in this many steps restarts  # configurations searched for the start of a solve without an initial guess
 MAX_ITER_CG = 2000
 TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v
@@ -221,13 +222,14 @@ class IkKernel:
             q = np.where(self.cont_v, lo + np.mod(q - lo, 2 * np.pi), q)
         return q
 
-    def seed_starts(self, T_P: np.ndarray, w: np.ndarray, size: int = SEED_CODEBOOK
-                    ) -> np.ndarray | None:
+    def seed_starts(self, T_P: np.ndarray, w: np.ndarray, size: int = SEED_CODEBOOK,
+                    rank: int = 0) -> np.ndarray | None:
         """Initial independent joints (m, n_v) for targets T_P (m, 4, 4): the nearest pose of a
         seeded codebook of random configurations within the limits (open chains only).
 
         Distance: position error [m] plus 0.5 m per radian of rotation, each counted only where
         ``w`` weights it, so far targets start in the right region and LM needs few steps.
+        ``rank = k`` takes the (k+1)-th nearest (the starts of restarts).
         """
         if self.n_cuts or self.iw.size:
             return None
@@ -243,8 +245,8 @@ class IkKernel:
                 out[rows] = self._codebook(size)[0][0]
                 continue
             qs, tree = self._codebook(size, tuple(cols.astype(int)))
-            _, nearest = tree.query(feats[rows][:, cols.astype(int)])
-            out[rows] = qs[nearest]
+            _, nearest = tree.query(feats[rows][:, cols.astype(int)], k=rank + 1)
+            out[rows] = qs[nearest if rank == 0 else nearest[:, rank]]
         return out
 
     def _codebook(self, size: int, cols: tuple[int, ...] = tuple(range(12))):
@@ -783,6 +785,12 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
             # first success; cg-golden: one at a time (kim1995 §5.2 is sequential)
             k = opts.restarts if opts.method == "lm" else 1
             starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
+            if q_v0 is None and opts.method == "lm":  # next-nearest codebook poses first
+                for r_ in range(min(k, SEED_RESTARTS)):
+                    seed = kern.seed_starts(T_P[None], w[None], rank=r_ + 1)
+                    if seed is None:
+                        break
+                    starts_v[r_] = seed[0]
             start_w = qw0 if best is None else best.q_w
         if opts.method == "cg-golden":
             r = _cg_golden(kern, starts_v[0], start_w, T_P, w, opts)
@@ -918,11 +926,15 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     rng = np.random.default_rng(opts.seed)
     lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
     hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
-    for _ in range(opts.restarts):
+    for k in range(opts.restarts):
         bad = np.flatnonzero(~ok)
         if bad.size == 0:
             break
-        start = rng.uniform(lo, hi, size=(bad.size, nv))
+        # the next-nearest codebook poses first, then seeded random starts
+        start = (kern.seed_starts(T_P[bad], w[bad], rank=k + 1)
+                 if q_v0 is None and k < SEED_RESTARTS else None)
+        if start is None:
+            start = rng.uniform(lo, hi, size=(bad.size, nv))
         r2 = _lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
         iters[bad] += r2["iters"]
         better = r2["f"] < f[bad]
