@@ -64,12 +64,11 @@ TOL_POS_M = 1e-6  # a target counts as reached below these verified errors
 TOL_ORI_RAD = 1e-6
 GRAD_TOL = 1e-10
 MAX_ITER_LM = 100
-LM_DAMPING = "marquardt"
 LM_ROTATION = "auto"  # lm residual: rotation vector (open chains) or Euler parameters (closed)
 LM_MU = 1e-9  # isotropic part of the damping: keeps steps small along unweighted directions
-SEED_CODEBOOK = 8192
+SEED_CODEBOOK = 8192  # configurations searched for the start of a solve without a guess
 SEED_RESTARTS = 8  # restarts that start from the next-nearest codebook poses
-STALL_WINDOW = 8  # lm with restarts: a row that has not halved E in this many steps restarts  # configurations searched for the start of a solve without an initial guess
+STALL_WINDOW = 8  # lm with restarts: a row that has not halved E in this many steps restarts
 MAX_ITER_CG = 2000
 TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v
 MAX_ITER_CLOSURE = 30
@@ -451,12 +450,14 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     vanish at the same point, but the rotation vector does not flatten out for large errors, so
     far targets converge in a few steps. Closed chains keep the Euler parameters (measured on
     the kim1995 end-effector robot: with position weight 0 the rotation-vector steps drift along
-    the unweighted directions onto the leg strokes and the next precision point fails). With E = 1/2 x^T W x and the damping of Sugihara (2011),
+    the unweighted directions onto the leg strokes and the next precision point fails).
+    With E = 1/2 x^T W x and Marquardt's scaling,
 
-    .. math:: (J_r^T W J_r + \lambda I)\,\delta = -J_r^T W x,\qquad
-              \lambda = E + \lambda_0
+    .. math:: (H + \lambda\,(\mathrm{diag}\,H + \mu I))\,\delta = -J_r^T W x,\qquad
+              H = J_r^T W J_r
 
-    and q_v projected onto its limits after each step; a step is kept when E decreases.
+    q_v is projected onto its limits after each step; a step is kept when E decreases
+    (lambda / 10), else lambda x 4.
     Rows that have converged leave the working set (vectorized across targets). With
     ``stop_on_first`` (several starts for one target) the run ends when one row converges.
     """
@@ -480,7 +481,6 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     eye = np.eye(nv)
     # converged: weighted errors far below the verification tolerances
     f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
-    lam0 = 1e-4
     lam = np.full(m, 1e-2)
     done |= f < f_abs
     act = np.flatnonzero(~done)
@@ -500,11 +500,8 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
         if blocked.any():
             free = ~blocked
             H = H * (free[:, :, None] & free[:, None, :]) + eye * blocked[:, :, None]
-        if LM_DAMPING == "sugihara":
-            A = H + (f[act] + lam0)[:, None, None] * eye
-        else:
-            dg = np.einsum("mii->mi", H)
-            A = H + lam[act, None, None] * (dg[:, :, None] * eye + LM_MU * eye)
+        dg = np.einsum("mii->mi", H)
+        A = H + lam[act, None, None] * (dg[:, :, None] * eye + LM_MU * eye)
         try:
             step = -np.linalg.solve(A, g[:, :, None])[:, :, 0]
         except np.linalg.LinAlgError:
@@ -555,7 +552,7 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
                 closed=closed_ok, converged=done, hist=hist)
 
 
-# ---- conjugate gradient + golden section (kim1995 §5.2) -------------------------------------------
+# ---- conjugate gradient + golden section (kim1995 §5.2) ----------------------------------------
 
 
 def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
@@ -608,7 +605,8 @@ def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarr
         # Step 7: golden-section search for alpha* along d, with bracketing
         dn = float(np.linalg.norm(d))
         delta = (alpha_prev * 0.5 if alpha_prev > 0 else 0.05 / dn)
-        alpha, f_new, qw_new = _golden_line(fval, qv, qw, d, f, delta, kern.project, opts.line_tol / dn)
+        alpha, f_new, qw_new = _golden_line(fval, qv, qw, d, f, delta, kern.project,
+                                            opts.line_tol / dn)
         if not np.isfinite(f_new) or f_new >= f:
             # no decrease along d: steepest descent once more, then stop
             if not np.array_equal(d, -g):
@@ -693,11 +691,12 @@ def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float,
     return best, cache[best][0], cache[best][1]
 
 
-# ---- public solvers -------------------------------------------------------------------------------
+# ---- public solvers ----------------------------------------------------------------------------
 
 
 def _status(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, closed: bool,
-            converged: bool, opts: IkOptions, grad_norm: float = 0.0) -> tuple[IkStatus, float, float, tuple[str, ...]]:
+            converged: bool, opts: IkOptions, grad_norm: float = 0.0
+            ) -> tuple[IkStatus, float, float, tuple[str, ...]]:
     T_E = kern.end_effector(kern.kinematics(q[None]))
     pe, oe = pose_errors(T_E, T_P[None])
     wpe, woe = _weighted_errors(T_E, T_P[None], w[None])
