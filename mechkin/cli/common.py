@@ -8,7 +8,7 @@ import logging
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import numpy as np
 import typer
@@ -17,6 +17,25 @@ from mechkin.errors import MechkinError
 
 F = TypeVar("F", bound=Callable[..., Any])
 UNIT_TO_SI = {"rad": 1.0, "deg": np.pi / 180.0, "m": 1.0, "mm": 1e-3, "s": 1.0, "1": 1.0}
+
+
+# the options every run command shares
+OutOption = Annotated[Path | None, typer.Option(
+    "--out", "-o", help="Output folder [default: outputs/<scenario name>]")]
+JsonOption = Annotated[bool, typer.Option("--json", help="Print summary.json to stdout too")]
+PlotsOption = Annotated[bool, typer.Option("--plots/--no-plots", help="Write PNG plots")]
+
+
+def load_task_scenario(path: Path, task: str) -> Any:
+    """Load a scenario for ``mechkin <task>``; a scenario of another task is bad input."""
+    from mechkin.config.scenario import load_scenario
+    from mechkin.errors import ConfigError
+
+    sc = load_scenario(path)
+    if sc.spec.task != task:
+        raise ConfigError(f"{sc.doc.where(('task',))}: expected task {task} for 'mechkin "
+                          f"{task}', got {sc.spec.task} (use 'mechkin {sc.spec.task}')")
+    return sc
 
 
 def handle_errors(fn: F) -> F:

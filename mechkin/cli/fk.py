@@ -10,14 +10,18 @@ import numpy as np
 import typer
 
 from mechkin.cli.common import (
+    JsonOption,
+    OutOption,
+    PlotsOption,
     default_out_dir,
     echo_json,
     evaluate_expect,
     handle_errors,
     joint_factor,
+    load_task_scenario,
     report_expect,
 )
-from mechkin.config.scenario import FkSpec, Scenario, load_scenario
+from mechkin.config.scenario import FkSpec, Scenario
 from mechkin.config.units import angle_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
@@ -29,10 +33,9 @@ SUFFIX_TO_SI = {"rad": 1.0, "deg": np.pi / 180.0, "m": 1.0, "mm": 1e-3}
 
 def fk_cli(
     scenario: Path = typer.Argument(..., help="Scenario YAML (task: fk)"),
-    out: Path | None = typer.Option(None, "--out", "-o", help="Output folder "
-                                    "[default: outputs/<scenario name>]"),
-    json_out: bool = typer.Option(False, "--json", help="Print summary.json to stdout too"),
-    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write PNG plots"),
+    out: OutOption = None,
+    json_out: JsonOption = False,
+    plots: PlotsOption = True,
 ) -> None:
     """Forward kinematics: every joint and frame from the motion of the independent joints."""
     code = _fk(scenario, out, json_out, plots)
@@ -41,10 +44,7 @@ def fk_cli(
 
 @handle_errors
 def _fk(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
-    sc = load_scenario(scenario)
-    if sc.spec.task != "fk":
-        raise ConfigError(f"{sc.doc.where(('task',))}: expected task fk for 'mechkin fk', got "
-                          f"{sc.spec.task} (use 'mechkin {sc.spec.task}')")
+    sc = load_task_scenario(scenario, "fk")
     summary, code = run_fk(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots)
     if json_out:
         echo_json(summary)

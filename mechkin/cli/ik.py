@@ -10,15 +10,19 @@ import numpy as np
 import typer
 
 from mechkin.cli.common import (
+    JsonOption,
+    OutOption,
+    PlotsOption,
     default_out_dir,
     echo_json,
     evaluate_expect,
     handle_errors,
     joint_factor,
+    load_task_scenario,
     report_expect,
 )
 from mechkin.config.ik_spec import IkSpec, target_matrix
-from mechkin.config.scenario import Scenario, load_scenario
+from mechkin.config.scenario import Scenario
 from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
@@ -38,10 +42,9 @@ CLOSED_FORMS = ("kim1995_direct_drive", "kim1995_stewart")
 
 def ik_cli(
     scenario: Path = typer.Argument(..., help="Scenario YAML (task: ik)"),
-    out: Path | None = typer.Option(None, "--out", "-o", help="Output folder "
-                                    "[default: outputs/<scenario name>]"),
-    json_out: bool = typer.Option(False, "--json", help="Print summary.json to stdout too"),
-    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write PNG plots"),
+    out: OutOption = None,
+    json_out: JsonOption = False,
+    plots: PlotsOption = True,
 ) -> None:
     """Inverse kinematics: independent joints for every precision point (kim1995 §5.2)."""
     code = _ik(scenario, out, json_out, plots)
@@ -50,10 +53,7 @@ def ik_cli(
 
 @handle_errors
 def _ik(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
-    sc = load_scenario(scenario)
-    if sc.spec.task != "ik":
-        raise ConfigError(f"{sc.doc.where(('task',))}: expected task ik for 'mechkin ik', got "
-                          f"{sc.spec.task} (use 'mechkin {sc.spec.task}')")
+    sc = load_task_scenario(scenario, "ik")
     if sc.section_name == "biped":  # hwang2023: the closed-form leg classes
         from mechkin.cli.biped_run import run_biped
 

@@ -20,14 +20,18 @@ import numpy as np
 import typer
 
 from mechkin.cli.common import (
+    JsonOption,
+    OutOption,
+    PlotsOption,
     default_out_dir,
     echo_json,
     evaluate_expect,
     handle_errors,
     joint_factor,
+    load_task_scenario,
     report_expect,
 )
-from mechkin.config.scenario import Scenario, load_scenario
+from mechkin.config.scenario import Scenario
 from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, point_si
 from mechkin.config.units import length_factor
 from mechkin.errors import ConfigError
@@ -59,10 +63,9 @@ CSV_NOTE = ("qdd and jerk are forward differences (park Eq. (32)-(33)); where un
 
 def track_cli(
     scenario: Path = typer.Argument(..., help="Scenario YAML (task: track)"),
-    out: Path | None = typer.Option(None, "--out", "-o", help="Output folder "
-                                    "[default: outputs/<scenario name>]"),
-    json_out: bool = typer.Option(False, "--json", help="Print summary.json to stdout too"),
-    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write PNG plots"),
+    out: OutOption = None,
+    json_out: JsonOption = False,
+    plots: PlotsOption = True,
 ) -> None:
     """Conveyor tracking (or minimum time) along a straight hand line by DP (park §2-§5)."""
     code = _track(scenario, out, json_out, plots)
@@ -71,10 +74,7 @@ def track_cli(
 
 @handle_errors
 def _track(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
-    sc = load_scenario(scenario)
-    if sc.spec.task != "track":
-        raise ConfigError(f"{sc.doc.where(('task',))}: expected task track for 'mechkin track', "
-                          f"got {sc.spec.task} (use 'mechkin {sc.spec.task}')")
+    sc = load_task_scenario(scenario, "track")
     summary, code = run_track(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots)
     if json_out:
         echo_json(summary)

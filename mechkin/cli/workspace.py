@@ -39,13 +39,17 @@ import numpy as np
 import typer
 
 from mechkin.cli.common import (
+    JsonOption,
+    OutOption,
+    PlotsOption,
     default_out_dir,
     echo_json,
     evaluate_expect,
     handle_errors,
+    load_task_scenario,
     report_expect,
 )
-from mechkin.config.scenario import Scenario, load_scenario
+from mechkin.config.scenario import Scenario
 from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 
@@ -54,10 +58,9 @@ MAX_SWEEP_SAMPLES = 5_000_000
 
 def workspace_cli(
     scenario: Path = typer.Argument(..., help="Scenario YAML (task: workspace)"),
-    out: Path | None = typer.Option(None, "--out", "-o", help="Output folder "
-                                    "[default: outputs/<scenario name>]"),
-    json_out: bool = typer.Option(False, "--json", help="Print summary.json to stdout too"),
-    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write PNG plots"),
+    out: OutOption = None,
+    json_out: JsonOption = False,
+    plots: PlotsOption = True,
     workers: int | None = typer.Option(None, "--workers", "-j", min=1, help="Local worker "
                                        "processes for sweeps [default: workers: of the "
                                        "scenario, else min(cpu count, jobs)]"),
@@ -77,10 +80,7 @@ def workspace_cli(
 def _workspace(scenario: Path, out: Path | None, json_out: bool, plots: bool,
                workers: int | None = None, scheduler: str | None = None,
                progress: bool | None = None) -> int:
-    sc = load_scenario(scenario)
-    if sc.spec.task != "workspace":
-        raise ConfigError(f"{sc.doc.where(('task',))}: expected task workspace for 'mechkin "
-                          f"workspace', got {sc.spec.task} (use 'mechkin {sc.spec.task}')")
+    sc = load_task_scenario(scenario, "workspace")
     summary, code = run_workspace(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots,
                                   workers=workers, scheduler=scheduler, progress=progress)
     if json_out:
