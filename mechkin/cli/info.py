@@ -44,6 +44,13 @@ def _info(mechanism: Path, json_out: bool) -> None:
 
 
 def run_info(*, mechanism: Path) -> dict[str, Any]:
+    from mechkin.config.load import read_yaml
+    from mechkin.errors import ConfigError
+
+    doc = read_yaml(mechanism)
+    if isinstance(doc.data, dict) and "task" in doc.data and "links" not in doc.data:
+        raise ConfigError(f"{doc.where(('task',))}: this is a scenario file; 'mechkin info' "
+                          "takes a mechanism file (its 'mechanism:' key names one)")
     mech = load_mechanism(mechanism)
     return mechanism_info(mech)
 

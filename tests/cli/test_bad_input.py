@@ -156,3 +156,10 @@ def test_schema_commands_print_json():
         assert "properties" in s
     res = runner.invoke(app, ["schema", "robot"])
     assert res.exit_code == 2
+
+
+def test_info_on_a_scenario_file_says_so():
+    res = runner.invoke(app, ["info", str(ROOT / "scenarios" / "puma560_wave_fk.yaml")])
+    assert res.exit_code == 2
+    assert "this is a scenario file" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
