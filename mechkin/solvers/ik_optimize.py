@@ -484,7 +484,7 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     lam = np.full(m, 1e-2)
     done |= f < f_abs
     act = np.flatnonzero(~done)
-    stall_check = opts.restarts > 0
+    stall_check = opts.restarts > 0 and not kern.n_cuts  # closed chains crawl by nature
     f_ref = f.copy()
     for it in range(max_iter):
         if act.size == 0:
@@ -783,14 +783,21 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
             # lm: every remaining restart at once, as rows of one batch that stops at the
             # first success; cg-golden: one at a time (kim1995 §5.2 is sequential)
             k = opts.restarts if opts.method == "lm" else 1
-            starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
+            if kern.n_cuts:
+                # closed chains: random joints seldom assemble, so restart near the given start
+                # (which does) with a seeded jitter of 2 % of each range
+                starts_v = kern.project(qv0 + rng.normal(0.0, 0.02, size=(k, kern.iv.size))
+                                        * np.minimum(hi - lo, 2 * np.pi))
+                start_w = qw0
+            else:
+                starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
+                start_w = qw0 if best is None else best.q_w
             if q_v0 is None and opts.method == "lm":  # next-nearest codebook poses first
                 for r_ in range(min(k, SEED_RESTARTS)):
                     seed = kern.seed_starts(T_P[None], w[None], rank=r_ + 1)
                     if seed is None:
                         break
                     starts_v[r_] = seed[0]
-            start_w = qw0 if best is None else best.q_w
         if opts.method == "cg-golden":
             r = _cg_golden(kern, starts_v[0], start_w, T_P, w, opts)
             hist = np.asarray(r["hist"], dtype=float)

@@ -126,8 +126,11 @@ def test_table9_end_effector_lm(mechs):
     Point 4 (all weights 1) is determined: its 6 values are checked at 5e-5, the accuracy to
     which the reconstructed mechanism reproduces Table 8 point 4 from Table 9 (PAPER_NOTES)."""
     mech = mechs["kim1995_end_effector_robot"]
+    # P2 is path-sensitive (the wrist-only answer is on the wrist_2 limit): restarts from a
+    # seeded jitter of the start make the sequence robust to round-off (checked on
+    # Python 3.10 / numpy 2.2 and 3.11 / numpy 2.4)
     rs = solve_ik_sequence(mech, TABLE8, weights=TABLE8_WEIGHTS,
-                           options=IkOptions(grad_tol=1e-12))
+                           options=IkOptions(grad_tol=1e-12, restarts=8, max_iter=200))
     assert all(r.status is IkStatus.OK for r in rs)
     np.testing.assert_allclose(rs[0].q_v, TABLE9[0], atol=5e-7)
     for r, T in zip(rs[:3], TABLE8[:3], strict=False):
