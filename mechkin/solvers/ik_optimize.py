@@ -68,7 +68,7 @@ LM_ROTATION = "auto"  # lm residual: rotation vector (open chains) or Euler para
 LM_MU = 1e-9  # isotropic part of the damping: keeps steps small along unweighted directions
 SEED_CODEBOOK = 8192  # configurations searched for the start of a solve without a guess
 SEED_RESTARTS = 8  # restarts that start from the next-nearest codebook poses
-STALL_WINDOW = 8  # lm with restarts: a row that has not halved E in this many steps restarts
+STALL_WINDOW = 12  # lm with restarts: a row that has not halved E in this many steps restarts
 MAX_ITER_CG = 2000
 TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v
 MAX_ITER_CLOSURE = 30
@@ -792,9 +792,10 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
             else:
                 starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
                 start_w = qw0 if best is None else best.q_w
-            if q_v0 is None and opts.method == "lm":  # next-nearest codebook poses first
+            if opts.method == "lm":  # the nearest codebook poses not tried yet come first
+                first = 1 if q_v0 is None else 0
                 for r_ in range(min(k, SEED_RESTARTS)):
-                    seed = kern.seed_starts(T_P[None], w[None], rank=r_ + 1)
+                    seed = kern.seed_starts(T_P[None], w[None], rank=r_ + first)
                     if seed is None:
                         break
                     starts_v[r_] = seed[0]
