@@ -296,7 +296,9 @@ def relative_jacobians(
     k = len(fb)
     T_b = kin.frames(mech, fb)
     if fa is None:
-        T_a = np.broadcast_to(np.asarray(T_a_fixed, dtype=np.float64), (m, k, 4, 4))
+        T_a = np.asarray(T_a_fixed, dtype=np.float64)
+        if T_a.shape != (m, k, 4, 4):
+            T_a = np.broadcast_to(T_a, (m, k, 4, 4))
     else:
         fa = np.asarray(fa)
         T_a = kin.frames(mech, fa)
@@ -304,11 +306,22 @@ def relative_jacobians(
     R_a = T_a[..., :3, :3]
     p_b = T_b[..., :3, 3]
     z, o = kin.axes()
-    zs, os_ = z[:, idx_c], o[:, idx_c]  # (m, k, s, 3)
+    full = k == 1 and idx.shape[1] == mech.n and bool(np.all(sgn == 1.0)) and bool(
+        np.all(idx[0] == np.arange(mech.n)))  # a serial chain up to b: no gather, no scatter
+    if full:
+        zs, os_ = z[:, None], o[:, None]
+    else:
+        zs, os_ = z[:, idx_c], o[:, idx_c]  # (m, k, s, 3)
     rev = (mech.s[idx_c] == 0)[None, :, :, None]
-    sg = sgn[None, :, :, None]
-    v = np.where(rev, _cross(zs, p_b[:, :, None, :] - os_), zs) * sg
-    w = np.where(rev, zs, 0.0) * sg
+    if full:
+        v = _cross(zs, p_b[:, :, None, :] - os_)
+        if not rev.all():
+            v = np.where(rev, v, zs)
+        w = zs if rev.all() else np.where(rev, zs, 0.0)
+    else:
+        sg = sgn[None, :, :, None]
+        v = np.where(rev, _cross(zs, p_b[:, :, None, :] - os_), zs) * sg
+        w = np.where(rev, zs, 0.0) * sg
     Jp = v @ R_a  # rows v^T R_a = (R_a^T v)^T: (m, k, s, 3)
     Jw = w @ R_a
     e = quat_from_matrix(np.swapaxes(R_a, -1, -2) @ T_b[..., :3, :3])  # (m, k, 4)
@@ -322,6 +335,11 @@ def relative_jacobians(
         E = 0.5 * (e0[..., None, None] * np.eye(3) - skew(ev))
         Je = Jw @ np.swapaxes(E, -1, -2)  # (E Jw^T)^T
         x[..., 3:] = ev
+    if full:
+        J = np.empty((m, k, 6, mech.n))
+        J[:, :, :3] = np.swapaxes(Jp, -1, -2)
+        J[:, :, 3:] = np.swapaxes(Je, -1, -2)
+        return x, J
     Jt = np.zeros((m, k, mech.n + 1, 6))
     Jt[:, np.arange(k)[:, None], idx, :3] = Jp
     Jt[:, np.arange(k)[:, None], idx, 3:] = Je
