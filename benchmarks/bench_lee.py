@@ -11,8 +11,6 @@ poses <= 10 s; forward position (all assembly modes) time per call.
 from __future__ import annotations
 
 import argparse
-import time
-from collections.abc import Callable
 from functools import partial
 
 import numpy as np
@@ -25,15 +23,8 @@ from mechkin.solvers.closed_form.lee_spherical import (
     inverse_position,
 )
 from mechkin.solvers.workspace import lee_evaluator, orientation_maps
+from timing import best_of  # benchmarks/timing.py (this folder is on sys.path)
 
-
-def best_of(fn: Callable[[], object], repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:

@@ -17,8 +17,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import time
-from collections.abc import Callable
 
 import numpy as np
 
@@ -30,18 +28,10 @@ from mechkin.solvers.closed_form.lee_spherical import (
 )
 from mechkin.solvers.sweeps import lee_design_sweep
 from mechkin.solvers.workspace import lee_evaluator, orientation_maps
+from timing import best_of  # benchmarks/timing.py (this folder is on sys.path)
 
 DEG = math.pi / 180.0
 
-
-def best_of(fn: Callable[[], object], repeat: int) -> float:
-    """Best wall time [s] of ``repeat`` calls."""
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:
