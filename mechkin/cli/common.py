@@ -153,6 +153,14 @@ def report_expect(checks: list[dict[str, Any]], scenario_path: Path) -> None:
             typer.echo(f"{scenario_path}: expect {c['key']}: {msg}", err=True)
 
 
+def report(summary: dict[str, Any], json_out: bool, line: str) -> None:
+    """End of a run command: summary.json on stdout with ``--json``, else one summary line."""
+    if json_out:
+        echo_json(summary)
+    else:
+        typer.echo(line)
+
+
 def echo_json(summary: dict[str, Any]) -> None:
     from mechkin.io.summary import summary_json
 

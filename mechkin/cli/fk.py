@@ -14,11 +14,11 @@ from mechkin.cli.common import (
     OutOption,
     PlotsOption,
     default_out_dir,
-    echo_json,
     evaluate_expect,
     handle_errors,
     joint_factor,
     load_task_scenario,
+    report,
     report_expect,
 )
 from mechkin.config.scenario import FkSpec, Scenario
@@ -46,11 +46,8 @@ def fk_cli(
 def _fk(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
     sc = load_task_scenario(scenario, "fk")
     summary, code = run_fk(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots)
-    if json_out:
-        echo_json(summary)
-    else:
-        typer.echo(f"{sc.name}: {summary['status']} ({summary['n_steps']} steps, max ||phi|| "
-                   f"{summary['closure']['max_residual']:.3g}); wrote {summary['out_dir']}")
+    report(summary, json_out, f"{sc.name}: {summary['status']} ({summary['n_steps']} steps, "
+           f"max ||phi|| {summary['closure']['max_residual']:.3g}); wrote {summary['out_dir']}")
     return code
 
 

@@ -14,11 +14,11 @@ from mechkin.cli.common import (
     OutOption,
     PlotsOption,
     default_out_dir,
-    echo_json,
     evaluate_expect,
     handle_errors,
     joint_factor,
     load_task_scenario,
+    report,
     report_expect,
 )
 from mechkin.config.ik_spec import IkSpec, target_matrix
@@ -59,20 +59,14 @@ def _ik(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
 
         summary, code = run_biped(scenario=sc, out_dir=default_out_dir(sc.name, out),
                                   plots=plots)
-        if json_out:
-            echo_json(summary)
-        else:
-            typer.echo(f"{sc.name}: {summary.get('status', '?')}; wrote "
-                       f"{default_out_dir(sc.name, out)}")
+        report(summary, json_out, f"{sc.name}: {summary.get('status', '?')}; wrote "
+               f"{default_out_dir(sc.name, out)}")
         return code
     summary, code = run_ik(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots)
-    if json_out:
-        echo_json(summary)
-    else:
-        c = summary["counts"]
-        typer.echo(f"{sc.name}: {summary['status']} ({c.get('ok', 0)}/{summary['n_targets']} "
-                   f"targets ok, max errors {summary['max_position_error']:.3g} m, "
-                   f"{summary['max_orientation_error']:.3g} rad); wrote {summary['out_dir']}")
+    c = summary["counts"]
+    report(summary, json_out, f"{sc.name}: {summary['status']} ({c.get('ok', 0)}/"
+           f"{summary['n_targets']} targets ok, max errors {summary['max_position_error']:.3g} m, "
+           f"{summary['max_orientation_error']:.3g} rad); wrote {summary['out_dir']}")
     return code
 
 

@@ -24,11 +24,11 @@ from mechkin.cli.common import (
     OutOption,
     PlotsOption,
     default_out_dir,
-    echo_json,
     evaluate_expect,
     handle_errors,
     joint_factor,
     load_task_scenario,
+    report,
     report_expect,
 )
 from mechkin.config.scenario import Scenario
@@ -76,19 +76,16 @@ def track_cli(
 def _track(scenario: Path, out: Path | None, json_out: bool, plots: bool) -> int:
     sc = load_task_scenario(scenario, "track")
     summary, code = run_track(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots)
-    if json_out:
-        echo_json(summary)
-    else:
-        if summary["status"] == "ok":
-            head = (f"t_a = {summary['t_a_s']:.4g} s" if summary["t_a_s"] is not None
-                    else f"duration {summary['duration_s']:.4g} s")
-            peaks = ", ".join(f"{v:.4g}" for v in summary["peak_torque"])
-            g = summary["grid"]
-            typer.echo(f"{sc.name}: ok, {head}, peak torques [{peaks}], limits "
-                       f"{'ok' if summary['limits_ok'] else 'EXCEEDED'}, {g['N1']}x{g['N2']} "
-                       f"grid in {summary['solve_time_s']:.3g} s; wrote {summary['out_dir']}")
-        else:
-            typer.echo(f"{sc.name}: {summary['status']}; wrote {summary['out_dir']}")
+    line = f"{sc.name}: {summary['status']}; wrote {summary['out_dir']}"
+    if summary["status"] == "ok":
+        head = (f"t_a = {summary['t_a_s']:.4g} s" if summary["t_a_s"] is not None
+                else f"duration {summary['duration_s']:.4g} s")
+        peaks = ", ".join(f"{v:.4g}" for v in summary["peak_torque"])
+        g = summary["grid"]
+        line = (f"{sc.name}: ok, {head}, peak torques [{peaks}], limits "
+                f"{'ok' if summary['limits_ok'] else 'EXCEEDED'}, {g['N1']}x{g['N2']} "
+                f"grid in {summary['solve_time_s']:.3g} s; wrote {summary['out_dir']}")
+    report(summary, json_out, line)
     if summary["status"] != "ok":
         typer.echo(f"{sc.path}: {summary['message']}", err=True)
     return code

@@ -43,10 +43,10 @@ from mechkin.cli.common import (
     OutOption,
     PlotsOption,
     default_out_dir,
-    echo_json,
     evaluate_expect,
     handle_errors,
     load_task_scenario,
+    report,
     report_expect,
 )
 from mechkin.config.scenario import Scenario
@@ -83,10 +83,7 @@ def _workspace(scenario: Path, out: Path | None, json_out: bool, plots: bool,
     sc = load_task_scenario(scenario, "workspace")
     summary, code = run_workspace(scenario=sc, out_dir=default_out_dir(sc.name, out), plots=plots,
                                   workers=workers, scheduler=scheduler, progress=progress)
-    if json_out:
-        echo_json(summary)
-    else:
-        typer.echo(_one_line(sc.name, summary))
+    report(summary, json_out, _one_line(sc.name, summary))
     return code
 
 
