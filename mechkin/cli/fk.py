@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from mechkin.cli.common import (
+    UNIT_TO_SI,
     JsonOption,
     OutOption,
     PlotsOption,
@@ -28,7 +29,8 @@ from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.closure import ClosureStatus, solve_trajectory
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 
-SUFFIX_TO_SI = {"rad": 1.0, "deg": np.pi / 180.0, "m": 1.0, "mm": 1e-3}
+# CSV column suffixes of joint values and their SI factors
+SUFFIX_TO_SI = {k: UNIT_TO_SI[k] for k in ("rad", "deg", "m", "mm")}
 
 
 def fk_cli(
