@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -53,8 +53,10 @@ from mechkin.model.kinematics import (
     rotation_vector,
 )
 from mechkin.model.mechanism import Mechanism
+from mechkin.model.serial import SerialChain
+from mechkin.solvers.accel import compiled_lm_available
 from mechkin.solvers.result import Status
-from mechkin.spatial.rotations import quat_from_matrix
+from mechkin.spatial.rotations import quat_from_matrix, rotation_log
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +66,6 @@ TOL_POS_M = 1e-6  # a target counts as reached below these verified errors
 TOL_ORI_RAD = 1e-6
 GRAD_TOL = 1e-10
 MAX_ITER_LM = 100
-LM_ROTATION = "auto"  # lm residual: rotation vector (open chains) or Euler parameters (closed)
 LM_MU = 1e-9  # isotropic part of the damping: keeps steps small along unweighted directions
 SEED_CODEBOOK = 8192  # configurations searched for the start of a solve without a guess
 SEED_RESTARTS = 8  # restarts that start from the next-nearest codebook poses
@@ -213,6 +214,21 @@ class IkKernel:
         self.bound_lo = np.where(self.cont_v, -np.inf, self.lower_v)
         self.bound_hi = np.where(self.cont_v, np.inf, self.upper_v)
 
+    @property
+    def chain(self) -> SerialChain:
+        """The serial path to {E} (open chains; built on first use)."""
+        ch = self.__dict__.get("_chain")
+        if ch is None:
+            ch = self.__dict__["_chain"] = SerialChain(self.mech, self.frame)
+        return ch
+
+    @property
+    def chain_cols(self) -> np.ndarray | None:
+        """Positions of the chain's joints in q_v (None when the chain is q_v, in order)."""
+        pos = {int(j): i for i, j in enumerate(self.iv)}
+        cols = np.array([pos[int(j)] for j in self.chain.joints], dtype=int)
+        return None if np.array_equal(cols, np.arange(self.iv.size)) else cols
+
     def project(self, q_v: np.ndarray) -> np.ndarray:
         """Project independent joints (..., n_v) onto the limits (continuous joints wrapped)."""
         q = np.clip(q_v, self.bound_lo, self.bound_hi)
@@ -221,31 +237,40 @@ class IkKernel:
             q = np.where(self.cont_v, lo + np.mod(q - lo, 2 * np.pi), q)
         return q
 
-    def seed_starts(self, T_P: np.ndarray, w: np.ndarray, size: int = SEED_CODEBOOK,
-                    rank: int = 0) -> np.ndarray | None:
-        """Initial independent joints (m, n_v) for targets T_P (m, 4, 4): the nearest pose of a
-        seeded codebook of random configurations within the limits (open chains only).
+    def seed_starts(self, T_P: np.ndarray, w: np.ndarray, ranks=(0,),
+                    size: int = SEED_CODEBOOK) -> np.ndarray | None:
+        """Initial independent joints (m, len(ranks), n_v) for targets T_P (m, 4, 4): the
+        nearest poses of a seeded codebook of random configurations within the limits (open
+        chains only; None for closed chains).
 
-        Distance: position error [m] plus 0.5 m per radian of rotation, each counted only where
-        ``w`` weights it, so far targets start in the right region and LM needs few steps.
-        ``rank = k`` takes the (k+1)-th nearest (the starts of restarts).
+        Distance: position error [m] plus 0.5 m per unit of ``||R_P - R||_F`` (about 0.7 m per
+        radian for small angles), each counted only where ``w`` weights it, so far targets
+        start in the right region and LM needs few steps. ``ranks`` picks which neighbours
+        (0 = the nearest; restarts take the next ones).
         """
         if self.n_cuts or self.iw.size:
             return None
+        ranks = np.asarray(ranks, dtype=int)
+        m = T_P.shape[0]
         wp = (w[:, :3] > 0).any(axis=1)  # (m,)
         wo = (w[:, 3:] > 0).any(axis=1)
-        out = np.empty((T_P.shape[0], self.iv.size))
+        out = np.empty((m, ranks.size, self.iv.size))
         # features: position [m] and 0.5 m per unit of ||R_t - R||_F (= 2 sqrt(2) sin(theta/2))
-        feats = np.concatenate([T_P[:, :3, 3], 0.5 * T_P[:, :3, :3].reshape(-1, 9)], axis=1)
-        for mode in {(bool(a), bool(b)) for a, b in zip(wp, wo, strict=True)}:
-            rows = np.flatnonzero((wp == mode[0]) & (wo == mode[1]))
-            cols = np.r_[np.arange(3) if mode[0] else [], np.arange(3, 12) if mode[1] else []]
-            if cols.size == 0:
-                out[rows] = self._codebook(size)[0][0]
+        feats = np.empty((m, 12))
+        feats[:, :3] = T_P[:, :3, 3]
+        feats[:, 3:] = 0.5 * T_P[:, :3, :3].reshape(m, 9)
+        modes = wp.astype(int) * 2 + wo.astype(int)
+        for mode in np.unique(modes):
+            rows = slice(None) if mode == modes[0] and (modes == mode).all() else np.flatnonzero(
+                modes == mode)
+            cols = tuple(([0, 1, 2] if mode & 2 else []) + (list(range(3, 12)) if mode & 1
+                                                            else []))
+            if not cols:
+                out[rows] = self._codebook(size)[0][ranks]
                 continue
-            qs, tree = self._codebook(size, tuple(cols.astype(int)))
-            _, nearest = tree.query(feats[rows][:, cols.astype(int)], k=rank + 1)
-            out[rows] = qs[nearest if rank == 0 else nearest[:, rank]]
+            qs, tree = self._codebook(size, cols)
+            _, nearest = tree.query(feats[rows][:, cols], k=int(ranks.max()) + 1)
+            out[rows] = qs[nearest.reshape(len(feats[rows]), -1)[:, ranks]]
         return out
 
     def _codebook(self, size: int, cols: tuple[int, ...] = tuple(range(12))):
@@ -419,14 +444,23 @@ def pose_errors(T_E: np.ndarray, T_P: np.ndarray) -> tuple[np.ndarray, np.ndarra
 def _weighted_errors(T_E: np.ndarray, T_P: np.ndarray, w: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Errors of the components that carry weight (zero weight: not determined, not counted)."""
-    RPt = np.swapaxes(T_P[..., :3, :3], -1, -2)
-    xp = np.einsum("...ij,...j->...i", RPt, T_E[..., :3, 3] - T_P[..., :3, 3])
-    e = quat_from_matrix(RPt @ T_E[..., :3, :3])
-    wp, wo = w[..., :3] > 0, w[..., 3:] > 0
-    pe = np.linalg.norm(np.where(wp, xp, 0.0), axis=-1)
-    ev = np.where(wo, e[..., 1:], 0.0)
-    oe = 2.0 * np.arctan2(np.linalg.norm(ev, axis=-1), np.abs(e[..., 0]))
-    return pe, oe
+    return _errors(T_E, T_P, w)[2:]
+
+
+def _errors(T_E: np.ndarray, T_P: np.ndarray, w: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Position and orientation errors of poses T_E (m, 4, 4) to T_P (m, 4, 4): all components,
+    then the weighted components only (w (m, 6)): four (m,) arrays [m, rad, m, rad]."""
+    m = T_E.shape[0]
+    RPt = np.swapaxes(T_P[:, :3, :3], 1, 2)
+    M = RPt @ T_E[:, :3, :]  # R_P^T [R_E | p_E]
+    xp = M[:, :, 3] - (RPt @ T_P[:, :3, 3:])[:, :, 0]
+    rv = rotation_log(np.ascontiguousarray(M[:, :, :3]).reshape(m, 3, 3))
+    pe = np.sqrt((xp * xp).sum(axis=1))
+    oe = np.sqrt((rv * rv).sum(axis=1))
+    xpw = np.where(w[:, :3] > 0, xp, 0.0)
+    rvw = np.where(w[:, 3:] > 0, rv, 0.0)
+    return pe, oe, np.sqrt((xpw * xpw).sum(axis=1)), np.sqrt((rvw * rvw).sum(axis=1))
 
 
 def verify(kern: IkKernel, q: np.ndarray, T_P: np.ndarray
@@ -438,6 +472,80 @@ def verify(kern: IkKernel, q: np.ndarray, T_P: np.ndarray
 
 
 # ---- Levenberg-Marquardt, batched ----------------------------------------------------------------
+
+
+class _OpenRows:
+    """lm evaluations of an open chain on the serial path to {E} (:class:`SerialChain`), with
+    the chain expressed in {P} itself (``F_0 = T_P^{-1} A_0``, see
+    :meth:`SerialChain.first_frame`): the pose of {E} in {P} gives the residual (position,
+    rotation vector) and the geometric Jacobian in {P} is its Jacobian. No carry."""
+
+    def __init__(self, kern: IkKernel) -> None:
+        self.chain = kern.chain
+        self.nv = kern.iv.size
+        self.cols = kern.chain_cols  # None: the chain is q_v itself, in order
+
+    def prepare(self, T_P: np.ndarray) -> np.ndarray:
+        """Per-target constants (m, 4, 4): F_0 in {P}."""
+        return self.chain.first_frame(T_P)
+
+    def __call__(self, qv: np.ndarray, F0: np.ndarray, carry: tuple, q_prev: np.ndarray):
+        qc = qv if self.cols is None else qv[:, self.cols]
+        T_E, J = self.chain.pose_jacobian(qc, F0)
+        x = np.empty((qv.shape[0], 6))
+        x[:, :3] = T_E[:, :3, 3]
+        x[:, 3:] = rotation_log(T_E[:, :3, :3])
+        if self.cols is not None:
+            Jf = np.zeros((qv.shape[0], 6, self.nv))
+            Jf[:, :, self.cols] = J
+            J = Jf
+        return x, J, None, ()
+
+
+class _ClosedRows:
+    """lm evaluations of a closed chain: loop closure warm-started by the first-order predictor
+    ``q_w - S (q_v - q_v,prev)`` (kim1995 §5.1), Euler-parameter residual (Eq. (8)), reduced
+    Jacobian (Eq. (10)). Carry: (q_w, S)."""
+
+    def __init__(self, kern: IkKernel, tol_phi: float) -> None:
+        self.kern = kern
+        self.tol_phi = tol_phi
+
+    def prepare(self, T_P: np.ndarray) -> np.ndarray:
+        """Per-target constants: the precision points themselves."""
+        return T_P
+
+    def __call__(self, qv: np.ndarray, T_P: np.ndarray, carry: tuple, q_prev: np.ndarray):
+        qw, S = carry
+        if S is not None:
+            qw = qw - np.einsum("mij,mj->mi", S, qv - q_prev)
+        ev = evaluate(self.kern, qv, qw, T_P, tol_phi=self.tol_phi, rotation="euler")
+        return ev.x, ev.J, ev.closed, (ev.q[:, self.kern.iw], ev.S)
+
+
+def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+                      w: np.ndarray, opts: IkOptions, history: bool):
+    """:func:`_lm_batch` of an open chain by the compiled kernel (:mod:`ik_serial_jit`)."""
+    from mechkin.solvers import ik_serial_jit
+
+    m = q_v0.shape[0]
+    max_iter = opts.max_iter or MAX_ITER_LM
+    cols = kern.chain_cols
+    sel = slice(None) if cols is None else cols
+    qv = kern.project(q_v0)
+    f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
+    stall = STALL_WINDOW if opts.restarts > 0 else 0
+    qc, f, iters, done, gnorm, hist = ik_serial_jit.lm_serial(
+        qv[:, sel], kern.chain.first_frame(T_P), w, kern.chain, kern.bound_lo[sel],
+        kern.bound_hi[sel], kern.cont_v[sel], kern.lower_v[sel], f_abs=f_abs,
+        max_iter=max_iter, stall=stall, mu=LM_MU, history=history)
+    qv[:, sel] = qc
+    q = np.empty((m, kern.n))
+    q[:, kern.iv] = qv
+    q[:, kern.iw] = q_w0
+    hl = [list(h[: i + 1]) for h, i in zip(hist, iters, strict=True)] if history else []
+    return dict(q=q, qv=qv, qw=q_w0, f=f, iters=iters, nev=iters + 1, gnorm=gnorm,
+                closed=np.ones(m, dtype=bool), converged=done, hist=hl)
 
 
 def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
@@ -458,93 +566,120 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
 
     q_v is projected onto its limits after each step; a step is kept when E decreases
     (lambda / 10), else lambda x 4.
-    Rows that have converged leave the working set (vectorized across targets). With
-    ``stop_on_first`` (several starts for one target) the run ends when one row converges.
+    Rows that have converged leave the working set (vectorized across targets): the working
+    arrays are compacted only when rows leave, so one target costs a fixed, small number of
+    array operations per iteration. With ``stop_on_first`` (several starts for one target) the
+    run ends when one row converges.
     """
     m, nv = q_v0.shape
     max_iter = opts.max_iter or MAX_ITER_LM
     lo, hi = kern.bound_lo, kern.bound_hi
+    bounded = bool(np.isfinite(lo).any() or np.isfinite(hi).any())
+    closed_chain = bool(kern.n_cuts) and kern.iw.size > 0
+    if not closed_chain and compiled_lm_available():
+        return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history)
+    rows = _ClosedRows(kern, opts.tol_phi) if closed_chain else _OpenRows(kern)
     qv = kern.project(q_v0)
-    rot = LM_ROTATION if LM_ROTATION != "auto" else ("euler" if kern.n_cuts else "log")
-    ev = evaluate(kern, qv, q_w0, T_P, tol_phi=opts.tol_phi, rotation=rot)
-    qw = ev.q[:, kern.iw].copy()
-    x, J = ev.x, ev.J
-    assert J is not None
-    S = ev.S
+    tgt = rows.prepare(T_P)
+    x, J, closed, carry = rows(qv, tgt, (q_w0, None), qv)
+    closed_ok = np.ones(m, dtype=bool) if closed is None else closed.copy()
     f = 0.5 * np.einsum("mi,mi->m", x, w * x)
+    qw = carry[0] if closed_chain else q_w0
     iters = np.zeros(m, dtype=int)
     nev = np.ones(m, dtype=int)
     gnorm = np.zeros(m)
-    closed_ok = ev.closed.copy()
-    done = ~closed_ok
+    lam = np.full(m, 1e-2)
     hist: list[list[float]] = [[float(v)] for v in f] if history else []
     eye = np.eye(nv)
+    mu_eye = LM_MU * eye
     # converged: weighted errors far below the verification tolerances
     f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
-    lam = np.full(m, 1e-2)
-    done |= f < f_abs
-    act = np.flatnonzero(~done)
+    done = ~closed_ok | (f < f_abs)
     stall_check = opts.restarts > 0 and not kern.n_cuts  # closed chains crawl by nature
-    f_ref = f.copy()
+    act = np.flatnonzero(~done)
+    # compacted working set of the active rows
+    qa, xa, Ja, fa, la, wa = qv[act], x[act], J[act], f[act], lam[act], w[act]
+    tga = tgt[act]
+    ca = tuple(c[act] for c in carry) if closed_chain else ()
+    fref = fa.copy()
+    ga_norm = np.zeros(act.size)
+    its = 0
     for it in range(max_iter):
         if act.size == 0:
             break
-        Ja, xa, wa, qa = J[act], x[act], w[act], qv[act]
         JW = np.swapaxes(Ja, 1, 2) * wa[:, None, :]
         g = (JW @ xa[:, :, None])[:, :, 0]
-        # active bounds: a joint on a limit whose gradient pushes outward is frozen
-        blocked = ((qa <= lo + 1e-12) & (g > 0)) | ((qa >= hi - 1e-12) & (g < 0))
-        g = np.where(blocked, 0.0, g)
-        gnorm[act] = np.linalg.norm(g, axis=1)
         H = JW @ Ja
-        if blocked.any():
-            free = ~blocked
-            H = H * (free[:, :, None] & free[:, None, :]) + eye * blocked[:, :, None]
-        dg = np.einsum("mii->mi", H)
-        A = H + lam[act, None, None] * (dg[:, :, None] * eye + LM_MU * eye)
+        if bounded:
+            # active bounds: a joint on a limit whose gradient pushes outward is frozen
+            blocked = ((qa <= lo + 1e-12) & (g > 0)) | ((qa >= hi - 1e-12) & (g < 0))
+            if blocked.any():
+                g = np.where(blocked, 0.0, g)
+                free = ~blocked
+                H = H * (free[:, :, None] & free[:, None, :]) + eye * blocked[:, :, None]
+        ga_norm = np.sqrt(np.einsum("mi,mi->m", g, g))
+        A = H + la[:, None, None] * (H * eye + mu_eye)
         try:
-            step = -np.linalg.solve(A, g[:, :, None])[:, :, 0]
+            step = np.linalg.solve(A, g[:, :, None])[:, :, 0]
         except np.linalg.LinAlgError:
-            step = -np.stack([np.linalg.lstsq(a, b, rcond=None)[0]
-                              for a, b in zip(A, g, strict=False)])
-        qn = kern.project(qa + step)
-        qw_pred = qw[act]
-        if S is not None:  # first-order predictor of the dependent joints
-            qw_pred = qw_pred - np.einsum("mij,mj->mi", S[act], qn - qa)
-        evn = evaluate(kern, qn, qw_pred, T_P[act], tol_phi=opts.tol_phi, rotation=rot)
-        assert evn.J is not None
-        fn = 0.5 * np.einsum("mi,mi->m", evn.x, wa * evn.x)
-        nev[act] += 1
-        iters[act] += 1
-        good = evn.closed & (fn < f[act])
-        ga = act[good]
-        qv[ga] = qn[good]
-        qw[ga] = evn.q[good][:, kern.iw]
-        x[ga], J[ga] = evn.x[good], evn.J[good]
-        if S is not None and evn.S is not None:
-            S[ga] = evn.S[good]
-        gain = f[ga] - fn[good]
-        f[ga] = fn[good]
-        lam[ga] = np.maximum(lam[ga] / 10.0, 1e-12)
-        lam[act[~good]] *= 4.0
-        # finished: converged, no measurable progress, or a rejected step that is already tiny
-        fin = np.zeros(act.size, dtype=bool)
-        fin[good] = (fn[good] < f_abs) | (gain <= 1e-14 * np.maximum(fn[good], 1e-300))
-        fin[~good] = (np.linalg.norm(qn[~good] - qa[~good], axis=1) < 1e-13) | (
-            lam[act[~good]] > 1e10)
+            step = np.stack([np.linalg.lstsq(a, b, rcond=None)[0]
+                             for a, b in zip(A, g, strict=False)])
+        qn = qa - step
+        if bounded:
+            qn = kern.project(qn)
+        xn, Jn, cl, cn = rows(qn, tga, ca, qa)
+        fn = 0.5 * np.einsum("mi,mi->m", xn, wa * xn)
+        its += 1
+        good = fn < fa if cl is None else cl & (fn < fa)
+        gain = fa - fn
+        if good.all():
+            fin = (fn < f_abs) | (gain <= 1e-14 * np.maximum(fn, 1e-300))
+            qa, xa, Ja, fa, ca = qn, xn, Jn, fn, cn
+            la = np.maximum(la * 0.1, 1e-12)
+        else:
+            gm = good[:, None]
+            qa = np.where(gm, qn, qa)
+            xa = np.where(gm, xn, xa)
+            Ja = np.where(good[:, None, None], Jn, Ja)
+            fa = np.where(good, fn, fa)
+            ca = tuple(np.where(good.reshape((-1,) + (1,) * (o.ndim - 1)), n_, o)
+                       for n_, o in zip(cn, ca, strict=True))
+            la = np.where(good, np.maximum(la * 0.1, 1e-12), la * 4.0)
+            # finished: converged, no measurable progress, or a rejected step that is tiny
+            fin = np.where(good, (fn < f_abs) | (gain <= 1e-14 * np.maximum(fn, 1e-300)),
+                           (np.sqrt(np.einsum("mi,mi->m", step, step)) < 1e-13) | (la > 1e10))
         if history:
-            for a in act:
-                hist[a].append(float(f[a]))
+            for r_, fv in zip(act, fa, strict=True):
+                hist[r_].append(float(fv))
         if stall_check and (it + 1) % STALL_WINDOW == 0:
             # a row whose E has not halved in STALL_WINDOW steps is crawling (a limit, a
             # singularity or a local minimum): let the restarts have it
-            crawl = f[act] > 0.5 * f_ref[act]
-            fin |= crawl
-            f_ref[act] = f[act]
-        done[act[fin]] = True
-        act = act[~fin]
-        if stop_on_first and np.any(f < f_abs):
-            break
+            fin = fin | (fa > 0.5 * fref)
+            fref = fa.copy()
+        if stop_on_first and np.any(fa < f_abs):
+            fin = np.ones(act.size, dtype=bool)
+        if fin.any():
+            # write the finished rows back and compact the working set
+            r_ = act[fin]
+            qv[r_], x[r_], f[r_], lam[r_], gnorm[r_] = qa[fin], xa[fin], fa[fin], la[fin], \
+                ga_norm[fin]
+            iters[r_] = its
+            if closed_chain:
+                qw[r_] = ca[0][fin]
+            done[r_] = True
+            keep = ~fin
+            act = act[keep]
+            qa, xa, Ja, fa, la, wa = qa[keep], xa[keep], Ja[keep], fa[keep], la[keep], wa[keep]
+            tga, fref, ga_norm = tga[keep], fref[keep], ga_norm[keep]
+            ca = tuple(c[keep] for c in ca)
+            if stop_on_first:
+                break
+    if act.size:  # out of iterations
+        qv[act], x[act], f[act], gnorm[act] = qa, xa, fa, ga_norm
+        iters[act] = its
+        if closed_chain:
+            qw[act] = ca[0]
+    nev += iters
     q = np.empty((m, kern.n))
     q[:, kern.iv] = qv
     q[:, kern.iw] = qw
@@ -697,13 +832,12 @@ def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float,
 def _status(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, closed: bool,
             converged: bool, opts: IkOptions, grad_norm: float = 0.0
             ) -> tuple[IkStatus, float, float, tuple[str, ...]]:
-    T_E = kern.end_effector(kern.kinematics(q[None]))
-    pe, oe = pose_errors(T_E, T_P[None])
-    wpe, woe = _weighted_errors(T_E, T_P[None], w[None])
+    T_E = kern.end_effector(kern.kinematics(q[None]))  # the model's general kinematics
+    pe, oe, wpe, woe = _errors(T_E, T_P[None], w[None])
     mech = kern.mech
     tol_j = 1e-9
-    at = tuple(mech.joint_names[j] for j in range(mech.n)
-               if q[j] <= mech.lower[j] + tol_j or q[j] >= mech.upper[j] - tol_j)
+    at = tuple(mech.joint_names[j] for j in
+               np.flatnonzero((q <= mech.lower + tol_j) | (q >= mech.upper - tol_j)))
     pos, ori = float(pe[0]), float(oe[0])
     if not closed or not np.all(np.isfinite(q)):
         return IkStatus.SINGULAR, pos, ori, at
@@ -767,7 +901,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     if q_v0 is None and opts.method == "lm":
         seeded = kern.seed_starts(T_P[None], w[None])
         if seeded is not None:
-            qv0 = seeded[0]
+            qv0 = seeded[0, 0]
     qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
     rng: np.random.Generator | None = None
     best: IkResult | None = None
@@ -794,11 +928,10 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
                 start_w = qw0 if best is None else best.q_w
             if opts.method == "lm":  # the nearest codebook poses not tried yet come first
                 first = 1 if q_v0 is None else 0
-                for r_ in range(min(k, SEED_RESTARTS)):
-                    seed = kern.seed_starts(T_P[None], w[None], rank=r_ + first)
-                    if seed is None:
-                        break
-                    starts_v[r_] = seed[0]
+                nr = min(k, SEED_RESTARTS)
+                seed = kern.seed_starts(T_P[None], w[None], ranks=range(first, first + nr))
+                if seed is not None:
+                    starts_v[:nr] = seed[0]
         if opts.method == "cg-golden":
             r = _cg_golden(kern, starts_v[0], start_w, T_P, w, opts)
             hist = np.asarray(r["hist"], dtype=float)
@@ -839,8 +972,6 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         if best.status is IkStatus.OK:
             break
     assert best is not None
-    from dataclasses import replace
-
     return replace(best, iterations=tot_it, evaluations=tot_ev,
                    time_s=time.perf_counter() - t0)
 
@@ -915,7 +1046,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     if q_v0 is None:
         seeded = kern.seed_starts(T_P, w_seed)
         if seeded is not None:
-            qv0 = seeded
+            qv0 = seeded[:, 0]
     qw0 = np.broadcast_to(mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float),
                           (m, nw)).copy()
     w = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
@@ -938,10 +1069,10 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         if bad.size == 0:
             break
         # the next-nearest codebook poses first, then seeded random starts
-        start = (kern.seed_starts(T_P[bad], w[bad], rank=k + 1)
+        start = (kern.seed_starts(T_P[bad], w[bad], ranks=(k + 1,))
                  if q_v0 is None and k < SEED_RESTARTS else None)
-        if start is None:
-            start = rng.uniform(lo, hi, size=(bad.size, nv))
+        start = (start[:, 0] if start is not None
+                 else rng.uniform(lo, hi, size=(bad.size, nv)))
         r2 = _lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
         iters[bad] += r2["iters"]
         better = r2["f"] < f[bad]

@@ -146,3 +146,35 @@ def angle_from_matrix(R: np.ndarray) -> np.ndarray:
     """Rotation angle in [0, pi] of rotation matrices; (..., 3, 3) -> (...)."""
     e = quat_from_matrix(R)
     return 2.0 * np.arctan2(np.linalg.norm(e[..., 1:], axis=-1), e[..., 0])
+
+
+_VEE_A = np.array([7, 2, 3])  # R21, R02, R10 of a flattened (3, 3)
+_VEE_B = np.array([5, 6, 1])  # R12, R20, R01
+_DIAG = np.array([0, 4, 8])
+
+
+def rotation_log(R: np.ndarray) -> np.ndarray:
+    r"""Rotation vector (angle times unit axis, angle in [0, pi]) of rotations (m, 3, 3): (m, 3).
+
+    With ``w = vee(R - R^T) / 2 = sin(angle) axis`` and ``cos(angle) = (tr R - 1) / 2`` the angle
+    is ``atan2(|w|, cos)``. Beyond about 170 degrees ``w`` loses the axis; there the axis is the
+    dominant column of the symmetric part ``(R + R^T)/2 - cos I = (1 - cos) a a^T``, signed by
+    ``w``. Accurate to rounding for every rotation, including half turns.
+    """
+    m = R.shape[0]
+    Rf = R.reshape(m, 9)
+    w = (Rf[:, _VEE_A] - Rf[:, _VEE_B]) * 0.5
+    cs = (Rf[:, _DIAG].sum(axis=1) - 1.0) * 0.5
+    ang = np.arctan2(np.sqrt((w * w).sum(axis=1)), cs)
+    near_pi = cs < -0.985
+    if near_pi.any():
+        i = np.flatnonzero(near_pi)
+        B = 0.5 * (R[i] + np.swapaxes(R[i], 1, 2)) - cs[i, None, None] * np.eye(3)
+        col = np.argmax(np.einsum("mii->mi", B), axis=1)
+        a = B[np.arange(i.size), :, col]
+        a /= np.linalg.norm(a, axis=1, keepdims=True)
+        sgn = np.where(np.einsum("mi,mi->m", a, w[i]) < 0.0, -1.0, 1.0)
+        w = w.copy()
+        w[i] = a * (sgn * np.sin(ang[i]))[:, None]
+    # ang / sin(ang) = 1 / sinc(ang / pi): 1 at ang = 0, finite (about 8e16) at ang = pi
+    return w / np.sinc(ang / np.pi)[:, None]

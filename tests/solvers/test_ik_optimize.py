@@ -11,6 +11,7 @@ from mechkin.model.kinematics import (
     forward_kinematics,
     relative_jacobian,
 )
+from mechkin.solvers import ik_optimize
 from mechkin.solvers.ik_optimize import (
     IkKernel,
     IkOptions,
@@ -27,6 +28,16 @@ from tests.tolerances import FD_STEP
 
 MECHS = ["puma560", "panda", "kim1995_direct_drive", "kim1995_stewart",
          "kim1995_end_effector_robot"]
+
+
+@pytest.fixture(params=["compiled", "numpy"])
+def lm_backend(request, monkeypatch):
+    """Open-chain lm both ways: compiled (numba, mechkin[fast]) and numpy."""
+    if request.param == "compiled":
+        pytest.importorskip("numba")
+    monkeypatch.setattr(ik_optimize, "compiled_lm_available",
+                        lambda: request.param == "compiled")
+    return request.param
 
 
 def _mech(root, name):
@@ -98,7 +109,7 @@ def _random_poses(mech, count, seed):
 
 
 @pytest.mark.parametrize("name", ["puma560", "panda"])
-def test_random_reachable_poses(root, name):
+def test_random_reachable_poses(root, name, lm_backend):
     """Seeded random reachable poses solved to 1e-4 m / 1e-3 rad, verified by the model's FK."""
     mech = _mech(root, name)
     Ts = _random_poses(mech, 20, seed=7)
@@ -113,7 +124,7 @@ def test_random_reachable_poses(root, name):
 
 
 @pytest.mark.parametrize("name", ["puma560", "panda"])
-def test_batched_lm(root, name):
+def test_batched_lm(root, name, lm_backend):
     mech = _mech(root, name)
     Ts = _random_poses(mech, 200, seed=11)
     r = solve_ik_batch(mech, Ts, options=IkOptions(restarts=30, seed=5))
@@ -137,7 +148,7 @@ def test_cg_golden_open_chain(root):
     assert r.evaluations > r.iterations  # golden-section evaluations per iteration
 
 
-def test_unreachable_target_is_reported_with_finite_numbers(root):
+def test_unreachable_target_is_reported_with_finite_numbers(root, lm_backend):
     mech = _mech(root, "puma560")
     T = np.eye(4)
     T[:3, 3] = [3.0, 0.0, 0.5]  # the arm reaches about 0.9 m
@@ -151,10 +162,35 @@ def test_unreachable_target_is_reported_with_finite_numbers(root):
         assert np.all(np.isfinite(vals))
 
 
-def test_zero_weights_leave_position_free(root):
+def test_zero_weights_leave_position_free(root, lm_backend):
     mech = _mech(root, "puma560")
     T = _random_poses(mech, 1, seed=5)[0].copy()
     T[:3, 3] += 5.0  # unreachable position, but its weight is zero
     r = solve_ik(mech, T, weights=np.array([0, 0, 0, 1, 1, 1.0]))
     assert r.status is IkStatus.OK
     assert r.orientation_error < 1e-6 and r.position_error > 1.0
+
+
+@pytest.mark.parametrize("name", ["puma560", "panda"])
+def test_compiled_lm_takes_the_numpy_lm_steps(root, name, monkeypatch):
+    """The compiled kernel is the numpy iteration written as loops: from the same starts it
+    takes the same number of steps to the same joints (up to rounding, which can flip a
+    near-tie accept/reject on a few rows)."""
+    pytest.importorskip("numba")
+    mech = _mech(root, name)
+    Ts = _random_poses(mech, 50, seed=3)
+    kern = IkKernel(mech)
+    w = np.ones((50, 6))
+    q0 = kern.seed_starts(Ts, w)[:, 0]
+    opts = IkOptions()
+    runs = {}
+    for backend in ("compiled", "numpy"):
+        monkeypatch.setattr(ik_optimize, "compiled_lm_available", lambda b=backend: b == "compiled")
+        runs[backend] = ik_optimize._lm_batch(kern, q0, np.zeros((50, 0)), Ts, w, opts,
+                                              history=True)
+    a, b = runs["compiled"], runs["numpy"]
+    assert (a["iters"] == b["iters"]).mean() >= 0.8
+    assert np.median(np.abs(a["q"] - b["q"]).max(axis=1)) < 1e-10
+    same = a["iters"] == b["iters"]
+    for i in np.flatnonzero(same)[:10]:
+        np.testing.assert_allclose(a["hist"][i], b["hist"][i], rtol=1e-6, atol=1e-20)

@@ -1,0 +1,282 @@
+r"""Compiled Levenberg-Marquardt for open chains (optional accelerator, needs ``numba``).
+
+The same iteration as the numpy ``lm`` of :mod:`mechkin.solvers.ik_optimize` on the serial path
+to {E} (:class:`mechkin.model.serial.SerialChain`), written as plain loops and compiled by numba
+(``pip install "mechkin[fast]"``). For one target the numpy version spends almost all its time
+in the fixed cost of small array calls; compiled, a whole solve takes tens of microseconds.
+
+Per row (target), with the chain expressed in {P} (``F_0 = T_P^{-1} A_0``):
+
+* residual x = (position of {E} in {P}, rotation vector of R_P^T R_E), Jacobian the geometric
+  Jacobian in {P} (exact for the position, exact at zero rotation for the orientation);
+* Marquardt step ``(H + lambda (diag H + mu I)) delta = -g``, ``H = J^T W J``, ``g = J^T W x``,
+  joints on a limit whose gradient points outward frozen, the step projected onto the limits
+  (continuous joints wrapped);
+* a step is kept when E = 1/2 x^T W x decreases (lambda / 10), else lambda x 4; a row stops when
+  E < f_abs, when a kept step gains less than 1e-14 E, when a rejected step is shorter than
+  1e-13 or lambda > 1e10, or (``stall > 0``) when E has not halved in ``stall`` iterations.
+
+Importing this module imports numba; :func:`mechkin.solvers.accel.compiled_lm_available` says
+whether it can be used (numba installed, ``MECHKIN_JIT`` not ``0``).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+_njit = numba.njit(cache=True, nogil=True)
+
+
+@_njit
+def chain_frames(q, F0, Pc, Ps, Pd, P0, rev, F):
+    """F[0] = F0, F[i+1] = F[i] (c Pc + s Ps + d Pd + P0)_i: joint frames and the end pose."""
+    for a in range(4):
+        for b in range(4):
+            F[0, a, b] = F0[a, b]
+    for i in range(q.size):
+        if rev[i]:
+            c, s, d = np.cos(q[i]), np.sin(q[i]), 0.0
+        else:
+            c, s, d = 0.0, 0.0, q[i]
+        for a in range(3):
+            for b in range(4):
+                acc = 0.0
+                for t in range(4):
+                    acc += F[i, a, t] * (c * Pc[i, t, b] + s * Ps[i, t, b] + d * Pd[i, t, b]
+                                         + P0[i, t, b])
+                F[i + 1, a, b] = acc
+        F[i + 1, 3, 0] = 0.0
+        F[i + 1, 3, 1] = 0.0
+        F[i + 1, 3, 2] = 0.0
+        F[i + 1, 3, 3] = 1.0
+
+
+@_njit
+def rotation_vector(E, x):
+    """x[3:6] = rotation vector of E[:3, :3] (as mechkin.spatial.rotations.rotation_log)."""
+    wx = 0.5 * (E[2, 1] - E[1, 2])
+    wy = 0.5 * (E[0, 2] - E[2, 0])
+    wz = 0.5 * (E[1, 0] - E[0, 1])
+    cs = 0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0)
+    sn = np.sqrt(wx * wx + wy * wy + wz * wz)
+    ang = np.arctan2(sn, cs)
+    if cs < -0.985:
+        # near a half turn: the axis is the dominant column of sym(R) - cos I, signed by w
+        b00, b11, b22 = E[0, 0] - cs, E[1, 1] - cs, E[2, 2] - cs
+        b01 = 0.5 * (E[0, 1] + E[1, 0])
+        b02 = 0.5 * (E[0, 2] + E[2, 0])
+        b12 = 0.5 * (E[1, 2] + E[2, 1])
+        if b00 >= b11 and b00 >= b22:
+            ax, ay, az = b00, b01, b02
+        elif b11 >= b22:
+            ax, ay, az = b01, b11, b12
+        else:
+            ax, ay, az = b02, b12, b22
+        nrm = np.sqrt(ax * ax + ay * ay + az * az)
+        scale = ang / nrm if ax * wx + ay * wy + az * wz >= 0.0 else -ang / nrm
+        wx, wy, wz = ax, ay, az
+    else:
+        scale = ang / sn if sn > 1e-300 else 1.0
+    x[3] = wx * scale
+    x[4] = wy * scale
+    x[5] = wz * scale
+
+
+@_njit
+def evaluate(q, F0, Pc, Ps, Pd, P0, rev, F, x, J):
+    """x (6,) and J (6, k) of one configuration q (k,); F (k+1, 4, 4) workspace."""
+    k = q.size
+    chain_frames(q, F0, Pc, Ps, Pd, P0, rev, F)
+    px, py, pz = F[k, 0, 3], F[k, 1, 3], F[k, 2, 3]
+    x[0] = px
+    x[1] = py
+    x[2] = pz
+    rotation_vector(F[k], x)
+    for i in range(k):
+        zx, zy, zz = F[i, 0, 2], F[i, 1, 2], F[i, 2, 2]
+        if rev[i]:
+            rx, ry, rz = px - F[i, 0, 3], py - F[i, 1, 3], pz - F[i, 2, 3]
+            J[0, i] = zy * rz - zz * ry
+            J[1, i] = zz * rx - zx * rz
+            J[2, i] = zx * ry - zy * rx
+            J[3, i] = zx
+            J[4, i] = zy
+            J[5, i] = zz
+        else:
+            J[0, i] = zx
+            J[1, i] = zy
+            J[2, i] = zz
+            J[3, i] = 0.0
+            J[4, i] = 0.0
+            J[5, i] = 0.0
+
+
+@_njit
+def cholesky_solve(A, b, out):
+    """Solve A out = b for a symmetric positive definite A (k, k), in place (A is overwritten
+    by its Cholesky factor). A non-positive pivot (numerically singular A) is floored at
+    1e-300 of the largest diagonal so the step stays finite."""
+    k = b.size
+    dmax = 0.0
+    for a in range(k):
+        dmax = max(dmax, A[a, a])
+    floor = max(dmax * 1e-300, 1e-300)
+    for j in range(k):
+        s = A[j, j]
+        for t in range(j):
+            s -= A[j, t] * A[j, t]
+        if s < floor:
+            s = floor
+        d = np.sqrt(s)
+        A[j, j] = d
+        for i in range(j + 1, k):
+            s = A[i, j]
+            for t in range(j):
+                s -= A[i, t] * A[j, t]
+            A[i, j] = s / d
+    for i in range(k):  # L y = b
+        s = b[i]
+        for t in range(i):
+            s -= A[i, t] * out[t]
+        out[i] = s / A[i, i]
+    for i in range(k - 1, -1, -1):  # L^T out = y
+        s = out[i]
+        for t in range(i + 1, k):
+            s -= A[t, i] * out[t]
+        out[i] = s / A[i, i]
+
+
+@_njit
+def project(q, lo, hi, cont, lower):
+    for j in range(q.size):
+        if cont[j]:
+            q[j] = lower[j] + np.mod(q[j] - lower[j], 2.0 * np.pi)
+        elif q[j] < lo[j]:
+            q[j] = lo[j]
+        elif q[j] > hi[j]:
+            q[j] = hi[j]
+
+
+@_njit
+def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, stall, mu,
+       q, f, iters, done, gnorm, hist):
+    m, k = q0.shape
+    F = np.empty((k + 1, 4, 4))
+    x = np.empty(6)
+    J = np.empty((6, k))
+    xn = np.empty(6)
+    Jn = np.empty((6, k))
+    g = np.empty(k)
+    H = np.empty((k, k))
+    step = np.empty(k)
+    qn = np.empty(k)
+    blk = np.zeros(k, dtype=np.bool_)
+    A = np.empty((k, k))
+    keep_hist = hist.shape[0] > 0
+    for r in range(m):
+        qr = q[r]
+        for a in range(k):
+            qr[a] = q0[r, a]
+        project(qr, lo, hi, cont, lower)
+        evaluate(qr, F0[r], Pc, Ps, Pd, P0, rev, F, x, J)
+        fr = 0.0
+        for i in range(6):
+            fr += 0.5 * w[r, i] * x[i] * x[i]
+        if keep_hist:
+            hist[r, 0] = fr
+        lam = 1e-2
+        fref = fr
+        fin = fr < f_abs
+        it = 0
+        gn = 0.0
+        while not fin and it < max_iter:
+            # gradient and Gauss-Newton matrix, active bounds frozen
+            for a in range(k):
+                acc = 0.0
+                for i in range(6):
+                    acc += J[i, a] * w[r, i] * x[i]
+                g[a] = acc
+            for a in range(k):
+                blk[a] = (qr[a] <= lo[a] + 1e-12 and g[a] > 0.0) or (
+                    qr[a] >= hi[a] - 1e-12 and g[a] < 0.0)
+                for b in range(a, k):
+                    acc = 0.0
+                    for i in range(6):
+                        acc += J[i, a] * w[r, i] * J[i, b]
+                    H[a, b] = acc
+                    H[b, a] = acc
+            for a in range(k):
+                if blk[a]:
+                    g[a] = 0.0
+                    for b in range(k):
+                        H[a, b] = 0.0
+                        H[b, a] = 0.0
+                    H[a, a] = 1.0
+            gn = 0.0
+            for a in range(k):
+                gn += g[a] * g[a]
+            gn = np.sqrt(gn)
+            for a in range(k):
+                for b in range(k):
+                    A[a, b] = H[a, b]
+                A[a, a] += lam * (H[a, a] + mu)
+            cholesky_solve(A, g, step)
+            for a in range(k):
+                qn[a] = qr[a] - step[a]
+            project(qn, lo, hi, cont, lower)
+            evaluate(qn, F0[r], Pc, Ps, Pd, P0, rev, F, xn, Jn)
+            fn = 0.0
+            for i in range(6):
+                fn += 0.5 * w[r, i] * xn[i] * xn[i]
+            it += 1
+            if fn < fr:
+                gain = fr - fn
+                for a in range(k):
+                    qr[a] = qn[a]
+                    for i in range(6):
+                        J[i, a] = Jn[i, a]
+                for i in range(6):
+                    x[i] = xn[i]
+                fr = fn
+                lam = max(lam * 0.1, 1e-12)
+                fin = fn < f_abs or gain <= 1e-14 * max(fn, 1e-300)
+            else:
+                lam *= 4.0
+                sn = 0.0
+                for a in range(k):
+                    sn += step[a] * step[a]
+                fin = np.sqrt(sn) < 1e-13 or lam > 1e10
+            if keep_hist:
+                hist[r, it] = fr
+            if stall > 0 and it % stall == 0:
+                if fr > 0.5 * fref:
+                    fin = True
+                fref = fr
+        f[r] = fr
+        iters[r] = it
+        done[r] = fin
+        gnorm[r] = gn
+
+
+def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarray,
+              hi: np.ndarray, cont: np.ndarray, lower: np.ndarray, *, f_abs: float,
+              max_iter: int, stall: int, mu: float, history: bool):
+    """Run the compiled lm on every row; returns q (m, k), f, iters, done, gnorm, hist.
+
+    ``chain`` is a :class:`mechkin.model.serial.SerialChain`; q0 (m, k) are its joints; F0
+    (m, 4, 4) its first frame in each precision point; w (m, 6) the weights; lo, hi, cont,
+    lower (k,) the bounds, continuous flags and lower limits of the chain's joints.
+    """
+    m, k = q0.shape
+    q = np.empty((m, k))
+    f = np.empty(m)
+    iters = np.zeros(m, dtype=np.int64)
+    done = np.zeros(m, dtype=np.bool_)
+    gnorm = np.zeros(m)
+    hist = np.full((m, max_iter + 1) if history else (0, 0), np.nan)
+    lm(np.ascontiguousarray(q0, dtype=np.float64), np.ascontiguousarray(F0),
+       np.ascontiguousarray(w, dtype=np.float64), chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(),
+       chain.Pd[:, 0].copy(), chain.P0[:, 0].copy(), chain.rev.copy(), lo, hi, cont, lower,
+       float(f_abs), int(max_iter), int(stall), float(mu), q, f, iters, done, gnorm, hist)
+    return q, f, iters, done, gnorm, hist
