@@ -74,6 +74,7 @@ MAX_ITER_CG = 2000
 TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v
 MAX_ITER_CLOSURE = 30
 TOL_DQ_CLOSURE = 1e-10  # ||dq_w|| of the last Newton step (kim1995 §5.1 epsilon_w)
+ACTIVE_BAND = 1e-3  # cg-golden: a passive joint this close to a limit (share of range) is active
 GOLDEN = 0.5 * (np.sqrt(5.0) - 1.0)  # 0.618...
 
 
@@ -695,22 +696,73 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
 
 def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
                w: np.ndarray, opts: IkOptions):
-    """kim1995 §5.2 Steps 3-8 for one precision point (arrays (n_v,), (n_w,), (4, 4), (6,))."""
+    """kim1995 §5.2 Steps 3-8 for one precision point (arrays (n_v,), (n_w,), (4, 4), (6,)).
+
+    §5.2 has no constraints. Independent joints are projected onto their limits (as in lm);
+    the dependent (passive) joints' limits, which are nonlinear constraints on q_v, are kept by
+    Rosen's gradient projection (Arora 1989 §11): a line-search trial with a passive joint
+    beyond its limit is infeasible (f = inf), and at a point where passive joints sit on their
+    limits the search direction is projected onto the tangent of those limits,
+    ``d <- (I - A^T (A A^T)^-1 A) d`` with the rows ``A = +-dq_w/dq_v`` of the active limits the
+    direction would cross. The convergence test (Step 6) uses the projected gradient. Without
+    it, steepest descent on the kim1995 end-effector robot drives the 3-RPS stage into the
+    gimbal lock of a spherical joint (s1_2 = 90 deg, beyond its 80 deg limit) and stops.
+    """
     max_iter = opts.max_iter or MAX_ITER_CG
     TP = T_P[None]
     nv = q_v0.size
     restart = nv if opts.cg_restart is None else opts.cg_restart
     nev = 0
+    lo_w, hi_w = kern.mech.lower[kern.iw], kern.mech.upper[kern.iw]
 
-    def fval(qv: np.ndarray, qw: np.ndarray) -> tuple[float, np.ndarray, bool]:
-        # kim1995 §5.2 Steps 7.1-7.3: closure warm-started from q_w^(k), then f
+    S = None  # dq_w/dq_v = -S at the current iterate
+
+    def fval(qv: np.ndarray, qw: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, bool]:
+        # kim1995 §5.2 Steps 7.1-7.3: closure warm-started from q_w^(k), then f; a trial
+        # beyond passive limits is restored onto them (Rosen), up to 3 linearized steps
         nonlocal nev
-        nev += 1
-        e = evaluate(kern, qv[None], qw[None], TP, jac=False, tol_phi=opts.tol_phi)
-        if not e.closed[0]:
-            return np.inf, qw, False
-        x = e.x[0]
-        return 0.5 * float(x @ (w * x)), e.q[0, kern.iw], True
+        for _ in range(4):
+            nev += 1
+            e = evaluate(kern, qv[None], qw[None], TP, jac=False, tol_phi=opts.tol_phi)
+            if not e.closed[0]:
+                return np.inf, qv, qw, False
+            qwe = e.q[0, kern.iw]
+            over = np.maximum(qwe - hi_w, 0.0) - np.maximum(lo_w - qwe, 0.0)
+            if not np.any(np.abs(over) > 1e-9):
+                x = e.x[0]
+                return 0.5 * float(x @ (w * x)), qv, qwe, True
+            if S is None:
+                break
+            J_ = np.flatnonzero(np.abs(over) > 1e-9)
+            A = -S[J_]  # dq_w/dq_v of the violated joints
+            qv = kern.project(qv - A.T @ np.linalg.lstsq(A @ A.T, over[J_], rcond=None)[0])
+            qw = qwe
+        return np.inf, qv, qw, False
+
+    def project_dir(d: np.ndarray, qv: np.ndarray, qw: np.ndarray, S: np.ndarray | None
+                    ) -> np.ndarray:
+        """Rosen's projection of d onto the tangent of the limits it would cross: independent
+        joints on a limit keep still, passive ones move along their limit."""
+        d = np.where(((qv <= kern.bound_lo + 1e-9) & (d < 0))
+                     | ((qv >= kern.bound_hi - 1e-9) & (d > 0)), 0.0, d)
+        if S is None or not S.size:
+            return d
+        rng_w = np.minimum(hi_w - lo_w, 2 * np.pi)
+        at_hi = qw >= hi_w - ACTIVE_BAND * rng_w
+        at_lo = qw <= lo_w + ACTIVE_BAND * rng_w
+        if not (at_hi.any() or at_lo.any()):
+            return d
+        G = -S  # dq_w/dq_v (n_w, n_v)
+        rows = np.concatenate([G[at_hi], -G[at_lo]])  # outward normals
+        act = np.zeros(len(rows), dtype=bool)
+        for _ in range(len(rows) + 1):
+            viol = (rows @ d > 1e-12 * np.linalg.norm(d)) & ~act
+            if not viol.any():
+                break
+            act |= viol
+            A = rows[act]
+            d = d - A.T @ np.linalg.lstsq(A @ A.T, A @ d, rcond=None)[0]
+        return d
 
     qv = kern.project(q_v0)
     ev = evaluate(kern, qv[None], q_w0[None], TP, tol_phi=opts.tol_phi)  # Step 3
@@ -720,54 +772,58 @@ def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarr
                     converged=False, hist=[np.inf])
     qw = ev.q[0, kern.iw]
     assert ev.J is not None
+    S = None if ev.S is None else ev.S[0]
     x = ev.x[0]
     f = 0.5 * float(x @ (w * x))
     g = ev.J[0].T @ (w * x)  # Step 4, kim1995 Eq. (10)
-    d = -g
-    g_prev_n2 = float(g @ g)
+    gp = -project_dir(-g, qv, qw, S)
+    d = -gp
+    g_prev_n2 = float(gp @ gp)
     hist = [f]
     k = 0
     converged = False
     alpha_prev = 0.0
     for k in range(max_iter):  # noqa: B007 - k is reported
-        gn = float(np.sqrt(g @ g))
-        if gn < opts.grad_tol:  # Step 6
+        gn = float(np.sqrt(gp @ gp))
+        if gn < opts.grad_tol:  # Step 6 (projected gradient)
             converged = True
             break
         if k > 0:  # Step 5: Fletcher-Reeves
-            beta = float(g @ g) / g_prev_n2
-            d = -g + beta * d
+            beta = float(gp @ gp) / g_prev_n2
+            d = project_dir(-gp + beta * d, qv, qw, S)
             if (restart and k % restart == 0) or float(d @ g) >= 0.0:
-                d = -g
-        g_prev_n2 = float(g @ g)
+                d = -gp
+        g_prev_n2 = float(gp @ gp)
         # Step 7: golden-section search for alpha* along d, with bracketing
         dn = float(np.linalg.norm(d))
         delta = (alpha_prev * 0.5 if alpha_prev > 0 else 0.05 / dn)
-        alpha, f_new, qw_new = _golden_line(fval, qv, qw, d, f, delta, kern.project,
-                                            opts.line_tol / dn)
+        alpha, f_new, qv_new, qw_new = _golden_line(fval, qv, qw, d, f, delta, kern.project,
+                                                    opts.line_tol / dn)
         if not np.isfinite(f_new) or f_new >= f:
             # no decrease along d: steepest descent once more, then stop
-            if not np.array_equal(d, -g):
-                d = -g
+            if not np.array_equal(d, -gp):
+                d = -gp
                 dn = float(np.linalg.norm(d))
-                alpha, f_new, qw_new = _golden_line(fval, qv, qw, d, f, 0.05 / dn, kern.project,
-                                                    opts.line_tol / dn)
+                alpha, f_new, qv_new, qw_new = _golden_line(
+                    fval, qv, qw, d, f, 0.05 / dn, kern.project, opts.line_tol / dn)
             if not np.isfinite(f_new) or f_new >= f:
                 converged = True  # no descent along -grad: a numerical stationary point
                 break
         alpha_prev = alpha
-        qv = kern.project(qv + alpha * d)  # Step 8
+        qv = qv_new  # Step 8: q_v + alpha d (projected, restored onto passive limits)
         e = evaluate(kern, qv[None], qw_new[None], TP, tol_phi=opts.tol_phi)
         nev += 1
         assert e.J is not None
         qw = e.q[0, kern.iw]
+        S = None if e.S is None else e.S[0]
         x = e.x[0]
         f = 0.5 * float(x @ (w * x))
         g = e.J[0].T @ (w * x)
+        gp = -project_dir(-g, qv, qw, S)
         hist.append(f)
     else:
         k = max_iter
-    gn = float(np.sqrt(g @ g))
+    gn = float(np.sqrt(gp @ gp))
     converged = converged or gn < opts.grad_tol
     return dict(qv=qv, qw=qw, f=f, iters=k, nev=nev, gnorm=gn, closed=True,
                 converged=converged, hist=hist)
@@ -777,12 +833,12 @@ def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float,
                  project, tol: float, max_step: float = 0.1):
     """Golden-section search of min_alpha f(q_v + alpha d) (Arora 1989 §8.2): bracket with
     steps growing by the golden ratio, then shrink the interval until shorter than ``tol``."""
-    cache: dict[float, tuple[float, np.ndarray]] = {}
+    cache: dict[float, tuple[float, np.ndarray, np.ndarray]] = {}
 
     def F(a: float) -> float:
         if a not in cache:
-            fa, qwa, ok = fval(project(qv + a * d), qw)
-            cache[a] = (fa if ok else np.inf, qwa)
+            fa, qva, qwa, ok = fval(project(qv + a * d), qw)
+            cache[a] = (fa if ok else np.inf, qva, qwa)
         return cache[a][0]
 
     # phase 1: bracketing, alpha_q = sum_j delta (1.618)^j, up to a joint change of max_step
@@ -826,7 +882,7 @@ def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float,
             f1, f2 = F(a1), F(a2)
     # phase 3: the best point evaluated
     best = min(cache, key=lambda t: cache[t][0])
-    return best, cache[best][0], cache[best][1]
+    return best, *cache[best]
 
 
 # ---- public solvers ----------------------------------------------------------------------------
