@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -226,9 +226,20 @@ class IkKernel:
     @property
     def chain_cols(self) -> np.ndarray | None:
         """Positions of the chain's joints in q_v (None when the chain is q_v, in order)."""
-        pos = {int(j): i for i, j in enumerate(self.iv)}
-        cols = np.array([pos[int(j)] for j in self.chain.joints], dtype=int)
-        return None if np.array_equal(cols, np.arange(self.iv.size)) else cols
+        if "_chain_cols" not in self.__dict__:
+            pos = {int(j): i for i, j in enumerate(self.iv)}
+            cols = np.array([pos[int(j)] for j in self.chain.joints], dtype=int)
+            self.__dict__["_chain_cols"] = (None if np.array_equal(cols, np.arange(self.iv.size))
+                                            else cols)
+        return self.__dict__["_chain_cols"]
+
+    def pose_check(self, q: np.ndarray) -> np.ndarray:
+        """Pose of {E} (m, 4, 4) at joints q (m, n) by forward kinematics, for verification:
+        the serial path's product for open chains (tested equal to the general tree
+        kinematics), the general tree kinematics for closed ones."""
+        if self.n_cuts == 0:
+            return self.chain.pose(q[:, self.chain.joints])
+        return self.end_effector(self.kinematics(q))
 
     def project(self, q_v: np.ndarray) -> np.ndarray:
         """Project independent joints (..., n_v) onto the limits (continuous joints wrapped)."""
@@ -261,9 +272,8 @@ class IkKernel:
         feats[:, :3] = T_P[:, :3, 3]
         feats[:, 3:] = 0.5 * T_P[:, :3, :3].reshape(m, 9)
         modes = wp.astype(int) * 2 + wo.astype(int)
-        for mode in np.unique(modes):
-            rows = slice(None) if mode == modes[0] and (modes == mode).all() else np.flatnonzero(
-                modes == mode)
+        for mode in (modes[0],) if m == 1 else np.unique(modes):
+            rows = slice(None) if m == 1 else np.flatnonzero(modes == mode)
             cols = tuple(([0, 1, 2] if mode & 2 else []) + (list(range(3, 12)) if mode & 1
                                                             else []))
             if not cols:
@@ -536,7 +546,8 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
     max_iter = opts.max_iter or MAX_ITER_LM
     cols = kern.chain_cols
     sel = slice(None) if cols is None else cols
-    qv = kern.project(q_v0)
+    # the kernel projects the chain's joints onto their limits; the others are left as given
+    qv = np.array(q_v0, dtype=np.float64) if cols is None else kern.project(q_v0)
     f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
     stall = STALL_WINDOW if opts.restarts > 0 else 0
     qc, f, iters, done, gnorm, hist = ik_serial_jit.lm_serial(
@@ -891,7 +902,7 @@ def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float,
 def _status(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, closed: bool,
             converged: bool, opts: IkOptions, grad_norm: float = 0.0
             ) -> tuple[IkStatus, float, float, tuple[str, ...]]:
-    T_E = kern.end_effector(kern.kinematics(q[None]))  # the model's general kinematics
+    T_E = kern.pose_check(q[None])
     pe, oe, wpe, woe = _errors(T_E, T_P[None], w[None])
     mech = kern.mech
     tol_j = 1e-9
@@ -963,16 +974,16 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
             qv0 = seeded[0, 0]
     qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
     rng: np.random.Generator | None = None
-    best: IkResult | None = None
+    best: dict | None = None
     tot_it = tot_ev = 0
-    lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
-    hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
     attempt = 0
     while attempt <= opts.restarts:
         if attempt == 0:
             starts_v, start_w = qv0[None], qw0
         else:
             rng = rng or np.random.default_rng(opts.seed)
+            lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+            hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
             # lm: every remaining restart at once, as rows of one batch that stops at the
             # first success; cg-golden: one at a time (kim1995 §5.2 is sequential)
             k = opts.restarts if opts.method == "lm" else 1
@@ -984,7 +995,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
                 start_w = qw0
             else:
                 starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
-                start_w = qw0 if best is None else best.q_w
+                start_w = qw0 if best is None else best["q_w"]
             if opts.method == "lm":  # the nearest codebook poses not tried yet come first
                 first = 1 if q_v0 is None else 0
                 nr = min(k, SEED_RESTARTS)
@@ -1001,10 +1012,14 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         elif opts.method == "lm":
             k = starts_v.shape[0]
             r = _lm_batch(kern, starts_v, np.broadcast_to(start_w, (k, kern.iw.size)),
-                          np.broadcast_to(T_P, (k, 4, 4)), np.broadcast_to(w, (k, 6)), opts,
+                          np.broadcast_to(T_P, (k, 4, 4)) if k > 1 else T_P[None],
+                          np.broadcast_to(w, (k, 6)) if k > 1 else w[None], opts,
                           history=True, stop_on_first=k > 1)
-            fr = np.where(r["closed"], r["f"], np.inf)
-            b = int(np.argmin(fr)) if np.isfinite(fr).any() else 0
+            if k == 1:
+                b = 0
+            else:
+                fr = np.where(r["closed"], r["f"], np.inf)
+                b = int(np.argmin(fr)) if np.isfinite(fr).any() else 0
             hist = np.asarray(r["hist"][b], dtype=float)
             qv, qw = r["qv"][b], r["qw"][b]
             f, iters, nev, gn = (float(r["f"][b]), int(r["iters"].max()),
@@ -1020,27 +1035,27 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         q = _finite(q, mech.home)
         st, pe, oe, at = _status(kern, q, T_P, w, closed, conv, opts, float(gn))
         f_fin = float(f) if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
-        res = IkResult(q_v=q[kern.iv].copy(), q_w=q[kern.iw].copy(), q=q, status=st,
-                       position_error=pe, orientation_error=oe, f=f_fin,
-                       grad_norm=float(gn) if np.isfinite(gn) else 0.0, iterations=tot_it,
-                       evaluations=tot_ev, time_s=0.0,
-                       f_history=_finite(hist, np.full_like(hist, f_fin)), at_limit=at,
-                       restarts_used=attempt - 1, method=opts.method)
+        if not np.isfinite(hist).all():
+            hist = _finite(hist, np.full_like(hist, f_fin))
+        res = dict(q_v=q[kern.iv], q_w=q[kern.iw], q=q, status=st, position_error=pe,
+                   orientation_error=oe, f=f_fin, grad_norm=float(gn) if np.isfinite(gn) else 0.0,
+                   f_history=hist, at_limit=at, restarts_used=attempt - 1, method=opts.method)
         if best is None or _better(res, best):
             best = res
-        if best.status is IkStatus.OK:
+        if best["status"] is IkStatus.OK:
             break
     assert best is not None
-    return replace(best, iterations=tot_it, evaluations=tot_ev,
-                   time_s=time.perf_counter() - t0)
+    return IkResult(**best, iterations=tot_it, evaluations=tot_ev,
+                    time_s=time.perf_counter() - t0)
 
 
-def _better(a: IkResult, b: IkResult) -> bool:
+def _better(a: dict, b: dict) -> bool:
+    """Whether result fields a beat b: a better status, then a lower f."""
     rank = {IkStatus.OK: 0, IkStatus.AT_LIMIT: 1, IkStatus.UNREACHABLE: 2,
             IkStatus.NOT_CONVERGED: 2, IkStatus.SINGULAR: 3}
-    if rank[a.status] != rank[b.status]:
-        return rank[a.status] < rank[b.status]
-    return a.f < b.f
+    if rank[a["status"]] != rank[b["status"]]:
+        return rank[a["status"]] < rank[b["status"]]
+    return a["f"] < b["f"]
 
 
 def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
@@ -1115,7 +1130,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     conv, closed = r["converged"], r["closed"]
 
     def check(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray:
-        T_E = kern.end_effector(kern.kinematics(qq))
+        T_E = kern.pose_check(qq)
         pe, oe = _weighted_errors(T_E, TT, ww)
         return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
 
@@ -1139,7 +1154,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         q[sel], f[sel] = r2["q"][better], r2["f"][better]
         conv[sel], closed[sel] = r2["converged"][better], r2["closed"][better]
         ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
-    T_E = kern.end_effector(kern.kinematics(q))
+    T_E = kern.pose_check(q)
     pe, oe = pose_errors(T_E, T_P)
     status = np.empty(m, dtype=object)
     for i in range(m):

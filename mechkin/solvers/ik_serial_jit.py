@@ -282,9 +282,13 @@ def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarr
     hist = np.full((m, max_iter + 1) if history else (0, 0), np.nan)
     args = (np.ascontiguousarray(q0, dtype=np.float64), np.ascontiguousarray(F0),
             np.ascontiguousarray(w, dtype=np.float64))
-    consts = (chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(), chain.Pd[:, 0].copy(),
-              chain.P0[:, 0].copy(), chain.rev.copy(), *(np.ascontiguousarray(a) for a in (
-                  lo, hi, cont, lower)), float(f_abs), int(max_iter), int(stall), float(mu))
+    cc = chain.__dict__.get("_jit_consts")
+    if cc is None:
+        cc = chain.__dict__["_jit_consts"] = (
+            chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(), chain.Pd[:, 0].copy(),
+            chain.P0[:, 0].copy(), chain.rev.copy())
+    consts = (*cc, *(np.ascontiguousarray(a) for a in (lo, hi, cont, lower)), float(f_abs),
+              int(max_iter), int(stall), float(mu))
     outs = (q, f, iters, done, gnorm, hist)
 
     def run(sl: slice) -> None:
