@@ -22,3 +22,15 @@ def mechanisms_dir() -> Path:
 @pytest.fixture
 def scenarios_dir() -> Path:
     return ROOT / "scenarios"
+
+
+@pytest.fixture(params=["compiled", "numpy"])
+def lm_backend(request, monkeypatch):
+    """The IK both ways: compiled kernels (numba, mechkin[fast]) and numpy on mechkin.model."""
+    from mechkin.solvers import ik_optimize
+
+    if request.param == "compiled":
+        pytest.importorskip("numba")
+    monkeypatch.setattr(ik_optimize, "compiled_lm_available",
+                        lambda: request.param == "compiled")
+    return request.param

@@ -591,8 +591,15 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     lo, hi = kern.bound_lo, kern.bound_hi
     bounded = bool(np.isfinite(lo).any() or np.isfinite(hi).any())
     closed_chain = bool(kern.n_cuts) and kern.iw.size > 0
-    if not closed_chain and compiled_lm_available():
-        return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history)
+    if compiled_lm_available():
+        if not closed_chain:
+            return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history)
+        from mechkin.solvers import ik_tree_jit
+
+        return ik_tree_jit.lm_closed_rows(
+            kern, q_v0, q_w0, T_P, w, tol_phi=opts.tol_phi, tol_dq=TOL_DQ_CLOSURE,
+            max_iter_closure=MAX_ITER_CLOSURE, max_iter=max_iter, mu=LM_MU, history=history,
+            f_abs=0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2)
     rows = _ClosedRows(kern, opts.tol_phi) if closed_chain else _OpenRows(kern)
     qv = kern.project(q_v0)
     tgt = rows.prepare(T_P)
@@ -705,6 +712,23 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
 # ---- conjugate gradient + golden section (kim1995 §5.2) ----------------------------------------
 
 
+def _point_evaluator(kern: IkKernel, opts: IkOptions):
+    """``(q_v, q_w guess, T_P, jac) -> (closed, x, J_r | None, q, S | None)`` for one point:
+    the compiled closed-chain evaluation when available, else :func:`evaluate`."""
+    if kern.n_cuts and kern.iw.size and compiled_lm_available():
+        from mechkin.solvers.ik_tree_jit import ClosedEvaluator
+
+        ce = ClosedEvaluator(kern, opts.tol_phi, TOL_DQ_CLOSURE, MAX_ITER_CLOSURE)
+        return lambda qv, qw, T_P, jac: ce(qv, qw, T_P)
+
+    def ev(qv, qw, T_P, jac):
+        e = evaluate(kern, qv[None], qw[None], T_P[None], jac=jac, tol_phi=opts.tol_phi)
+        return (bool(e.closed[0]), e.x[0], None if e.J is None else e.J[0], e.q[0],
+                None if e.S is None else e.S[0])
+
+    return ev
+
+
 def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
                w: np.ndarray, opts: IkOptions):
     """kim1995 §5.2 Steps 3-8 for one precision point (arrays (n_v,), (n_w,), (4, 4), (6,)).
@@ -720,11 +744,11 @@ def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarr
     gimbal lock of a spherical joint (s1_2 = 90 deg, beyond its 80 deg limit) and stops.
     """
     max_iter = opts.max_iter or MAX_ITER_CG
-    TP = T_P[None]
     nv = q_v0.size
     restart = nv if opts.cg_restart is None else opts.cg_restart
     nev = 0
     lo_w, hi_w = kern.mech.lower[kern.iw], kern.mech.upper[kern.iw]
+    evaluate_at = _point_evaluator(kern, opts)
 
     S = None  # dq_w/dq_v = -S at the current iterate
 
@@ -734,13 +758,12 @@ def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarr
         nonlocal nev
         for _ in range(4):
             nev += 1
-            e = evaluate(kern, qv[None], qw[None], TP, jac=False, tol_phi=opts.tol_phi)
-            if not e.closed[0]:
+            closed_e, x, _, q_e, _ = evaluate_at(qv, qw, T_P, False)
+            if not closed_e:
                 return np.inf, qv, qw, False
-            qwe = e.q[0, kern.iw]
+            qwe = q_e[kern.iw]
             over = np.maximum(qwe - hi_w, 0.0) - np.maximum(lo_w - qwe, 0.0)
             if not np.any(np.abs(over) > 1e-9):
-                x = e.x[0]
                 return 0.5 * float(x @ (w * x)), qv, qwe, True
             if S is None:
                 break
@@ -776,17 +799,14 @@ def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarr
         return d
 
     qv = kern.project(q_v0)
-    ev = evaluate(kern, qv[None], q_w0[None], TP, tol_phi=opts.tol_phi)  # Step 3
+    closed_e, x, Jr, q_e, S = evaluate_at(qv, q_w0, T_P, True)  # Step 3
     nev += 1
-    if not ev.closed[0]:
+    if not closed_e:
         return dict(qv=qv, qw=q_w0, f=np.inf, iters=0, nev=nev, gnorm=np.inf, closed=False,
                     converged=False, hist=[np.inf])
-    qw = ev.q[0, kern.iw]
-    assert ev.J is not None
-    S = None if ev.S is None else ev.S[0]
-    x = ev.x[0]
+    qw = q_e[kern.iw]
     f = 0.5 * float(x @ (w * x))
-    g = ev.J[0].T @ (w * x)  # Step 4, kim1995 Eq. (10)
+    g = Jr.T @ (w * x)  # Step 4, kim1995 Eq. (10)
     gp = -project_dir(-g, qv, qw, S)
     d = -gp
     g_prev_n2 = float(gp @ gp)
@@ -822,14 +842,11 @@ def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarr
                 break
         alpha_prev = alpha
         qv = qv_new  # Step 8: q_v + alpha d (projected, restored onto passive limits)
-        e = evaluate(kern, qv[None], qw_new[None], TP, tol_phi=opts.tol_phi)
+        _, x, Jr, q_e, S = evaluate_at(qv, qw_new, T_P, True)
         nev += 1
-        assert e.J is not None
-        qw = e.q[0, kern.iw]
-        S = None if e.S is None else e.S[0]
-        x = e.x[0]
+        qw = q_e[kern.iw]
         f = 0.5 * float(x @ (w * x))
-        g = e.J[0].T @ (w * x)
+        g = Jr.T @ (w * x)
         gp = -project_dir(-g, qv, qw, S)
         hist.append(f)
     else:

@@ -83,7 +83,7 @@ GRAD_TOL = {"lm": 1e-12, "cg-golden": None}
 
 
 @pytest.mark.parametrize("method", ["lm", "cg-golden"])
-def test_table3_direct_drive(mechs, method):
+def test_table3_direct_drive(mechs, method, lm_backend):
     """Table 3 to 5 decimals within 1.5e-5: Table 2 is printed to 5 decimals (orthonormal to
     ~1e-5), and the least-squares solution of the printed points moves q by up to 1.2e-5
     (PAPER_NOTES: reproduces to 1e-5). The closed form gives the same to 1.5e-5."""
@@ -101,7 +101,7 @@ def test_table3_direct_drive(mechs, method):
 
 
 @pytest.mark.parametrize("method", ["lm", "cg-golden"])
-def test_table6_stewart(mechs, method):
+def test_table6_stewart(mechs, method, lm_backend):
     """All 24 leg lengths of Table 6. The reconstructed geometry (Table 4 printed to 3-6
     digits) reproduces them to 2e-6 (PAPER_NOTES), so 6 decimals are checked at 2e-6; the
     numerical and closed-form solutions agree to 2e-6. kim1995 §6.2 stops cg-golden at
@@ -119,7 +119,7 @@ def test_table6_stewart(mechs, method):
     np.testing.assert_allclose(q, lengths, atol=2e-6 if method == "cg-golden" else 1e-6)
 
 
-def test_table9_end_effector_lm(mechs):
+def test_table9_end_effector_lm(mechs, lm_backend):
     """Table 9. Points 1-3 have position weight 0: only the orientation of {E} is determined
     (a 3-parameter family of q_v reaches it), so for them we check the orientation (Table 8)
     and, for point 1, whose start (home) already has f = 0, the joint values to 6 decimals.
@@ -157,7 +157,7 @@ def test_table9_end_effector_cg_golden_point4(mechs):
     np.testing.assert_allclose(rs[0].q_v, TABLE9[3], atol=5e-5)
 
 
-def test_table9_end_effector_cg_golden_points_1_2(mechs):
+def test_table9_end_effector_cg_golden_points_1_2(mechs, lm_backend):
     """cg-golden (§5.2) from home through points 1-2 (position weight 0): the orientation of
     {E} is the determined part (Table 8). Plain §5.2 steepest descent drives the 3-RPS stage
     into the gimbal lock of spherical joint s1 here; with the passive limits kept by gradient

@@ -30,16 +30,6 @@ MECHS = ["puma560", "panda", "kim1995_direct_drive", "kim1995_stewart",
          "kim1995_end_effector_robot"]
 
 
-@pytest.fixture(params=["compiled", "numpy"])
-def lm_backend(request, monkeypatch):
-    """Open-chain lm both ways: compiled (numba, mechkin[fast]) and numpy."""
-    if request.param == "compiled":
-        pytest.importorskip("numba")
-    monkeypatch.setattr(ik_optimize, "compiled_lm_available",
-                        lambda: request.param == "compiled")
-    return request.param
-
-
 def _mech(root, name):
     return load_mechanism(root / "mechanisms" / f"{name}.yaml")
 
@@ -194,3 +184,39 @@ def test_compiled_lm_takes_the_numpy_lm_steps(root, name, monkeypatch):
     same = a["iters"] == b["iters"]
     for i in np.flatnonzero(same)[:10]:
         np.testing.assert_allclose(a["hist"][i], b["hist"][i], rtol=1e-6, atol=1e-20)
+
+
+@pytest.mark.parametrize("name", ["kim1995_stewart", "kim1995_direct_drive",
+                                  "kim1995_end_effector_robot"])
+def test_compiled_closed_chain_lm_takes_the_numpy_lm_steps(root, name, monkeypatch):
+    """Closed chains: the compiled kernel (tree kinematics, loop closure, reduced Jacobian,
+    lm in loops) against the numpy lm on mechkin.model, from the same assembled starts to
+    nearby reachable targets."""
+    pytest.importorskip("numba")
+    mech = _mech(root, name)
+    rng = np.random.default_rng(8)
+    starts, qws, targets = [], [], []
+    for _ in range(6):
+        qv, qw = _assembled(mech, rng)
+        qv_t, qw_t = _assembled(mech, rng)
+        q_t = mech.assemble(qv_t, qw_t)
+        T = forward_kinematics(mech, q_t[None]).frames(mech, [mech.end_effector])[0, 0]
+        starts.append(qv)
+        qws.append(qw)
+        targets.append(T)
+    kern = IkKernel(mech)
+    qv0, qw0, Ts = np.array(starts), np.array(qws), np.array(targets)
+    w = np.ones((len(Ts), 6))
+    runs = {}
+    for backend in ("compiled", "numpy"):
+        monkeypatch.setattr(ik_optimize, "compiled_lm_available", lambda b=backend: b == "compiled")
+        runs[backend] = ik_optimize._lm_batch(kern, qv0, qw0, Ts, w, IkOptions(), history=True)
+    a, b = runs["compiled"], runs["numpy"]
+    assert a["closed"].all() and b["closed"].all()
+    np.testing.assert_array_equal(a["iters"], b["iters"])
+    np.testing.assert_allclose(a["q"], b["q"], atol=1e-9)
+    for ha, hb in zip(a["hist"], b["hist"], strict=True):
+        np.testing.assert_allclose(ha, hb, rtol=1e-6, atol=1e-22)
+    T_E = forward_kinematics(mech, a["q"]).frames(mech, [mech.end_effector])[:, 0]
+    pe, oe = pose_errors(T_E, Ts)
+    assert np.all(pe < 1e-7) and np.all(oe < 1e-7)
