@@ -13,7 +13,6 @@ from __future__ import annotations
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
-from mechkin.spatial.transforms import invert
 
 SMALL_BATCH = 32  # below: one small product per joint; above: column mixing and one GEMM
 
@@ -93,7 +92,14 @@ class SerialChain:
         base frame (None: the base frame itself, shape (1, 4, 4))."""
         if T_out is None:
             return self.A0[None]
-        return invert(T_out) @ self.A0
+        m = T_out.shape[0]
+        X = np.empty((m, 3, 4))
+        X[:] = self.A0[:3]
+        X[:, :, 3] -= T_out[:, :3, 3]
+        F0 = np.empty((m, 4, 4))
+        np.matmul(np.swapaxes(T_out[:, :3, :3], 1, 2), X, out=F0[:, :3])  # T_out^-1 A_0
+        F0[:, 3] = self.A0[3]
+        return F0
 
     def pose_jacobian(self, q: np.ndarray, F0: np.ndarray | None = None
                       ) -> tuple[np.ndarray, np.ndarray]:

@@ -558,7 +558,7 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
     q = np.empty((m, kern.n))
     q[:, kern.iv] = qv
     q[:, kern.iw] = q_w0
-    hl = [list(h[: i + 1]) for h, i in zip(hist, iters, strict=True)] if history else []
+    hl = [h[: i + 1] for h, i in zip(hist, iters, strict=True)] if history else []
     return dict(q=q, qv=qv, qw=q_w0, f=f, iters=iters, nev=iters + 1, gnorm=gnorm,
                 closed=np.ones(m, dtype=bool), converged=done, hist=hl)
 

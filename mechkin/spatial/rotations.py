@@ -165,7 +165,9 @@ def rotation_log(R: np.ndarray) -> np.ndarray:
     Rf = R.reshape(m, 9)
     w = (Rf[:, _VEE_A] - Rf[:, _VEE_B]) * 0.5
     cs = (Rf[:, _DIAG].sum(axis=1) - 1.0) * 0.5
-    ang = np.arctan2(np.sqrt((w * w).sum(axis=1)), cs)
+    sn = np.sqrt((w * w).sum(axis=1))
+    ang = np.arctan2(sn, cs)
+    scale = ang / np.maximum(sn, 1e-300)  # angle / sin(angle); w = 0 gives 0
     near_pi = cs < -0.985
     if near_pi.any():
         i = np.flatnonzero(near_pi)
@@ -173,8 +175,7 @@ def rotation_log(R: np.ndarray) -> np.ndarray:
         col = np.argmax(np.einsum("mii->mi", B), axis=1)
         a = B[np.arange(i.size), :, col]
         a /= np.linalg.norm(a, axis=1, keepdims=True)
-        sgn = np.where(np.einsum("mi,mi->m", a, w[i]) < 0.0, -1.0, 1.0)
         w = w.copy()
-        w[i] = a * (sgn * np.sin(ang[i]))[:, None]
-    # ang / sin(ang) = 1 / sinc(ang / pi): 1 at ang = 0, finite (about 8e16) at ang = pi
-    return w / np.sinc(ang / np.pi)[:, None]
+        w[i] = np.where(np.einsum("mi,mi->m", a, w[i])[:, None] < 0.0, -a, a)
+        scale[i] = ang[i]
+    return w * scale[:, None]
