@@ -694,8 +694,6 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
             qa, xa, Ja, fa, la, wa = qa[keep], xa[keep], Ja[keep], fa[keep], la[keep], wa[keep]
             tga, fref, ga_norm = tga[keep], fref[keep], ga_norm[keep]
             ca = tuple(c[keep] for c in ca)
-            if stop_on_first:
-                break
     if act.size:  # out of iterations
         qv[act], x[act], f[act], gnorm[act] = qa, xa, fa, ga_norm
         iters[act] = its

@@ -220,3 +220,14 @@ def test_compiled_closed_chain_lm_takes_the_numpy_lm_steps(root, name, monkeypat
     T_E = forward_kinematics(mech, a["q"]).frames(mech, [mech.end_effector])[:, 0]
     pe, oe = pose_errors(T_E, Ts)
     assert np.all(pe < 1e-7) and np.all(oe < 1e-7)
+
+
+def test_restart_rows_run_until_one_converges(root, lm_backend):
+    """Regression: with several restart rows (stop_on_first) the batch stops when a row
+    converges, not when the first row gives up. PUMA 560 pose 7 of the seeded benchmark set
+    needs a restart (its nearest-codebook start ends on the q2 limit)."""
+    mech = _mech(root, "puma560")
+    T = _random_poses(mech, 200, seed=123)[7]
+    r = solve_ik(mech, T, options=IkOptions(restarts=30, seed=1, tol_pos=1e-7, tol_ori=1e-6))
+    assert r.status is IkStatus.OK, (r.status, r.position_error)
+    assert r.restarts_used > 0
