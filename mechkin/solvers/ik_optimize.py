@@ -775,8 +775,9 @@ def _cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarr
                     ) -> np.ndarray:
         """Rosen's projection of d onto the tangent of the limits it would cross: independent
         joints on a limit keep still, passive ones move along their limit."""
-        d = np.where(((qv <= kern.bound_lo + 1e-9) & (d < 0))
-                     | ((qv >= kern.bound_hi - 1e-9) & (d > 0)), 0.0, d)
+        band_v = 1e-6 * np.minimum(kern.upper_v - kern.lower_v, 2 * np.pi)
+        d = np.where(((qv <= kern.bound_lo + band_v) & (d < 0))
+                     | ((qv >= kern.bound_hi - band_v) & (d > 0)), 0.0, d)
         if S is None or not S.size:
             return d
         rng_w = np.minimum(hi_w - lo_w, 2 * np.pi)
@@ -893,7 +894,7 @@ def _golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float,
     a2 = aL + GOLDEN * (aU - aL)
     f1, f2 = F(a1), F(a2)
     while aU - aL > tol:
-        if f1 < f2:
+        if f1 < f2 or (f1 == f2 == np.inf):  # both infeasible: the feasible side is near 0
             aU, a2, f2 = a2, a1, f1
             a1 = aL + (1.0 - GOLDEN) * (aU - aL)
             f1 = F(a1)
