@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mechkin.model.kinematics import _ZC, _ZD, _ZK, _ZS
 from mechkin.model.mechanism import Mechanism
 
 SMALL_BATCH = 32  # below: one small product per joint; above: column mixing and one GEMM
@@ -72,20 +73,14 @@ class SerialChain:
         C[-1] = B[-1] @ mech.frame_offset[frame]
         self.A0 = A[0].copy()
         self.C = C
-        zc = np.diag([1.0, 1.0, 0.0, 0.0])
-        zs = np.zeros((4, 4))
-        zs[0, 1], zs[1, 0] = -1.0, 1.0
-        zk = np.diag([0.0, 0.0, 1.0, 1.0])
-        zd = np.zeros((4, 4))
-        zd[2, 3] = 1.0
         self.rev = rev = mech.s[jj] == 0
         self.all_rev = bool(rev.all())
         r3 = rev[:, None, None]
         # Z(q) C = c Pc + s Ps + d Pd + P0, joint-major (k, 1, 4, 4) to broadcast over (k, m)
-        self.Pc = np.where(r3, zc @ C, 0.0)[:, None]
-        self.Ps = np.where(r3, zs @ C, 0.0)[:, None]
-        self.Pd = np.where(r3, 0.0, zd @ C)[:, None]
-        self.P0 = np.where(r3, zk @ C, C)[:, None]
+        self.Pc = np.where(r3, _ZC @ C, 0.0)[:, None]
+        self.Ps = np.where(r3, _ZS @ C, 0.0)[:, None]
+        self.Pd = np.where(r3, 0.0, _ZD @ C)[:, None]
+        self.P0 = np.where(r3, _ZK @ C, C)[:, None]
 
     def first_frame(self, T_out: np.ndarray | None = None) -> np.ndarray:
         """``F_0`` (m, 4, 4) for results expressed in frames ``T_out`` (m, 4, 4) given in the

@@ -153,6 +153,66 @@ def cholesky_solve(A, b, out):
 
 
 @_njit
+def lm_step(J, x, wr, q, lo, hi, lam, mu, g, H, A, step, blk):
+    """One Marquardt step (step (k,), to subtract from q) from J (6, k), x (6,), weights wr:
+    g = J^T W x, H = J^T W J, joints on a limit whose gradient points outward frozen,
+    (H + lam (diag H + mu I)) step = g. Returns ||g|| (projected)."""
+    k = q.size
+    for a in range(k):
+        acc = 0.0
+        for i in range(6):
+            acc += J[i, a] * wr[i] * x[i]
+        g[a] = acc
+    for a in range(k):
+        blk[a] = (q[a] <= lo[a] + 1e-12 and g[a] > 0.0) or (q[a] >= hi[a] - 1e-12 and g[a] < 0.0)
+        for b in range(a, k):
+            acc = 0.0
+            for i in range(6):
+                acc += J[i, a] * wr[i] * J[i, b]
+            H[a, b] = acc
+            H[b, a] = acc
+    for a in range(k):
+        if blk[a]:
+            g[a] = 0.0
+            for b in range(k):
+                H[a, b] = 0.0
+                H[b, a] = 0.0
+            H[a, a] = 1.0
+    gn = 0.0
+    for a in range(k):
+        gn += g[a] * g[a]
+    for a in range(k):
+        for b in range(k):
+            A[a, b] = H[a, b]
+        A[a, a] += lam * (H[a, a] + mu)
+    cholesky_solve(A, g, step)
+    return np.sqrt(gn)
+
+
+@_njit
+def half_wsq(wr, x):
+    """E = 1/2 x^T W x for a diagonal W (kim1995 Eq. (9))."""
+    e = 0.0
+    for i in range(6):
+        e += 0.5 * wr[i] * x[i] * x[i]
+    return e
+
+
+@_njit
+def lm_decide(f, fn, ok, lam, step, f_abs):
+    """Keep a step that lowers E (lambda / 10) or reject it (lambda x 4); whether the row is
+    finished: E below f_abs, a kept step gaining less than 1e-14 E, or a rejected step shorter
+    than 1e-13 or lambda above 1e10. Returns (accept, lambda, finished)."""
+    if ok and fn < f:
+        return True, max(lam * 0.1, 1e-12), fn < f_abs or f - fn <= 1e-14 * max(fn, 1e-300)
+    sn = 0.0
+    for a in range(step.size):
+        sn += step[a] * step[a]
+    lam *= 4.0
+    return False, lam, np.sqrt(sn) < 1e-13 or lam > 1e10
+
+
+@_njit
 def project(q, lo, hi, cont, lower):
     for j in range(q.size):
         if cont[j]:
@@ -185,9 +245,7 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, sta
             qr[a] = q0[r, a]
         project(qr, lo, hi, cont, lower)
         evaluate(qr, F0[r], Pc, Ps, Pd, P0, rev, F, x, J)
-        fr = 0.0
-        for i in range(6):
-            fr += 0.5 * w[r, i] * x[i] * x[i]
+        fr = half_wsq(w[r], x)
         if keep_hist:
             hist[r, 0] = fr
         lam = 1e-2
@@ -196,47 +254,15 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, sta
         it = 0
         gn = 0.0
         while not fin and it < max_iter:
-            # gradient and Gauss-Newton matrix, active bounds frozen
-            for a in range(k):
-                acc = 0.0
-                for i in range(6):
-                    acc += J[i, a] * w[r, i] * x[i]
-                g[a] = acc
-            for a in range(k):
-                blk[a] = (qr[a] <= lo[a] + 1e-12 and g[a] > 0.0) or (
-                    qr[a] >= hi[a] - 1e-12 and g[a] < 0.0)
-                for b in range(a, k):
-                    acc = 0.0
-                    for i in range(6):
-                        acc += J[i, a] * w[r, i] * J[i, b]
-                    H[a, b] = acc
-                    H[b, a] = acc
-            for a in range(k):
-                if blk[a]:
-                    g[a] = 0.0
-                    for b in range(k):
-                        H[a, b] = 0.0
-                        H[b, a] = 0.0
-                    H[a, a] = 1.0
-            gn = 0.0
-            for a in range(k):
-                gn += g[a] * g[a]
-            gn = np.sqrt(gn)
-            for a in range(k):
-                for b in range(k):
-                    A[a, b] = H[a, b]
-                A[a, a] += lam * (H[a, a] + mu)
-            cholesky_solve(A, g, step)
+            gn = lm_step(J, x, w[r], qr, lo, hi, lam, mu, g, H, A, step, blk)
             for a in range(k):
                 qn[a] = qr[a] - step[a]
             project(qn, lo, hi, cont, lower)
             evaluate(qn, F0[r], Pc, Ps, Pd, P0, rev, F, xn, Jn)
-            fn = 0.0
-            for i in range(6):
-                fn += 0.5 * w[r, i] * xn[i] * xn[i]
+            fn = half_wsq(w[r], xn)
             it += 1
-            if fn < fr:
-                gain = fr - fn
+            accept, lam, fin = lm_decide(fr, fn, True, lam, step, f_abs)
+            if accept:
                 for a in range(k):
                     qr[a] = qn[a]
                     for i in range(6):
@@ -244,14 +270,6 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, sta
                 for i in range(6):
                     x[i] = xn[i]
                 fr = fn
-                lam = max(lam * 0.1, 1e-12)
-                fin = fn < f_abs or gain <= 1e-14 * max(fn, 1e-300)
-            else:
-                lam *= 4.0
-                sn = 0.0
-                for a in range(k):
-                    sn += step[a] * step[a]
-                fin = np.sqrt(sn) < 1e-13 or lam > 1e10
             if keep_hist:
                 hist[r, it] = fr
             if stall > 0 and it % stall == 0:

@@ -24,7 +24,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from mechkin.solvers.ik_serial_jit import cholesky_solve, project
+from mechkin.solvers.ik_serial_jit import (
+    cholesky_solve,
+    half_wsq,
+    lm_decide,
+    lm_step,
+    project,
+)
 
 _njit = numba.njit(cache=True, nogil=True)
 
@@ -342,6 +348,17 @@ def evaluate_closed(q, iv, iw, K, fe_link, fe_off, sigE, TP, tol_phi, tol_dq, ma
 
 
 @_njit
+def equation_count(mask):
+    """Number of loop-closure equations: the kept components of every cut."""
+    neq = 0
+    for c in range(mask.shape[0]):
+        for comp in range(6):
+            if mask[c, comp]:
+                neq += 1
+    return neq
+
+
+@_njit
 def workspace(n, n_links, neq, nv, nw):
     return (np.empty((n_links, 4, 4)), np.empty((n, 3)), np.empty((n, 3)), np.empty(neq),
             np.empty((neq, n)), np.empty((4, 4)), np.empty((4, 4)), np.empty(6),
@@ -357,12 +374,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
     m, nv = qv0.shape
     nw = iw.size
     n = nv + nw
-    neq = 0
-    mask = K[14]
-    for c in range(mask.shape[0]):
-        for comp in range(6):
-            if mask[c, comp]:
-                neq += 1
+    neq = equation_count(K[14])
     W = workspace(n, n_links, neq, nv, nw)
     q = np.empty(n)
     qn_full = np.empty(n)
@@ -391,9 +403,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
         ok = evaluate_closed(q, iv, iw, K, fe_link, fe_off, sigE, TP[r], tol_phi, tol_dq,
                              max_iter_closure, x, Jr, S, W)
         closed[r] = ok
-        fr = 0.0
-        for i in range(6):
-            fr += 0.5 * w[r, i] * x[i] * x[i]
+        fr = half_wsq(w[r], x)
         if not ok:
             fr = np.inf
         if keep_hist:
@@ -403,36 +413,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
         it = 0
         gn = 0.0
         while not fin and it < max_iter:
-            for a in range(nv):
-                acc = 0.0
-                for i in range(6):
-                    acc += Jr[i, a] * w[r, i] * x[i]
-                g[a] = acc
-            for a in range(nv):
-                blk[a] = (qv[a] <= lo[a] + 1e-12 and g[a] > 0.0) or (
-                    qv[a] >= hi[a] - 1e-12 and g[a] < 0.0)
-                for b in range(a, nv):
-                    acc = 0.0
-                    for i in range(6):
-                        acc += Jr[i, a] * w[r, i] * Jr[i, b]
-                    H[a, b] = acc
-                    H[b, a] = acc
-            for a in range(nv):
-                if blk[a]:
-                    g[a] = 0.0
-                    for b in range(nv):
-                        H[a, b] = 0.0
-                        H[b, a] = 0.0
-                    H[a, a] = 1.0
-            gn = 0.0
-            for a in range(nv):
-                gn += g[a] * g[a]
-            gn = np.sqrt(gn)
-            for a in range(nv):
-                for b in range(nv):
-                    A[a, b] = H[a, b]
-                A[a, a] += lam * (H[a, a] + mu)
-            cholesky_solve(A, g, step)
+            gn = lm_step(Jr, x, w[r], qv, lo, hi, lam, mu, g, H, A, step, blk)
             for a in range(nv):
                 qn[a] = qv[a] - step[a]
             project(qn, lo, hi, cont, lower)
@@ -446,12 +427,10 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
                 qn_full[iw[i]] = acc
             okn = evaluate_closed(qn_full, iv, iw, K, fe_link, fe_off, sigE, TP[r], tol_phi,
                                   tol_dq, max_iter_closure, xn, Jn, Sn, W)
-            fn = 0.0
-            for i in range(6):
-                fn += 0.5 * w[r, i] * xn[i] * xn[i]
+            fn = half_wsq(w[r], xn)
             it += 1
-            if okn and fn < fr:
-                gain = fr - fn
+            accept, lam, fin = lm_decide(fr, fn, okn, lam, step, f_abs)
+            if accept:
                 for a in range(nv):
                     qv[a] = qn[a]
                     for i in range(6):
@@ -463,14 +442,6 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
                 for i in range(6):
                     x[i] = xn[i]
                 fr = fn
-                lam = max(lam * 0.1, 1e-12)
-                fin = fn < f_abs or gain <= 1e-14 * max(fn, 1e-300)
-            else:
-                lam *= 4.0
-                sn = 0.0
-                for a in range(nv):
-                    sn += step[a] * step[a]
-                fin = np.sqrt(sn) < 1e-13 or lam > 1e10
             if keep_hist:
                 hist[r, it] = fr
         for i in range(nv):
@@ -487,12 +458,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
 def evaluate_one(q, iv, iw, K, fe_link, fe_off, sigE, TP, tol_phi, tol_dq, max_iter, n_links,
                  x, Jr, S):
     """:func:`evaluate_closed` with its own workspace (one call from Python)."""
-    neq = 0
-    mask = K[14]
-    for c in range(mask.shape[0]):
-        for comp in range(6):
-            if mask[c, comp]:
-                neq += 1
+    neq = equation_count(K[14])
     W = workspace(q.size, n_links, neq, iv.size, iw.size)
     return evaluate_closed(q, iv, iw, K, fe_link, fe_off, sigE, TP, tol_phi, tol_dq, max_iter,
                            x, Jr, S, W)
