@@ -713,7 +713,7 @@ def _lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
 def _point_evaluator(kern: IkKernel, opts: IkOptions):
     """``(q_v, q_w guess, T_P, jac) -> (closed, x, J_r | None, q, S | None)`` for one point:
     the compiled closed-chain evaluation when available, else :func:`evaluate`."""
-    if kern.n_cuts and kern.iw.size and compiled_lm_available():
+    if compiled_lm_available():  # the tree kernel also serves open chains (no cuts)
         from mechkin.solvers.ik_tree_jit import ClosedEvaluator
 
         ce = ClosedEvaluator(kern, opts.tol_phi, TOL_DQ_CLOSURE, MAX_ITER_CLOSURE)
@@ -984,7 +984,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     t0 = time.perf_counter()
     qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
-    if q_v0 is None and opts.method == "lm":
+    if q_v0 is None:  # no guess: the nearest pose of the seeded codebook (open chains)
         seeded = kern.seed_starts(T_P[None], w[None])
         if seeded is not None:
             qv0 = seeded[0, 0]
@@ -1012,12 +1012,13 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
             else:
                 starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
                 start_w = qw0 if best is None else best["q_w"]
-            if opts.method == "lm":  # the nearest codebook poses not tried yet come first
-                first = 1 if q_v0 is None else 0
-                nr = min(k, SEED_RESTARTS)
-                seed = kern.seed_starts(T_P[None], w[None], ranks=range(first, first + nr))
-                if seed is not None:
-                    starts_v[:nr] = seed[0]
+            # the nearest codebook poses not tried yet come first (lm: all in one batch;
+            # cg-golden: the next one per attempt)
+            first = (1 if q_v0 is None else 0) + (attempt - 1 if opts.method != "lm" else 0)
+            nr = min(k, max(SEED_RESTARTS - first, 0))
+            seed = kern.seed_starts(T_P[None], w[None], ranks=range(first, first + nr)) if nr else None
+            if seed is not None:
+                starts_v[:nr] = seed[0]
         if opts.method == "cg-golden":
             r = _cg_golden(kern, starts_v[0], start_w, T_P, w, opts)
             hist = np.asarray(r["hist"], dtype=float)

@@ -125,7 +125,7 @@ def test_batched_lm(root, name, lm_backend):
     assert np.all(pe[r.ok] < 1e-4) and np.all(oe[r.ok] < 1e-3)
 
 
-def test_cg_golden_open_chain(root):
+def test_cg_golden_open_chain(root, lm_backend):
     mech = _mech(root, "puma560")
     iv = mech.independent
     rng = np.random.default_rng(3)
