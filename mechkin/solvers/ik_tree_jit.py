@@ -348,6 +348,60 @@ def evaluate_closed(q, iv, iw, K, fe_link, fe_off, sigE, TP, tol_phi, tol_dq, ma
 
 
 @_njit
+def passive_limited_step(H, g, lam, mu, step, q, iw, S, lo_w, hi_w):
+    """Re-solve the lm step (q_v <- q_v - step) with the dependent joints that the predicted
+    ``q_w + S step`` would carry across a limit held on it (KKT system, active set grown until
+    nothing crosses): mechkin.solvers.ik_optimize._passive_limited_steps for one row."""
+    nv, nw = step.size, iw.size
+    act = np.zeros(nw, dtype=np.bool_)
+    tgt = np.zeros(nw)
+    for _ in range(nw):
+        new = False
+        for i in range(nw):
+            p = q[iw[i]]
+            for b in range(nv):
+                p += S[i, b] * step[b]
+            if not act[i] and (p > hi_w[i] or p < lo_w[i]):
+                act[i] = True
+                tgt[i] = (hi_w[i] if p > hi_w[i] else lo_w[i]) - q[iw[i]]
+                new = True
+        if not new:
+            return
+        na = 0
+        for i in range(nw):
+            if act[i]:
+                na += 1
+        K = np.zeros((nv + na, nv + na))
+        rhs = np.zeros((nv + na, 1))
+        sol = np.empty((nv + na, 1))
+        for a in range(nv):
+            for b in range(nv):
+                K[a, b] = H[a, b]
+            K[a, a] += lam * (H[a, a] + mu)
+            rhs[a, 0] = g[a]
+        c = nv
+        for i in range(nw):
+            if act[i]:
+                for b in range(nv):
+                    K[c, b] = S[i, b]
+                    K[b, c] = S[i, b]
+                rhs[c, 0] = tgt[i]
+                c += 1
+        if not lstsq_solve(K, rhs, sol):
+            return
+        for a in range(nv):
+            step[a] = sol[a, 0]
+
+
+@_njit
+def within(q, iw, lo_w, hi_w, band):
+    for i in range(iw.size):
+        if q[iw[i]] < lo_w[i] - band[i] or q[iw[i]] > hi_w[i] + band[i]:
+            return False
+    return True
+
+
+@_njit
 def equation_count(mask):
     """Number of loop-closure equations: the kept components of every cut."""
     neq = 0
@@ -368,8 +422,8 @@ def workspace(n, n_links, neq, nv, nw):
 
 @_njit
 def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, lower, n_links,
-              tol_phi, tol_dq, max_iter_closure, f_abs, max_iter, mu,
-              qv_out, qw_out, f, iters, done, gnorm, closed, hist):
+              tol_phi, tol_dq, max_iter_closure, f_abs, max_iter, mu, lo_w, hi_w, band_w,
+              passive, qv_out, qw_out, f, iters, done, gnorm, closed, hist):
     """Levenberg-Marquardt on the reduced Jacobian, row by row (see the module docstring)."""
     m, nv = qv0.shape
     nw = iw.size
@@ -414,6 +468,8 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
         gn = 0.0
         while not fin and it < max_iter:
             gn = lm_step(Jr, x, w[r], qv, lo, hi, lam, mu, g, H, A, step, blk)
+            if passive:
+                passive_limited_step(H, g, lam, mu, step, q, iw, S, lo_w, hi_w)
             for a in range(nv):
                 qn[a] = qv[a] - step[a]
             project(qn, lo, hi, cont, lower)
@@ -427,6 +483,8 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
                 qn_full[iw[i]] = acc
             okn = evaluate_closed(qn_full, iv, iw, K, fe_link, fe_off, sigE, TP[r], tol_phi,
                                   tol_dq, max_iter_closure, xn, Jn, Sn, W)
+            if passive and okn:
+                okn = within(qn_full, iw, lo_w, hi_w, band_w)
             fn = half_wsq(w[r], xn)
             it += 1
             accept, lam, fin = lm_decide(fr, fn, okn, lam, step, f_abs)
@@ -514,7 +572,7 @@ def tree_constants(mech, frame: int):
 
 def lm_closed_rows(kern, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, w: np.ndarray, *,
                    tol_phi: float, tol_dq: float, max_iter_closure: int, f_abs: float,
-                   max_iter: int, mu: float, history: bool):
+                   max_iter: int, mu: float, history: bool, passive_band: float):
     """Run the compiled closed-chain lm on every row; returns a dict like ``_lm_batch``."""
     mech = kern.mech
     K, fe_link, fe_off, sigE = tree_constants(mech, kern.frame)
@@ -535,7 +593,9 @@ def lm_closed_rows(kern, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, w:
               *(np.ascontiguousarray(a) for a in (kern.bound_lo, kern.bound_hi, kern.cont_v,
                                                  kern.lower_v)),
               mech.n_links, float(tol_phi), float(tol_dq), int(max_iter_closure), float(f_abs),
-              int(max_iter), float(mu), qv, qw, f, iters, done, gnorm, closed, hist)
+              int(max_iter), float(mu), np.ascontiguousarray(kern.lo_w),
+              np.ascontiguousarray(kern.hi_w), np.ascontiguousarray(passive_band * kern.range_w),
+              kern.passive_bounded, qv, qw, f, iters, done, gnorm, closed, hist)
     q = np.empty((m, kern.n))
     q[:, kern.iv] = qv
     q[:, kern.iw] = qw
