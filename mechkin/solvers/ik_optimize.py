@@ -1083,7 +1083,8 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
             # cg-golden: the next one per attempt)
             first = (1 if q_v0 is None else 0) + (attempt - 1 if opts.method != "lm" else 0)
             nr = min(k, max(SEED_RESTARTS - first, 0))
-            seed = kern.seed_starts(T_P[None], w[None], ranks=range(first, first + nr)) if nr else None
+            seed = (kern.seed_starts(T_P[None], w[None], ranks=range(first, first + nr))
+                    if nr else None)
             if seed is not None:
                 starts_v[:nr] = seed[0]
         if opts.method == "cg-golden":
