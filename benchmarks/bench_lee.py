@@ -14,6 +14,7 @@ import argparse
 from functools import partial
 
 import numpy as np
+from timing import best_of  # benchmarks/timing.py (this folder is on sys.path)
 
 from mechkin.solvers.closed_form.lee_spherical import (
     LeeGeometry,
@@ -23,8 +24,6 @@ from mechkin.solvers.closed_form.lee_spherical import (
     inverse_position,
 )
 from mechkin.solvers.workspace import lee_evaluator, orientation_maps
-from timing import best_of  # benchmarks/timing.py (this folder is on sys.path)
-
 
 
 def main() -> None:

@@ -19,6 +19,7 @@ import math
 import os
 
 import numpy as np
+from timing import best_of  # benchmarks/timing.py (this folder is on sys.path)
 
 from mechkin.solvers.closed_form.lee_spherical import (
     LeeGeometry,
@@ -28,7 +29,6 @@ from mechkin.solvers.closed_form.lee_spherical import (
 )
 from mechkin.solvers.sweeps import lee_design_sweep
 from mechkin.solvers.workspace import lee_evaluator, orientation_maps
-from timing import best_of  # benchmarks/timing.py (this folder is on sys.path)
 
 DEG = math.pi / 180.0
 

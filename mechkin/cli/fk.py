@@ -210,7 +210,7 @@ def run_fk(*, scenario: Scenario, out_dir: Path, plots: bool = True) -> tuple[di
         "solve_time_s": solve_s,
         "time_per_step_s": solve_s / max(len(t), 1),
         "t_s": [float(t[0]), float(t[-1])],
-        "final": {"q": {n: float(v) for n, v in zip(mech.joint_names, res.q[-1])}},
+        "final": {"q": {n: float(v) for n, v in zip(mech.joint_names, res.q[-1], strict=False)}},
     }
     if mech.end_effector is not None:
         T_e = kin.frames(mech, [mech.end_effector])[:, 0]

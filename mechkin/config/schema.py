@@ -35,7 +35,8 @@ class Units(Spec):
 
 
 class FrameSpec(Spec):
-    """A named frame fixed on a link, placed by xyz + rpy (URDF roll-pitch-yaw) in the link frame."""
+    """A named frame fixed on a link, placed by xyz + rpy (URDF roll-pitch-yaw) in the link
+    frame."""
 
     name: Name
     xyz: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])

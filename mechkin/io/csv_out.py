@@ -106,11 +106,11 @@ def format_csv(columns: Mapping[str, np.ndarray | Sequence[Any]]) -> str:
         if not isinstance(name, str) or not name.strip():
             raise OutputError(f"CSV table: expected non-empty string column names, got {name!r}")
     cells = [_column_cells(name, columns[name]) for name in names]
-    lengths = {name: len(c) for name, c in zip(names, cells)}
+    lengths = {name: len(c) for name, c in zip(names, cells, strict=False)}
     if len(set(lengths.values())) > 1:
         raise OutputError(f"CSV table: expected columns of equal length, got {lengths}")
     lines = [",".join(_quote(n) for n in names)]
-    lines.extend(",".join(row) for row in zip(*cells))
+    lines.extend(",".join(row) for row in zip(*cells, strict=False))
     return "\n".join(lines) + "\n"
 
 

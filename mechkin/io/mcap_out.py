@@ -195,7 +195,8 @@ def _as_float_array(x: Any, what: str) -> np.ndarray:
 
 
 def _check_shape(a: np.ndarray, shape: tuple[int | None, ...], what: str) -> None:
-    ok = a.ndim == len(shape) and all(s is None or s == d for s, d in zip(shape, a.shape))
+    ok = a.ndim == len(shape) and all(s is None or s == d
+                                      for s, d in zip(shape, a.shape, strict=False))
     if not ok:
         want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
         raise OutputError(f"{what}: expected shape {want}, got {a.shape}")
@@ -331,7 +332,7 @@ def _check_tree(root: str, names: list[str], parents: list[str]) -> None:
     if root in names:
         raise OutputError(f"frame_names: the root frame {root!r} cannot have a parent")
     known = set(names) | {root}
-    parent_of = dict(zip(names, parents))
+    parent_of = dict(zip(names, parents, strict=False))
     for name, parent in parent_of.items():
         if parent not in known:
             raise OutputError(f"frame_parents: frame {name!r} has unknown parent {parent!r}; "
@@ -484,7 +485,7 @@ class _TfChannel:
     def __init__(self, lg: MotionLog) -> None:
         self.msg = FrameTransforms()
         self.transforms = []
-        for name, parent in zip(lg.frame_names, lg.frame_parents):
+        for name, parent in zip(lg.frame_names, lg.frame_parents, strict=False):
             tr = self.msg.transforms.add()
             tr.parent_frame_id, tr.child_frame_id = parent, name
             self.transforms.append(tr)
@@ -492,7 +493,8 @@ class _TfChannel:
         self.quat = _xyzw(lg.T_parent_child[..., :3, :3])
 
     def step(self, i: int, ns: int) -> bytes:
-        for tr, p, e in zip(self.transforms, self.p[i].tolist(), self.quat[i].tolist()):
+        for tr, p, e in zip(self.transforms, self.p[i].tolist(), self.quat[i].tolist(),
+                            strict=False):
             _set_stamp(tr.timestamp, ns)
             v = tr.translation
             v.x, v.y, v.z = p
@@ -589,7 +591,7 @@ def _set_xyz(target: Any, xyz: list[float]) -> None:
 
 
 def _set_xyz_list(targets: list[Any], rows: list[list[float]]) -> None:
-    for t, (x, y, z) in zip(targets, rows):
+    for t, (x, y, z) in zip(targets, rows, strict=False):
         t.x, t.y, t.z = x, y, z
 
 
@@ -610,7 +612,7 @@ class _JointChannel:
             (name, arr)
             for name, arr in zip(
                 ("position", "velocity", "acceleration", "effort"),
-                (lg.q, lg.qd, lg.qdd, lg.effort),
+                (lg.q, lg.qd, lg.qdd, lg.effort), strict=False,
             )
             if arr is not None
         ]
@@ -618,7 +620,7 @@ class _JointChannel:
     def step(self, i: int, ns: int) -> bytes:
         _set_stamp(self.msg.timestamp, ns)
         for name, arr in self.fields:
-            for j, v in zip(self.joints, arr[i].tolist()):
+            for j, v in zip(self.joints, arr[i].tolist(), strict=False):
                 setattr(j, name, v)
         return self.msg.SerializeToString()
 
@@ -752,7 +754,7 @@ def write_mcap(path: str | os.PathLike[str], lg: MotionLog, *, fsync: bool = Tru
         if lg.metadata:
             writer.add_metadata("mechkin", {str(k): str(v) for k, v in lg.metadata.items()})
         for i, ns in enumerate(log_ns):
-            for cid, (_, ch) in zip(ids, channels):
+            for cid, (_, ch) in zip(ids, channels, strict=False):
                 writer.add_message(cid, log_time=ns, data=ch.step(i, ns), publish_time=ns,
                                    sequence=i)
         writer.finish()

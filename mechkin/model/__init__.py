@@ -10,7 +10,8 @@ from mechkin.model.mechanism import Cut, JointGroup, Mechanism
 
 def load_mechanism(path: str | Path) -> Mechanism:
     """Read, validate and build a mechanism file (raises ConfigError on bad input)."""
-    return _load_cached(str(Path(path).resolve()), Path(path).stat().st_mtime_ns if Path(path).exists() else 0)
+    p = Path(path)
+    return _load_cached(str(p.resolve()), p.stat().st_mtime_ns if p.exists() else 0)
 
 
 @lru_cache(maxsize=32)

@@ -14,7 +14,8 @@ from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import rot_z
 from mechkin.spatial.transforms import T_from, transform_from_xyz_rpy
 
-COMPOUND_AXES = {"universal": ([1, 0, 0], [0, 1, 0]), "spherical": ([1, 0, 0], [0, 1, 0], [0, 0, 1])}
+COMPOUND_AXES = {"universal": ([1, 0, 0], [0, 1, 0]),
+                 "spherical": ([1, 0, 0], [0, 1, 0], [0, 0, 1])}
 
 
 def align_z(axis: np.ndarray) -> np.ndarray:
@@ -128,7 +129,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         pairs = pairs * (ncomp if len(pairs) == 1 and ncomp > 1 else 1)
         offs = _as_list(j.offset, ncomp)
         homes = _as_list(j.home, ncomp)
-        O = (
+        T_origin = (
             transform_from_xyz_rpy(j.origin.xyz, j.origin.rpy)
             if j.origin is not None
             else np.eye(4)
@@ -142,7 +143,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
                 A = A @ (_tz(offs[0]) if prism else _rz(offs[0]))
             else:
                 Ra = T_from(align_z(j.axis if j.axis is not None else [0, 0, 1]), np.zeros(3))
-                A = O @ Ra @ (_tz(offs[0]) if prism else _rz(offs[0]))
+                A = T_origin @ Ra @ (_tz(offs[0]) if prism else _rz(offs[0]))
                 B = Ra.T.copy()
             lo, hi = pairs[0] if pairs[0] else (-np.inf, np.inf)
             idx = add_joint(j.name, int(prism), j.parent, j.child, A, B, lo, hi, homes[0], kp)
@@ -153,7 +154,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
             parent = j.parent
             for k in range(ncomp):
                 Ra = T_from(align_z(axes[k]), np.zeros(3))
-                A = (O if k == 0 else np.eye(4)) @ Ra @ _rz(offs[k])
+                A = (T_origin if k == 0 else np.eye(4)) @ Ra @ _rz(offs[k])
                 B = Ra.T.copy()
                 child = j.child if k == ncomp - 1 else f"{j.name}_link{k + 1}"
                 if k < ncomp - 1:
@@ -193,7 +194,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     A = np.zeros((n, 4, 4))
     B = np.zeros((n, 4, 4))
     link_parent_joint = -np.ones(nl, dtype=int)
-    for k, (name, kind, parent, child, Aj, Bj, lo, hi, home, kp) in enumerate(joints):
+    for k, (_name, _kind, parent, child, Aj, Bj, _lo, _hi, _home, kp) in enumerate(joints):
         ok = True
         if parent not in frame_idx:
             P.add(kp + ("parent",), f"unknown link or frame {parent!r} "
@@ -364,7 +365,8 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
     q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)
     qs = np.stack([q0, q0 + 0.05 * rng.standard_normal(n)])
     _, J = closure_jacobian(mech, forward_kinematics(mech, qs))
-    rank = int(max(np.linalg.matrix_rank(J[0], tol=1e-9), np.linalg.matrix_rank(J[1], tol=1e-9))) if J.shape[1] else 0
+    rank = (int(max(np.linalg.matrix_rank(J[0], tol=1e-9), np.linalg.matrix_rank(J[1], tol=1e-9)))
+            if J.shape[1] else 0)
     dof = n - rank
     group_of = {g.name: g for g in groups}
     if spec.independent is None:

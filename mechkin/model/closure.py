@@ -100,7 +100,8 @@ def solve_closure(
 ) -> ClosureResult:
     r"""Solve the dependent joints of a batch of configurations by Newton-Raphson.
 
-    .. math:: q_w^{k+1} = q_w^k - \left[\frac{\partial\phi_R}{\partial q_w}\right]^+ \phi_R(q_v, q_w^k)
+    .. math:: q_w^{k+1} = q_w^k
+              - \left[\frac{\partial\phi_R}{\partial q_w}\right]^+ \phi_R(q_v, q_w^k)
 
     Converged when ``||phi|| < tol_phi`` and ``||dq_w|| < tol_dq`` (kim1995 §5.1 Step 3; a step
     whose residual is already at round-off counts as converged). Singular when the dependent

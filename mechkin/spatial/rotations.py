@@ -42,7 +42,8 @@ def skew(v: np.ndarray) -> np.ndarray:
 
 
 def rot_axis(axis: np.ndarray, t: float | np.ndarray) -> np.ndarray:
-    """Rotation by ``t`` about the unit vector ``axis`` (3,) (Rodrigues); ``t`` (...) -> (..., 3, 3)."""
+    """Rotation by ``t`` about the unit vector ``axis`` (3,) (Rodrigues);
+    ``t`` (...) -> (..., 3, 3)."""
     k = np.asarray(axis, dtype=np.float64)
     k = k / np.linalg.norm(k)
     t = np.asarray(t, dtype=np.float64)
@@ -53,7 +54,8 @@ def rot_axis(axis: np.ndarray, t: float | np.ndarray) -> np.ndarray:
 
 
 def matrix_from_rpy(rpy: np.ndarray) -> np.ndarray:
-    """URDF roll-pitch-yaw (fixed axes x, y, z): ``R = Rz(y) Ry(p) Rx(r)``; (..., 3) -> (..., 3, 3)."""
+    """URDF roll-pitch-yaw (fixed axes x, y, z): ``R = Rz(y) Ry(p) Rx(r)``;
+    (..., 3) -> (..., 3, 3)."""
     rpy = np.asarray(rpy, dtype=np.float64)
     return rot_z(rpy[..., 2]) @ rot_y(rpy[..., 1]) @ rot_x(rpy[..., 0])
 

@@ -47,7 +47,7 @@ def test_fk_puma_outputs_and_mcap(tmp_path):
         assert summ.statistics.message_start_time == 0
         assert summ.statistics.message_end_time == 4_000_000_000
         n_tf = 0
-        for _schema, channel, message, decoded in reader.iter_decoded_messages(topics=["/tf"]):
+        for _schema, _channel, _message, decoded in reader.iter_decoded_messages(topics=["/tf"]):
             assert len(decoded.transforms) == 7  # 6 links + the tool frame
             n_tf += 1
             last = decoded

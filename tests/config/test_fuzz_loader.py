@@ -45,7 +45,8 @@ def _load(tmp: Path, text: str) -> None:
         assert all(line.startswith(str(p)) or line.startswith("fuzz") for line in exc.problems)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(base=st.sampled_from(BASES), data=st.data())
 def test_mutated_files_never_crash(tmp_path, base, data):
     import copy
@@ -70,13 +71,15 @@ def test_mutated_files_never_crash(tmp_path, base, data):
     _load(tmp_path, yaml.safe_dump(d, sort_keys=False))
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=100, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=st.text(max_size=200))
 def test_random_text_never_crashes(tmp_path, text):
     _load(tmp_path, text)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(doc=values)
 def test_random_yaml_documents_never_crash(tmp_path, doc):
     _load(tmp_path, yaml.safe_dump(doc))

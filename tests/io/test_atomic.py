@@ -47,10 +47,10 @@ def test_failing_writer_leaves_old_content_and_no_temp(tmp_path: Path) -> None:
 
 
 def test_failing_writer_on_new_file_leaves_nothing(tmp_path: Path) -> None:
-    with pytest.raises(ZeroDivisionError), atomic_path(tmp_path / "new.bin") as tmp:
-        with open(tmp, "wb") as f:
-            f.write(b"x" * 1000)
-            _ = 1 / 0
+    with (pytest.raises(ZeroDivisionError), atomic_path(tmp_path / "new.bin") as tmp,
+          open(tmp, "wb") as f):
+        f.write(b"x" * 1000)
+        _ = 1 / 0
     assert _names(tmp_path) == []
 
 

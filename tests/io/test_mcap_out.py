@@ -191,11 +191,11 @@ def test_joint_states_decode(written: tuple) -> None:
 
 def test_state_json_and_schema(written: tuple) -> None:
     _, lg, _, by_topic = written
-    for i, (schema, message, st) in enumerate(by_topic[TOPIC_STATE]):
+    for i, (_schema, message, st) in enumerate(by_topic[TOPIC_STATE]):
         assert st["timestamp"]["sec"] * 10**9 + st["timestamp"]["nsec"] == message.log_time
         assert st["phase"] == ("swing" if i % 2 else "stance")
         assert st["legs_m"] == [0.5, 0.5 + 0.01 * i]
-    js = json.loads(schema.data)
+    js = json.loads(by_topic[TOPIC_STATE][-1][0].data)
     assert js["type"] == "object"
     assert list(js["properties"]) == ["timestamp", "residual_m", "phase", "legs_m", "err"]
     assert js["properties"]["legs_m"] == {"type": "array", "items": {"type": "number"}}

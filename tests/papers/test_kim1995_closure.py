@@ -311,7 +311,7 @@ def test_end_effector_jacobian_matches_finite_differences(key):
 def _smooth_path(points, steps_per_segment):
     """Independent joints through the given rows with a cosine blend (zero speed at each row)."""
     out = []
-    for a, b in zip(points[:-1], points[1:]):
+    for a, b in zip(points[:-1], points[1:], strict=False):
         s = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, steps_per_segment, endpoint=False))
         out.append(a + s[:, None] * (b - a))
     out.append(points[-1:])
