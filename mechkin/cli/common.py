@@ -26,6 +26,24 @@ JsonOption = Annotated[bool, typer.Option("--json", help="Print summary.json to 
 PlotsOption = Annotated[bool, typer.Option("--plots/--no-plots", help="Write PNG plots")]
 
 
+def run_command(task: str, doc: str, run: Callable[[Path, Path | None, bool, bool], int]
+                ) -> Callable[..., None]:
+    """The typer command ``mechkin <task> SCENARIO [--out] [--json] [--plots]`` around
+    ``run(scenario, out, json_out, plots) -> exit code`` (fk, ik and track share it)."""
+
+    def command(
+        scenario: Path = typer.Argument(..., help=f"Scenario YAML (task: {task})"),
+        out: OutOption = None,
+        json_out: JsonOption = False,
+        plots: PlotsOption = True,
+    ) -> None:
+        raise typer.Exit(run(scenario, out, json_out, plots))
+
+    command.__doc__ = doc
+    command.__name__ = f"{task}_cli"
+    return command
+
+
 def load_task_scenario(path: Path, task: str) -> Any:
     """Load a scenario for ``mechkin <task>``; a scenario of another task is bad input."""
     from mechkin.config.scenario import load_scenario

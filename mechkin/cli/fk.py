@@ -7,13 +7,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import typer
 
 from mechkin.cli.common import (
     UNIT_TO_SI,
-    JsonOption,
-    OutOption,
-    PlotsOption,
     default_out_dir,
     evaluate_expect,
     handle_errors,
@@ -21,6 +17,7 @@ from mechkin.cli.common import (
     load_task_scenario,
     report,
     report_expect,
+    run_command,
 )
 from mechkin.config.scenario import FkSpec, Scenario
 from mechkin.config.units import angle_factor
@@ -33,15 +30,6 @@ from mechkin.model.kinematics import closure_residual, forward_kinematics
 SUFFIX_TO_SI = {k: UNIT_TO_SI[k] for k in ("rad", "deg", "m", "mm")}
 
 
-def fk_cli(
-    scenario: Path = typer.Argument(..., help="Scenario YAML (task: fk)"),
-    out: OutOption = None,
-    json_out: JsonOption = False,
-    plots: PlotsOption = True,
-) -> None:
-    """Forward kinematics: every joint and frame from the motion of the independent joints."""
-    code = _fk(scenario, out, json_out, plots)
-    raise typer.Exit(code)
 
 
 @handle_errors
@@ -229,3 +217,10 @@ def run_fk(*, scenario: Scenario, out_dir: Path, plots: bool = True) -> tuple[di
     report_expect(checks, scenario.path)
     ok = overall == "ok" and all(c["ok"] for c in checks)
     return summary, 0 if ok else 1
+
+
+fk_cli = run_command(
+    "fk",
+    "Forward kinematics: every joint and frame from the motion of the independent joints.",
+    _fk,
+)

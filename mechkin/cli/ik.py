@@ -7,12 +7,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import typer
 
 from mechkin.cli.common import (
-    JsonOption,
-    OutOption,
-    PlotsOption,
     default_out_dir,
     evaluate_expect,
     handle_errors,
@@ -20,6 +16,7 @@ from mechkin.cli.common import (
     load_task_scenario,
     report,
     report_expect,
+    run_command,
 )
 from mechkin.config.ik_spec import IkSpec, target_matrix
 from mechkin.config.scenario import Scenario
@@ -40,15 +37,6 @@ from mechkin.solvers.ik_optimize import (
 CLOSED_FORMS = ("kim1995_direct_drive", "kim1995_stewart")
 
 
-def ik_cli(
-    scenario: Path = typer.Argument(..., help="Scenario YAML (task: ik)"),
-    out: OutOption = None,
-    json_out: JsonOption = False,
-    plots: PlotsOption = True,
-) -> None:
-    """Inverse kinematics: independent joints for every precision point (kim1995 §5.2)."""
-    code = _ik(scenario, out, json_out, plots)
-    raise typer.Exit(code)
 
 
 @handle_errors
@@ -280,3 +268,10 @@ def run_ik(*, scenario: Scenario, out_dir: Path, plots: bool = True) -> tuple[di
     report_expect(checks, scenario.path)
     ok = overall == "ok" and all(c["ok"] for c in checks)
     return summary, 0 if ok else 1
+
+
+ik_cli = run_command(
+    "ik",
+    "Inverse kinematics: independent joints for every precision point (kim1995 §5.2).",
+    _ik,
+)

@@ -20,9 +20,6 @@ import numpy as np
 import typer
 
 from mechkin.cli.common import (
-    JsonOption,
-    OutOption,
-    PlotsOption,
     default_out_dir,
     evaluate_expect,
     handle_errors,
@@ -30,6 +27,7 @@ from mechkin.cli.common import (
     load_task_scenario,
     report,
     report_expect,
+    run_command,
 )
 from mechkin.config.scenario import Scenario
 from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, point_si
@@ -61,15 +59,6 @@ CSV_NOTE = ("qdd and jerk are forward differences (park Eq. (32)-(33)); where un
             "written as 0 and flagged 0 in qdd_defined / jerk_defined")
 
 
-def track_cli(
-    scenario: Path = typer.Argument(..., help="Scenario YAML (task: track)"),
-    out: OutOption = None,
-    json_out: JsonOption = False,
-    plots: PlotsOption = True,
-) -> None:
-    """Conveyor tracking (or minimum time) along a straight hand line by DP (park §2-§5)."""
-    code = _track(scenario, out, json_out, plots)
-    raise typer.Exit(code)
 
 
 @handle_errors
@@ -543,3 +532,10 @@ def _write_outputs(scenario: Scenario, mech: Mechanism, res: TrackResult,
         summary["files"] = od.files + ["summary.json"]
         od.write_json("summary.json", summary)
     return summary
+
+
+track_cli = run_command(
+    "track",
+    "Conveyor tracking (or minimum time) along a straight hand line by DP (park §2-§5).",
+    _track,
+)
