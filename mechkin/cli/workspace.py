@@ -279,15 +279,17 @@ def _head(sc: Scenario, kind: str) -> dict[str, Any]:
     return {"scenario": sc.name, "task": "workspace", "kind": kind, "status": "ok"}
 
 
-def _tail(sc: Scenario, summary: dict[str, Any], out_dir: Path
-          ) -> tuple[dict[str, Any], list[dict[str, Any]], bool]:
-    """Evaluate the expects on the complete summary (before anything is written)."""
+def _complete(sc: Scenario, summary: dict[str, Any], out_dir: Path,
+              write: Callable[[dict[str, Any]], Any]) -> tuple[dict[str, Any], int]:
+    """Evaluate the expects on the complete summary, then write the outputs (``write(summary)``
+    returns the files written) and report the expects; returns (summary, exit code)."""
     checks, ok = _finish(sc, summary)
-    extra: dict[str, Any] = {}
     if checks:
-        extra["expect"] = checks
-    extra["out_dir"] = str(out_dir)
-    return extra, checks, ok
+        summary["expect"] = checks
+    summary["out_dir"] = str(out_dir)
+    summary["files"] = [*write(summary)]
+    report_expect(checks, sc.path)
+    return summary, 0 if ok else 1
 
 
 def _run_lee(sc: Scenario, out_dir: Path, plots: bool) -> tuple[dict[str, Any], int]:
@@ -307,13 +309,8 @@ def _run_lee(sc: Scenario, out_dir: Path, plots: bool) -> tuple[dict[str, Any], 
         **rec.summary,
         "compute_time_s": time.perf_counter() - t0,
     }
-    extra, checks, ok = _tail(sc, summary, out_dir)
-    summary.update(extra)
-    files = write_lee_workspace(rec, out_dir, plots=plots, csv=sc.spec.outputs.csv,
-                                extra_summary=summary)
-    summary["files"] = [*files]
-    report_expect(checks, sc.path)
-    return summary, 0 if ok else 1
+    return _complete(sc, summary, out_dir, lambda sm: write_lee_workspace(
+        rec, out_dir, plots=plots, csv=sc.spec.outputs.csv, extra_summary=sm))
 
 
 def _run_lee_design(sc: Scenario, out_dir: Path, plots: bool, ex: dict[str, Any]
@@ -353,13 +350,8 @@ def _run_lee_design(sc: Scenario, out_dir: Path, plots: bool, ex: dict[str, Any]
                       "jobs": len(values)},
         "compute_time_s": time.perf_counter() - t0,
     }
-    extra, checks, ok = _tail(sc, summary, out_dir)
-    summary.update(extra)
-    files = write_lee_design_sweep(sweep, out_dir, plots=plots, csv=sc.spec.outputs.csv,
-                                   extra_summary=summary)
-    summary["files"] = [*files]
-    report_expect(checks, sc.path)
-    return summary, 0 if ok else 1
+    return _complete(sc, summary, out_dir, lambda sm: write_lee_design_sweep(
+        sweep, out_dir, plots=plots, csv=sc.spec.outputs.csv, extra_summary=sm))
 
 
 # --------------------------------------------------------------------------- task space
@@ -462,16 +454,11 @@ def _run_task_space(sc: Scenario, out_dir: Path, plots: bool, ex: dict[str, Any]
                       "chunk": spec.chunk},
         "compute_time_s": time.perf_counter() - t0,
     }
-    extra, checks, ok = _tail(sc, summary, out_dir)
-    summary.update(extra)
-    files = write_task_space(rec, out_dir, summary, joint_columns=joint_cols, plots=plots,
-                             csv=sc.spec.outputs.csv,
-                             title=f"{mech.name}: task-space sweep of {mech.frame_names[f]} "
-                                   f"({int(rec.reachable.sum())}/{rec.reachable.size} poses "
-                                   f"reached, {spec.method})")
-    summary["files"] = [*files]
-    report_expect(checks, sc.path)
-    return summary, 0 if ok else 1
+    title = (f"{mech.name}: task-space sweep of {mech.frame_names[f]} "
+             f"({int(rec.reachable.sum())}/{rec.reachable.size} poses reached, {spec.method})")
+    return _complete(sc, summary, out_dir, lambda sm: write_task_space(
+        rec, out_dir, sm, joint_columns=joint_cols, plots=plots, csv=sc.spec.outputs.csv,
+        title=title))
 
 
 # --------------------------------------------------------------------------- joint sweep
