@@ -27,7 +27,7 @@ from mechkin.cli.common import (
     load_task_scenario,
     report,
     report_expect,
-    run_command,
+    legacy_run_command as run_command,
 )
 from mechkin.config.scenario import Scenario
 from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, point_si

@@ -1,0 +1,98 @@
+"""Result and report records: the only types ``mechkin.io`` sees (DESIGN.md: records).
+
+A task (``mechkin.tasks.<x>.run``) turns a validated scenario into a :class:`Report`: the
+summary that becomes ``summary.json``, the ``expect:`` results, and one task record
+(``data``) that holds plain arrays for the task's writer in ``mechkin.io`` (CSV columns, plot
+series, MCAP frame trees). Nothing here solves, and nothing here writes files except through
+:meth:`Report.write`, which hands the report to :func:`mechkin.io.report.write_report`.
+
+Imports: numpy and the standard library only at module level (records sit under io/ and
+tasks/; the one upward reference, ``Report.write``, is a function-level import of io).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mechkin.records.motion import MotionRecord
+
+__all__ = ["MotionRecord", "OutputFlags", "Report"]
+
+
+@dataclass(frozen=True)
+class OutputFlags:
+    """Which kinds of output the scenario asks for (``outputs: {csv, plots, mcap}``)."""
+
+    csv: bool = True
+    plots: bool = True
+    mcap: bool = True
+
+
+@dataclass
+class Report:
+    """Everything one run produced, before any file is written.
+
+    Attributes
+    ----------
+    task : str
+        ``fk``, ``ik``, ``track``, ``workspace`` or ``biped``.
+    scenario : str
+        The scenario's name (default output folder ``outputs/<scenario>``).
+    summary : dict
+        The content of summary.json without ``out_dir`` and ``files`` (added when written).
+    checks : list of dict
+        The ``expect:`` results (also under ``summary["expect"]`` when there are any).
+    solver_ok : bool
+        Every step / target / plan reached its goal.
+    writer : str
+        Name of the writer module ``mechkin.io.<writer>_out`` that turns ``data`` into files.
+    data : object
+        The task record the writer reads (e.g. :class:`MotionRecord`).
+    outputs : OutputFlags
+        The scenario's ``outputs:`` switches.
+    scenario_path : Path, optional
+        The scenario file (for messages).
+    messages : list of str
+        Lines the CLI prints on stderr after the run (e.g. why a plan is infeasible).
+    """
+
+    task: str
+    scenario: str
+    summary: dict[str, Any]
+    checks: list[dict[str, Any]] = field(default_factory=list)
+    solver_ok: bool = True
+    writer: str = "motion"
+    data: Any = None
+    outputs: OutputFlags = field(default_factory=OutputFlags)
+    scenario_path: Path | None = None
+    messages: list[str] = field(default_factory=list)
+
+    @property
+    def status(self) -> str:
+        """The run's status string (``summary["status"]``)."""
+        return str(self.summary.get("status", "?"))
+
+    @property
+    def expect_ok(self) -> bool:
+        """Every ``expect:`` entry held (True when there are none)."""
+        return all(c.get("ok", False) for c in self.checks)
+
+    @property
+    def ok(self) -> bool:
+        """Solver succeeded and every expect held."""
+        return self.solver_ok and self.expect_ok
+
+    @property
+    def exit_code(self) -> int:
+        """0 all good, 1 a solver did not reach its goal or an expect failed."""
+        return 0 if self.ok else 1
+
+    def write(self, out_dir: str | Path | None = None, *, plots: bool = True) -> dict[str, Any]:
+        """Write every output into ``out_dir`` (default ``outputs/<scenario>``), atomically;
+        return the final summary (with ``out_dir`` and ``files``)."""
+        from mechkin.io.report import write_report
+
+        out = Path(out_dir) if out_dir is not None else Path("outputs") / self.scenario
+        return write_report(self, out, plots=plots)

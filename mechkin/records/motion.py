@@ -1,0 +1,69 @@
+"""The record of a motion (fk steps, ik targets): what ``mechkin.io.motion_out`` writes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class MotionRecord:
+    """A mechanism at m configurations, as plain arrays for CSV, plots and MCAP.
+
+    Attributes
+    ----------
+    task : str
+        Base name of the CSV and MCAP files (``fk`` -> ``fk.csv``, ``fk.mcap``).
+    title : str
+        Scenario name (plot titles).
+    mechanism : str
+        Mechanism name.
+    times : array (m,)
+        Time of each configuration [s] (ik: one second per target).
+    q : array (m, n)
+        Every joint [rad | m].
+    joint_names, joint_units : list of str
+        Names and SI unit suffixes (``rad`` | ``m``) of the n joints.
+    columns : dict
+        The CSV table, in column order (units in the names).
+    segments : array (m, s, 2, 3), optional
+        Stick-drawing segments in the base frame (plots and /scene); None when neither is asked.
+    axis_points : array (m, n, 3), optional
+        A point on every joint axis (/scene spheres).
+    frame_root, frame_names, frame_parents, T_parent_child
+        The /tf frame tree (``T_parent_child`` (m, k, 4, 4)); None when no MCAP is asked.
+    state : list of dict
+        Per-step ``/mechkin/state`` messages.
+    metadata : dict
+        MCAP metadata (scenario, mechanism, task).
+    snapshots, snapshot_labels
+        Which configurations the stick plot shows, and their labels.
+    convergence : dict, optional
+        ik: objective history per target label for ``convergence.png``.
+    convergence_ylabel, convergence_title : str
+        Labels of that plot.
+    """
+
+    task: str
+    title: str
+    mechanism: str
+    times: np.ndarray
+    q: np.ndarray
+    joint_names: list[str]
+    joint_units: list[str]
+    columns: dict[str, Any]
+    segments: np.ndarray | None = None
+    axis_points: np.ndarray | None = None
+    frame_root: str | None = None
+    frame_names: list[str] = field(default_factory=list)
+    frame_parents: list[str] = field(default_factory=list)
+    T_parent_child: np.ndarray | None = None
+    state: list[dict[str, Any]] = field(default_factory=list)
+    metadata: dict[str, str] = field(default_factory=dict)
+    snapshots: list[int] = field(default_factory=list)
+    snapshot_labels: list[str] = field(default_factory=list)
+    convergence: dict[str, np.ndarray] | None = None
+    convergence_ylabel: str = ""
+    convergence_title: str = ""

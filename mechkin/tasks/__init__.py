@@ -1,0 +1,49 @@
+"""Tasks: a validated scenario -> a :class:`mechkin.records.Report` (DESIGN.md: tasks).
+
+One module per task: :mod:`~mechkin.tasks.fk`, :mod:`~mechkin.tasks.ik`,
+:mod:`~mechkin.tasks.track`, :mod:`~mechkin.tasks.workspace` and :mod:`~mechkin.tasks.biped`
+(an ``ik`` scenario with a ``biped:`` section). Each has ``run(scenario, **options) -> Report``
+and writes no file; ``Report.write`` (mechkin.io) does that.
+
+Imports: config, model, solvers, spatial, records (never io/ or cli/).
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any
+
+from mechkin.records import Report
+
+TASKS = ("fk", "ik", "track", "workspace")
+
+
+def task_module_name(scenario: Any) -> str:
+    """The task module that runs ``scenario`` (``biped`` for an ik scenario with ``biped:``)."""
+    if scenario.spec.task == "ik" and scenario.section_name == "biped":
+        return "biped"
+    return str(scenario.spec.task)
+
+
+def run(scenario: Any, **options: Any) -> Report:
+    """Run a loaded scenario (:func:`mechkin.config.scenario.load_scenario`) to a report.
+
+    ``options`` are the task's own run options (workspace: ``workers``, ``scheduler``,
+    ``progress``).
+    """
+    mod = importlib.import_module(f"mechkin.tasks.{task_module_name(scenario)}")
+    return mod.run(scenario, **options)
+
+
+def run_file(path: str | Path, task: str | None = None, **options: Any) -> Report:
+    """Load the scenario file ``path`` (checking it is a ``task`` scenario when given) and run it."""
+    if task is None:
+        from mechkin.config.scenario import load_scenario
+
+        sc = load_scenario(Path(path))
+    else:
+        from mechkin.tasks.common import load_task_scenario
+
+        sc = load_task_scenario(path, task)
+    return run(sc, **options)

@@ -1,0 +1,206 @@
+"""The fk task: loop-closure forward kinematics along a motion of the independent joints
+(kim1995 §5.1), warm-started step to step. Returns a :class:`mechkin.records.Report`; writes
+nothing.
+
+Imports: config, model, records, tasks.common.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mechkin.config.scenario import FkSpec, Scenario
+from mechkin.config.units import angle_factor
+from mechkin.errors import ConfigError
+from mechkin.model import Mechanism, load_mechanism
+from mechkin.model.closure import ClosureStatus, solve_trajectory
+from mechkin.model.kinematics import closure_residual, forward_kinematics
+from mechkin.records import Report
+from mechkin.tasks.common import (
+    UNIT_TO_SI,
+    expect_messages,
+    joint_factor,
+    motion_record,
+    output_flags,
+    with_expect,
+)
+
+# CSV column suffixes of joint values and their SI factors
+SUFFIX_TO_SI = {k: UNIT_TO_SI[k] for k in ("rad", "deg", "m", "mm")}
+
+
+def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
+    """Times (m,) [s] and independent joint values (m, n_v) in SI from the fk section."""
+    spec: FkSpec = sc.section
+    doc = sc.doc
+    names = mech.independent_names
+    problems: list[str] = []
+    if spec.motion is not None:
+        ts = spec.time
+        if ts.stop <= ts.start:
+            raise ConfigError(f"{doc.where(('fk', 'time', 'stop'))}: expected stop > start")
+        m = int(np.floor((ts.stop - ts.start) / ts.step + 1e-9)) + 1
+        if m > 1_000_000:
+            raise ConfigError(f"{doc.where(('fk', 'time'))}: {m} steps is more than 1e6")
+        t = ts.start + ts.step * np.arange(m)
+        for k in spec.motion:
+            if k not in names:
+                problems.append(f"{doc.where(('fk', 'motion', k))}: not an independent joint "
+                                f"(independent: {', '.join(names)})")
+        qv = np.zeros((m, len(names)))
+        span = max(t[-1] - t[0], 1e-300)
+        for i, name in enumerate(names):
+            mo = spec.motion.get(name)
+            if mo is None:
+                problems.append(f"{doc.where(('fk', 'motion'))}: no motion for independent "
+                                f"joint {name!r}")
+                continue
+            f = joint_factor(mech, mech.independent[i], sc.spec.units)
+            if mo.type == "constant":
+                qv[:, i] = mo.value * f
+            elif mo.type == "ramp":
+                qv[:, i] = (mo.start + (mo.to - mo.start) * (t - t[0]) / span) * f
+            else:
+                qv[:, i] = (mo.offset + mo.amplitude * np.sin(
+                    2 * np.pi * mo.frequency * t + mo.phase * angle_factor(sc.spec.units.angle)
+                )) * f
+    elif spec.table is not None:
+        tab = spec.table
+        if "t" not in tab:
+            problems.append(f"{doc.where(('fk', 'table'))}: missing column 't' (times in s)")
+        for k in tab:
+            if k != "t" and k not in names:
+                problems.append(f"{doc.where(('fk', 'table', k))}: not an independent joint "
+                                f"(independent: {', '.join(names)})")
+        for name in names:
+            if name not in tab:
+                problems.append(f"{doc.where(('fk', 'table'))}: no column for independent "
+                                f"joint {name!r}")
+        if problems:
+            raise ConfigError(problems)
+        lens = {k: len(v) for k, v in tab.items()}
+        if len(set(lens.values())) != 1 or lens["t"] == 0:
+            raise ConfigError(f"{doc.where(('fk', 'table'))}: columns must have the same "
+                              f"non-zero length, got {lens}")
+        t = np.asarray(tab["t"], dtype=float)
+        qv = np.column_stack([
+            np.asarray(tab[name], dtype=float)
+            * joint_factor(mech, mech.independent[i], sc.spec.units)
+            for i, name in enumerate(names)
+        ])
+    else:
+        t, qv = _read_motion_csv(sc, names)
+    if problems:
+        raise ConfigError(problems)
+    if np.any(np.diff(t) < 0):
+        raise ConfigError(f"{doc.where(('fk',))}: times must be non-decreasing")
+    if t[0] < 0:
+        raise ConfigError(f"{doc.where(('fk',))}: times must be >= 0")
+    return t, qv
+
+
+def _read_motion_csv(sc: Scenario, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    from mechkin.io.csv_out import read_csv
+
+    path = (sc.doc.path.parent / sc.section.csv).resolve()
+    where = sc.doc.where(("fk", "csv"))
+    if not path.is_file():
+        raise ConfigError(f"{where}: file not found: {sc.section.csv} (resolved to {path})")
+    try:
+        cols = read_csv(path)
+    except Exception as exc:  # noqa: BLE001 - any parse failure is bad input
+        raise ConfigError(f"{path}:1: cannot read CSV: {exc}") from None
+    if "t_s" not in cols:
+        raise ConfigError(f"{path}:1: missing column 't_s'")
+    t = np.asarray(cols["t_s"], dtype=float)
+    qv = np.zeros((len(t), len(names)))
+    for i, name in enumerate(names):
+        hit = [(c, SUFFIX_TO_SI[c.rsplit("_", 1)[1]]) for c in cols
+               if c.rsplit("_", 1)[0] == name and c.rsplit("_", 1)[-1] in SUFFIX_TO_SI]
+        if not hit:
+            raise ConfigError(f"{path}:1: no column for independent joint {name!r} (expected "
+                              f"{name}_rad, {name}_deg, {name}_m or {name}_mm)")
+        qv[:, i] = np.asarray(cols[hit[0][0]], dtype=float) * hit[0][1]
+    if not np.all(np.isfinite(qv)) or not np.all(np.isfinite(t)):
+        raise ConfigError(f"{path}:1: non-finite numbers in the motion table")
+    return t, qv
+
+
+def initial_dependent(sc: Scenario, mech: Mechanism) -> np.ndarray:
+    q_w0 = mech.home[mech.dependent].copy()
+    guess = sc.section.initial_guess or {}
+    dep = mech.dependent_names
+    bad = [k for k in guess if k not in dep]
+    if bad:
+        raise ConfigError([f"{sc.doc.where(('fk', 'initial_guess', k))}: not a dependent joint "
+                           f"(dependent: {', '.join(dep)})" for k in bad])
+    for k, v in guess.items():
+        j = mech.joint_index(k)
+        q_w0[dep.index(k)] = v * joint_factor(mech, j, sc.spec.units)
+    return q_w0
+
+
+def run(scenario: Scenario) -> Report:
+    """Solve the loop closure along the scenario's motion.
+
+    Returns the report: summary (status per step, closure statistics, final pose), expect
+    results and the motion record for CSV, plots and MCAP.
+    """
+    mech = load_mechanism(scenario.mechanism_path)
+    t, qv = independent_motion(scenario, mech)
+    q_w0 = initial_dependent(scenario, mech)
+    tol = scenario.section.tolerances
+    t0 = time.perf_counter()
+    res = solve_trajectory(mech, qv, q_w0, tol_phi=tol.phi, tol_dq=tol.dq, max_iter=tol.max_iter)
+    solve_s = time.perf_counter() - t0
+    kin = forward_kinematics(mech, res.q)
+    phi = closure_residual(mech, kin)
+    phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(t))
+    status = [s.value for s in res.status]
+    n_ok = int(sum(s is ClosureStatus.CONVERGED for s in res.status))
+    overall = "ok" if n_ok == len(t) else next(
+        s for s in ("singular", "not converged") if s in status)
+    lim_lo = res.q < mech.lower - 1e-9
+    lim_hi = res.q > mech.upper + 1e-9
+    outside = sorted({mech.joint_names[j] for j in np.flatnonzero((lim_lo | lim_hi).any(0))})
+    summary: dict[str, Any] = {
+        "scenario": scenario.name,
+        "task": "fk",
+        "mechanism": mech.name,
+        "status": overall,
+        "n_steps": len(t),
+        "steps": {s: status.count(s) for s in ("converged", "not converged", "singular")},
+        "first_failure_step": None if n_ok == len(t) else int(
+            next(i for i, s in enumerate(res.status) if s is not ClosureStatus.CONVERGED)),
+        "closure": {
+            "n_cuts": mech.n_cuts,
+            "n_equations": mech.n_equations,
+            "max_residual": float(phin.max(initial=0.0)),
+            "iterations_mean": float(res.iterations.mean()) if len(t) else 0.0,
+            "iterations_max": int(res.iterations.max(initial=0)),
+            "max_condition": float(np.max(res.cond[np.isfinite(res.cond)], initial=1.0)),
+        },
+        "joints_outside_limits": outside,
+        "solve_time_s": solve_s,
+        "time_per_step_s": solve_s / max(len(t), 1),
+        "t_s": [float(t[0]), float(t[-1])],
+        "final": {"q": {n: float(v) for n, v in zip(mech.joint_names, res.q[-1], strict=False)}},
+    }
+    if mech.end_effector is not None:
+        T_e = kin.frames(mech, [mech.end_effector])[:, 0]
+        summary["final"]["end_effector"] = {
+            "frame": mech.frame_names[mech.end_effector],
+            "xyz_m": T_e[-1, :3, 3].tolist(),
+            "R": T_e[-1, :3, :3].tolist(),
+        }
+    checks = with_expect(summary, scenario)
+    rec = motion_record(scenario=scenario, mech=mech, kin=kin, times=t, step_status=status,
+                        residual=phin, task="fk")
+    return Report(task="fk", scenario=scenario.name, summary=summary, checks=checks,
+                  solver_ok=overall == "ok", writer="motion", data=rec,
+                  outputs=output_flags(scenario), scenario_path=scenario.path,
+                  messages=expect_messages(checks, scenario.path))
