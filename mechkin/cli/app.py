@@ -1,15 +1,21 @@
-"""The ``mechkin`` command: one module per subcommand (DESIGN.md: cli/)."""
+"""The ``mechkin`` command: one module per subcommand (DESIGN.md: cli/).
+
+Start-up is cheap: the subcommand modules import typer and ``mechkin.cli.common`` only; numpy,
+the model, the solvers, plotting and MCAP code are imported inside the commands that use them,
+so ``mechkin --help``, ``mechkin --version`` and ``mechkin schema`` import none of them.
+"""
 
 from __future__ import annotations
-
-import json
 
 import typer
 
 from mechkin import __version__
 from mechkin.cli.check import check_cli
 from mechkin.cli.fk import fk_cli
+from mechkin.cli.ik import ik_cli
 from mechkin.cli.info import info_cli
+from mechkin.cli.track import track_cli
+from mechkin.cli.workspace import workspace_cli
 
 app = typer.Typer(
     no_args_is_help=True,
@@ -17,26 +23,28 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     help="Kinematics of open, closed and complex-chain robot mechanisms described in YAML.",
 )
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(__version__)
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                 help="Print the version and exit."),
+) -> None:
+    """Kinematics of open, closed and complex-chain robot mechanisms described in YAML."""
+
+
 app.command("fk")(fk_cli)
+app.command("ik")(ik_cli)
+app.command("track")(track_cli)
+app.command("workspace")(workspace_cli)
 app.command("info")(info_cli)
 app.command("check")(check_cli)
-
-
-def _register_optional() -> None:
-    """Subcommands whose modules may not exist yet in a partial build."""
-    import importlib
-
-    for verb in ("ik", "track", "workspace"):
-        try:
-            mod = importlib.import_module(f"mechkin.cli.{verb}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"mechkin.cli.{verb}":
-                raise
-            continue
-        app.command(verb)(getattr(mod, f"{verb}_cli"))
-
-
-_register_optional()
 
 
 @app.command("schema")
@@ -44,18 +52,12 @@ def schema_cli(
     kind: str = typer.Argument(..., help="mechanism or scenario"),
 ) -> None:
     """Print the JSON Schema of mechanism or scenario files (for editor validation)."""
-    from mechkin.config.scenario import scenario_json_schema
-    from mechkin.config.schema import MechanismSpec
+    from mechkin.config.schema_files import schema_text
 
-    if kind == "mechanism":
-        schema = MechanismSpec.model_json_schema()
-    elif kind == "scenario":
-        schema = scenario_json_schema()
-    else:
+    if kind not in ("mechanism", "scenario"):
         typer.echo(f"error: schema: expected 'mechanism' or 'scenario', got {kind!r}", err=True)
         raise typer.Exit(2)
-    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
-    typer.echo(json.dumps(schema, indent=2))
+    typer.echo(schema_text(kind), nl=False)
 
 
 @app.command("version")
@@ -66,5 +68,3 @@ def version_cli() -> None:
 
 def main() -> None:
     app()
-
-

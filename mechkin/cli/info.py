@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import typer
 
 from mechkin.cli.common import echo_json, handle_errors
-from mechkin.model import Mechanism, load_mechanism
-from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+
+if TYPE_CHECKING:
+    from mechkin.model import Mechanism
 
 
 def info_cli(
@@ -46,6 +46,7 @@ def _info(mechanism: Path, json_out: bool) -> None:
 def run_info(*, mechanism: Path) -> dict[str, Any]:
     from mechkin.config.load import read_yaml
     from mechkin.errors import ConfigError
+    from mechkin.model import load_mechanism
 
     doc = read_yaml(mechanism)
     if isinstance(doc.data, dict) and "task" in doc.data and "links" not in doc.data:
@@ -61,6 +62,10 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
     Grubler-Kutzbach (spatial): M = 6 (N_bodies - 1) - sum(6 - f_i). With 1-DOF joints and cut
     links each merging two tree links into one body, M = n - sum over cuts of the equations.
     """
+    import numpy as np
+
+    from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+
     q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)[None]
     _, J = closure_jacobian(mech, forward_kinematics(mech, q0))
     rank = int(np.linalg.matrix_rank(J[0], tol=1e-9)) if J.shape[1] else 0

@@ -27,6 +27,8 @@ from mechkin.cli.common import (
     load_task_scenario,
     report,
     report_expect,
+)
+from mechkin.cli.common import (
     legacy_run_command as run_command,
 )
 from mechkin.config.scenario import Scenario

@@ -529,7 +529,7 @@ def _stats(x: np.ndarray) -> dict[str, float | int]:
 
 
 def _run_joint_sweep(sc: Scenario, out_dir: Path, plots: bool) -> tuple[dict[str, Any], int]:
-    from mechkin.io.atomic import OutputDir
+    from mechkin.io.output_dir import OutputDir
     from mechkin.model import load_mechanism
     from mechkin.model.closure import ClosureStatus, dependent_sensitivity, solve_closure
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian

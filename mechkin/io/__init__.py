@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from mechkin.io.atomic import OutputDir, atomic_path, atomic_write_bytes, atomic_write_text
+from mechkin.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
 from mechkin.io.csv_out import format_csv, read_csv, write_csv
 from mechkin.io.mcap_out import (
     Box,
@@ -22,6 +22,7 @@ from mechkin.io.mcap_out import (
     skeleton_scene,
     write_mcap,
 )
+from mechkin.io.output_dir import OutputDir
 from mechkin.io.summary import jsonable, summary_json, write_summary
 
 __all__ = [

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from mechkin.io.atomic import OutputDir
 from mechkin.io.mcap_out import Lines, MotionLog, Scene, Spheres, write_mcap
+from mechkin.io.output_dir import OutputDir
 from mechkin.records import MotionRecord, Report
 
 

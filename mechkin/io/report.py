@@ -1,6 +1,6 @@
 """Report records -> files: one entry point for every task (DESIGN.md: io).
 
-:func:`write_report` stages every file of a run in one :class:`~mechkin.io.atomic.OutputDir`
+:func:`write_report` stages every file of a run in one :class:`~mechkin.io.output_dir.OutputDir`
 and hands the report's task record to its writer module ``mechkin.io.<writer>_out`` (function
 ``write(od, report, plots)``), then writes summary.json with ``out_dir`` and ``files``.
 
@@ -13,7 +13,7 @@ import importlib
 from pathlib import Path
 from typing import Any
 
-from mechkin.io.atomic import OutputDir
+from mechkin.io.output_dir import OutputDir
 from mechkin.records import Report
 
 

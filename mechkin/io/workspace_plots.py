@@ -18,7 +18,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from mechkin.io.atomic import OutputDir, atomic_path
+from mechkin.io.output_dir import OutputDir, atomic_path
 
 if TYPE_CHECKING:
     from mechkin.solvers.sweeps import DesignSweepRecord, TaskSpaceRecord

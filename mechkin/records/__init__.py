@@ -18,7 +18,39 @@ from typing import Any
 
 from mechkin.records.motion import MotionRecord
 
-__all__ = ["MotionRecord", "OutputFlags", "Report"]
+__all__ = ["FkResult", "MotionRecord", "OutputFlags", "Report"]
+
+
+@dataclass
+class FkResult:
+    """Forward kinematics of a batch (:func:`mechkin.fk`).
+
+    Attributes
+    ----------
+    q : array (m, n)
+        Every joint [rad | m] (independent as given, dependent from the loop closure).
+    status : list of str
+        Per row: ``converged``, ``not converged`` or ``singular``.
+    residual : array (m,)
+        ||phi_R|| at exit (0 for open chains).
+    iterations : array (m,)
+        Newton iterations of the loop closure.
+    poses : dict of str to array (m, 4, 4)
+        Pose of each requested frame in the base frame.
+    joint_names : list of str
+    """
+
+    q: Any
+    status: list[str]
+    residual: Any
+    iterations: Any
+    poses: dict[str, Any]
+    joint_names: list[str]
+
+    @property
+    def ok(self) -> bool:
+        """Every row converged."""
+        return all(s == "converged" for s in self.status)
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,8 @@ def run(scenario: Any, **options: Any) -> Report:
 
 
 def run_file(path: str | Path, task: str | None = None, **options: Any) -> Report:
-    """Load the scenario file ``path`` (checking it is a ``task`` scenario when given) and run it."""
+    """Load the scenario file ``path`` (checking it is a ``task`` scenario when given) and
+    run it."""
     if task is None:
         from mechkin.config.scenario import load_scenario
 

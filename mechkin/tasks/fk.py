@@ -8,7 +8,6 @@ Imports: config, model, records, tasks.common.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -104,16 +103,13 @@ def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.nd
 
 
 def _read_motion_csv(sc: Scenario, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
-    from mechkin.io.csv_out import read_csv
+    from mechkin.config.table_csv import read_numeric_csv
 
     path = (sc.doc.path.parent / sc.section.csv).resolve()
     where = sc.doc.where(("fk", "csv"))
     if not path.is_file():
         raise ConfigError(f"{where}: file not found: {sc.section.csv} (resolved to {path})")
-    try:
-        cols = read_csv(path)
-    except Exception as exc:  # noqa: BLE001 - any parse failure is bad input
-        raise ConfigError(f"{path}:1: cannot read CSV: {exc}") from None
+    cols = read_numeric_csv(path)
     if "t_s" not in cols:
         raise ConfigError(f"{path}:1: missing column 't_s'")
     t = np.asarray(cols["t_s"], dtype=float)
@@ -125,8 +121,6 @@ def _read_motion_csv(sc: Scenario, names: list[str]) -> tuple[np.ndarray, np.nda
             raise ConfigError(f"{path}:1: no column for independent joint {name!r} (expected "
                               f"{name}_rad, {name}_deg, {name}_m or {name}_mm)")
         qv[:, i] = np.asarray(cols[hit[0][0]], dtype=float) * hit[0][1]
-    if not np.all(np.isfinite(qv)) or not np.all(np.isfinite(t)):
-        raise ConfigError(f"{path}:1: non-finite numbers in the motion table")
     return t, qv
 
 

@@ -107,6 +107,18 @@ def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray) -> IkResult:
                     method="closed-form")
 
 
+def batch_results(br: Any, k: int) -> list[IkResult]:
+    """One IkResult per row of a batched solve (its time shared equally)."""
+    per = br.time_s / k
+    return [IkResult(
+        q_v=br.q_v[i], q_w=br.q_w[i], q=br.q[i], status=br.status[i],
+        position_error=float(br.position_error[i]),
+        orientation_error=float(br.orientation_error[i]), f=float(br.f[i]),
+        grad_norm=0.0, iterations=int(br.iterations[i]),
+        evaluations=int(br.iterations[i]) + 1, time_s=per,
+        f_history=np.array([br.f[i]]), method="lm") for i in range(k)]
+
+
 def _clean(v: float) -> float:
     return float(v) if np.isfinite(v) else 0.0
 
@@ -141,15 +153,7 @@ def run(scenario: Scenario) -> Report:
     results: list[IkResult] = []
     if spec.batch:
         br = solve_ik_batch(mech, T_P, q_v0=qv0, q_w0=qw0, weights=W, options=opts)
-        per = br.time_s / len(T_P)
-        for i in range(len(T_P)):
-            results.append(IkResult(
-                q_v=br.q_v[i], q_w=br.q_w[i], q=br.q[i], status=br.status[i],
-                position_error=float(br.position_error[i]),
-                orientation_error=float(br.orientation_error[i]), f=float(br.f[i]),
-                grad_norm=0.0, iterations=int(br.iterations[i]),
-                evaluations=int(br.iterations[i]) + 1, time_s=per,
-                f_history=np.array([br.f[i]]), method="lm"))
+        results = batch_results(br, len(T_P))
     else:
         qv, qw = qv0, qw0
         for T, w in zip(T_P, W, strict=False):

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from mechkin.errors import OutputError
-from mechkin.io.atomic import OutputDir, atomic_path, atomic_write_bytes, atomic_write_text
+from mechkin.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
+from mechkin.io.output_dir import OutputDir
 
 
 def _names(d: Path) -> list[str]:

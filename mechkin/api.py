@@ -1,0 +1,187 @@
+"""The public Python API (DESIGN.md: the same tasks as the CLI, no files, no printing).
+
+>>> import mechkin
+>>> mech = mechkin.load_mechanism("mechanisms/kim1995_direct_drive.yaml")   # doctest: +SKIP
+>>> res = mechkin.fk(mech, [[0.3, 1.2]], frames=["end_effector"])        # doctest: +SKIP
+>>> res.poses["end_effector"].shape                                        # doctest: +SKIP
+(1, 4, 4)
+>>> report = mechkin.run("scenarios/kim1995_direct_drive_fk.yaml")        # doctest: +SKIP
+>>> report.status, report.write("outputs/demo")["files"]                  # doctest: +SKIP
+
+Every function returns records (:mod:`mechkin.records`, the solvers' result records) and raises
+:class:`mechkin.errors.MechkinError` subclasses on bad input; none writes a file except
+:meth:`Report.write`.
+
+Imports: config, model, solvers, tasks, records (all inside the functions, so ``import
+mechkin`` stays cheap).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+
+    from mechkin.config.scenario import Scenario
+    from mechkin.model import Mechanism
+    from mechkin.records import FkResult, Report
+    from mechkin.solvers.ik_optimize import IkResult
+
+
+def load_mechanism(path: str | Path) -> Mechanism:
+    """Read, validate and build a mechanism YAML file into an immutable :class:`Mechanism`."""
+    from mechkin.model import load_mechanism as _load
+
+    return _load(path)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file (its mechanism path resolved, not yet loaded)."""
+    from mechkin.config.scenario import load_scenario as _load
+
+    return _load(Path(path))
+
+
+def fk(
+    mech: Mechanism,
+    q_v: Any,
+    *,
+    q_w0: Any = None,
+    frames: Sequence[str] | None = None,
+    tol_phi: float | None = None,
+) -> FkResult:
+    """Forward kinematics of a batch of independent-joint values (kim1995 §5.1).
+
+    Parameters
+    ----------
+    mech : Mechanism
+    q_v : array_like, shape (m, n_v) or (n_v,)
+        Independent joints [rad | m], in ``mech.independent_names`` order.
+    q_w0 : array_like, shape (n_w,) or (m, n_w), optional
+        First guess of the dependent joints (default ``home``); closed chains only.
+    frames : list of str, optional
+        Frames whose poses to return; ``"end_effector"`` names the mechanism's {E}
+        (default: the end effector if there is one).
+    tol_phi : float, optional
+        Loop-closure tolerance on ||phi_R||.
+
+    Returns
+    -------
+    FkResult
+        All joints ``q`` (m, n), per-row ``status`` and ``residual``, and ``poses[name]``
+        (m, 4, 4) in the base frame.
+    """
+    import numpy as np
+
+    from mechkin.errors import ConfigError
+    from mechkin.model.closure import solve_closure
+    from mechkin.model.kinematics import frame_poses
+    from mechkin.records import FkResult
+
+    qv = np.atleast_2d(np.asarray(q_v, dtype=float))
+    if qv.shape[1] != len(mech.independent):
+        raise ConfigError(f"q_v: expected {len(mech.independent)} columns "
+                          f"({', '.join(mech.independent_names)}), got {qv.shape[1]}")
+    qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
+    qw0 = np.broadcast_to(np.atleast_2d(qw0), (qv.shape[0], len(mech.dependent)))
+    kw = {} if tol_phi is None else {"tol_phi": tol_phi}
+    res = solve_closure(mech, qv, np.array(qw0), **kw)
+    names = list(frames) if frames is not None else (
+        ["end_effector"] if mech.end_effector is not None else [])
+    idx = []
+    for nm in names:
+        if nm == "end_effector":
+            if mech.end_effector is None:
+                raise ConfigError(f"frames: mechanism {mech.name} has no end_effector")
+            idx.append(int(mech.end_effector))
+        else:
+            try:
+                idx.append(mech.frame_index(nm))
+            except KeyError as exc:
+                raise ConfigError(f"frames: {exc.args[0]}") from None
+    T = frame_poses(mech, res.q, idx) if idx else np.zeros((len(qv), 0, 4, 4))
+    return FkResult(q=res.q, status=[s.value for s in res.status], residual=res.residual,
+                    iterations=res.iterations, poses={n: T[:, k] for k, n in enumerate(names)},
+                    joint_names=list(mech.joint_names))
+
+
+def ik(
+    mech: Mechanism,
+    targets: Any,
+    *,
+    weights: Any = None,
+    method: str = "lm",
+    q_v0: Any = None,
+    q_w0: Any = None,
+    restarts: int | None = None,
+    batch: bool = False,
+    seed: int = 0,
+) -> list[IkResult]:
+    """Inverse kinematics of precision points (kim1995 §3-5), each verified by FK.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    targets : array_like, shape (k, 4, 4) or (4, 4)
+        Poses of {E} in the base frame [m].
+    weights : array_like, shape (6,), optional
+        Diagonal of W (position, orientation); default ones.
+    method : {"lm", "cg-golden"}
+    q_v0, q_w0 : array_like, optional
+        First guess; targets are then solved in order, each warm-started from the previous
+        answer (kim1995 §5.2 Step 2).
+    restarts : int, optional
+        Extra seeded starts on failure (default: the scenario default of ``mechkin ik``).
+    batch : bool
+        Solve all targets at once, vectorised (lm only).
+
+    Returns
+    -------
+    list of IkResult
+        One per target, with status and the verified position/orientation errors.
+    """
+    import numpy as np
+
+    from mechkin.config.ik_spec import IkSpec
+    from mechkin.errors import ConfigError
+    from mechkin.solvers.ik_optimize import IkOptions, solve_ik, solve_ik_batch
+
+    T = np.asarray(targets, dtype=float)
+    T = T[None] if T.ndim == 2 else T
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        raise ConfigError(f"targets: expected (k, 4, 4) poses, got shape {T.shape}")
+    if method not in ("lm", "cg-golden"):
+        raise ConfigError(f"method: expected 'lm' or 'cg-golden', got {method!r}")
+    if mech.end_effector is None:
+        raise ConfigError(f"mechanism {mech.name} has no end_effector frame")
+    w = np.ones(6) if weights is None else np.asarray(weights, dtype=float)
+    n_rs = IkSpec.model_fields["restarts"].default if restarts is None else int(restarts)
+    opts = IkOptions(method=method, restarts=n_rs, seed=seed)  # type: ignore[arg-type]
+    qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
+    qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
+    if batch:
+        from mechkin.tasks.ik import batch_results
+
+        W = np.broadcast_to(w, (len(T), 6))
+        return batch_results(solve_ik_batch(mech, T, q_v0=qv, q_w0=qw, weights=W,
+                                            options=opts), len(T))
+    out = []
+    for Tk in T:
+        r = solve_ik(mech, Tk, q_v0=qv, q_w0=qw, weights=w, options=opts)
+        out.append(r)
+        if np.all(np.isfinite(r.q)):
+            qv, qw = r.q_v, r.q_w
+    return out
+
+
+def run(scenario: str | Path | Scenario, **options: Any) -> Report:
+    """Run a scenario (a path or a loaded :class:`Scenario`) as ``mechkin <task>`` would, without
+    writing files; ``report.write(out_dir)`` writes them. ``options``: workspace ``workers``,
+    ``scheduler``, ``progress``."""
+    from mechkin import tasks
+
+    if isinstance(scenario, (str, Path)):
+        return tasks.run_file(scenario, **options)
+    return tasks.run(scenario, **options)

@@ -1,0 +1,141 @@
+"""The package's import graph: no cycles, imports only downward (DESIGN.md: data flow).
+
+Every ``import`` in ``mechkin/`` is read from the source (module level and inside functions;
+``if TYPE_CHECKING:`` blocks are annotations only and skipped). The one upward edge allowed is
+``Report.write`` (mechkin.records) handing a report to ``mechkin.io.report``.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[2] / "mechkin"
+
+# layer -> layers it must never import
+FORBIDDEN = {
+    "spatial": {"config", "model", "solvers", "tasks", "io", "records", "cli", "api"},
+    "config": {"model", "solvers", "tasks", "io", "records", "cli", "api"},
+    "model": {"solvers", "tasks", "io", "records", "cli", "api"},
+    "solvers": {"tasks", "io", "cli", "api"},
+    "records": {"config", "model", "solvers", "tasks", "cli", "api"},
+    "io": {"config", "model", "solvers", "tasks", "cli", "api"},
+    "tasks": {"io", "cli", "api"},
+    "api": {"cli", "io"},
+    "errors": {"config", "model", "solvers", "tasks", "io", "records", "cli", "api", "spatial"},
+}
+ALLOWED_EDGES = {("mechkin.records", "mechkin.io.report")}
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(PKG.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    t = node.test
+    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
+        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING")
+
+
+def _imports(path: Path, mod: str) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    out: set[str] = set()
+    is_pkg = path.name == "__init__.py"
+
+    def visit(node: ast.AST) -> None:
+        if isinstance(node, ast.If) and _is_type_checking(node):
+            for n in node.orelse:
+                visit(n)
+            return
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.startswith("mechkin"))
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = mod.split(".") if is_pkg else mod.split(".")[:-1]
+                base = base[: len(base) - node.level + 1]
+                name = ".".join(base + ([node.module] if node.module else []))
+            else:
+                name = node.module or ""
+            if name.startswith("mechkin"):
+                out.add(name)
+                for a in node.names:  # from mechkin.io import atomic -> mechkin.io.atomic
+                    out.add(f"{name}.{a.name}")
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(tree)
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    files = {_module_name(p): p for p in PKG.rglob("*.py")}
+    graph: dict[str, set[str]] = {}
+    for mod, path in files.items():
+        deps = set()
+        for name in _imports(path, mod):
+            while name and name not in files:  # 'from x import func' -> x
+                name = name.rpartition(".")[0]
+            if name and name != mod:
+                deps.add(name)
+        graph[mod] = deps
+    return graph
+
+
+def _layer(mod: str) -> str:
+    parts = mod.split(".")
+    return parts[1] if len(parts) > 1 else "mechkin"
+
+
+GRAPH = _graph()
+
+
+def test_graph_covers_the_package():
+    assert "mechkin.tasks.fk" in GRAPH and "mechkin.io.report" in GRAPH
+    assert "mechkin.records" in GRAPH["mechkin.io.report"]
+
+
+@pytest.mark.parametrize("mod", sorted(GRAPH))
+def test_no_forbidden_direction(mod):
+    bad = []
+    for dep in GRAPH[mod]:
+        if (mod, dep) in ALLOWED_EDGES:
+            continue
+        if _layer(dep) in FORBIDDEN.get(_layer(mod), set()):
+            bad.append(dep)
+        if _layer(dep) == "cli" and _layer(mod) != "cli" and mod != "mechkin.__main__":
+            bad.append(dep)
+    assert not bad, f"{mod} imports {sorted(set(bad))}"
+
+
+def test_no_import_cycle():
+    graph = {m: {d for d in deps if (m, d) not in ALLOWED_EDGES} for m, deps in GRAPH.items()}
+    # package __init__ re-exporting its own submodules is not a cycle of behaviour
+    for m, deps in graph.items():
+        graph[m] = {d for d in deps if not (d.startswith(m + ".") or m.startswith(d + ".")
+                                            and d != "mechkin")}
+    graph["mechkin"] = set()
+    state: dict[str, int] = {}
+    stack: list[str] = []
+    cycles: list[list[str]] = []
+
+    def dfs(u: str) -> None:
+        state[u] = 1
+        stack.append(u)
+        for v in sorted(graph.get(u, ())):
+            if state.get(v) == 1:
+                cycles.append(stack[stack.index(v):] + [v])
+            elif v not in state:
+                dfs(v)
+        stack.pop()
+        state[u] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            dfs(m)
+    assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles[:5])
