@@ -43,6 +43,20 @@ class ConvergenceError(MechkinError):
 
 
 class OutputError(MechkinError):
-    """An output file could not be written."""
+    """An output file could not be written while the run wrote it (disk full, a file system
+    error): exit 4; the previous contents of the output folder stay intact."""
 
-    exit_code = 1
+    exit_code = 4
+
+
+class OutputDirError(OutputError):
+    """An unusable output folder, found before any work (a file, not writable, a name too
+    long, held by another run or by another scenario's results): bad input, exit 2."""
+
+    exit_code = 2
+
+
+class Interrupted(MechkinError):
+    """SIGINT or SIGTERM: the run stopped, staging removed, previous outputs intact."""
+
+    exit_code = 130

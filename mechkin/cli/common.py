@@ -6,11 +6,12 @@ Typer only: nothing here imports numpy, the solvers, plotting or MCAP code at mo
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import logging
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
@@ -25,6 +26,8 @@ OutOption = Annotated[Path | None, typer.Option(
     "--out", "-o", help="Output folder [default: outputs/<scenario name>]")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print summary.json to stdout too")]
 PlotsOption = Annotated[bool, typer.Option("--plots/--no-plots", help="Write PNG plots")]
+ForceOption = Annotated[bool, typer.Option(
+    "--force", help="Replace an output folder that holds another scenario's results")]
 
 
 def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
@@ -38,8 +41,9 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
         out: OutOption = None,
         json_out: JsonOption = False,
         plots: PlotsOption = True,
+        force: ForceOption = False,
     ) -> None:
-        raise typer.Exit(execute(task, scenario, out, json_out, plots, line))
+        raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force))
 
     command.__doc__ = doc
     command.__name__ = f"{task}_cli"
@@ -47,21 +51,69 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
 
 
 def execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots: bool,
-            line: Callable[[dict[str, Any]], str], **options: Any) -> int:
-    """Run one scenario end to end (the body of every run command); returns the exit code."""
-    return handle_errors(_execute)(task, scenario, out, json_out, plots, line, **options)
+            line: Callable[[dict[str, Any]], str], *, force: bool = False,
+            **options: Any) -> int:
+    """Run one scenario end to end (the body of every run command); returns the exit code.
+
+    Order: load and validate the scenario, check and lock the output folder (before any
+    work), run the task, write the report atomically, print the line and the messages.
+    SIGTERM is turned into a clean stop (staging removed, worker processes terminated).
+    """
+    with terminate_cleanly():
+        return handle_errors(_execute)(task, scenario, out, json_out, plots, line, force,
+                                       **options)
 
 
 def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots: bool,
-             line: Callable[[dict[str, Any]], str], **options: Any) -> int:
-    from mechkin.tasks import run_file
+             line: Callable[[dict[str, Any]], str], force: bool, **options: Any) -> int:
+    from mechkin.io.report import prepare_output
+    from mechkin.tasks import run
+    from mechkin.tasks.common import load_task_scenario
 
-    rep = run_file(scenario, task, **options)
-    summary = rep.write(default_out_dir(rep.scenario, out), plots=plots)
+    sc = load_task_scenario(scenario, task)
+    with prepare_output(default_out_dir(sc.name, out), sc.name, force=force) as out_dir:
+        rep = run(sc, **options)
+        summary = rep.write(out_dir, plots=plots)
     report(summary, json_out, line(summary))
     for msg in rep.messages:
         typer.echo(msg, err=True)
     return rep.exit_code
+
+
+class _Terminated(BaseException):
+    """Raised by the SIGTERM handler (a BaseException, so no ``except Exception`` eats it)."""
+
+
+@contextlib.contextmanager
+def terminate_cleanly() -> Iterator[None]:
+    """SIGTERM during a run: stop child processes, unwind (so staging folders and locks are
+    removed by their ``finally`` blocks), exit 143 with one line."""
+    import signal
+
+    def on_term(signum: int, frame: Any) -> None:
+        _stop_children()
+        raise _Terminated()
+
+    try:
+        old = signal.signal(signal.SIGTERM, on_term)
+    except ValueError:  # not the main thread (e.g. inside a test runner thread)
+        yield
+        return
+    try:
+        yield
+    except _Terminated:
+        typer.echo("mechkin: terminated (SIGTERM); no output was changed", err=True)
+        raise typer.Exit(143) from None
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _stop_children() -> None:
+    import multiprocessing
+
+    for p in multiprocessing.active_children():
+        with contextlib.suppress(Exception):
+            p.terminate()
 
 
 def handle_errors(fn: F) -> F:
@@ -76,7 +128,11 @@ def handle_errors(fn: F) -> F:
             for ln in str(exc).splitlines() or [type(exc).__name__]:
                 typer.echo(f"error: {ln}" if not _has_location(ln) else ln, err=True)
             raise typer.Exit(code=exc.exit_code) from None
-        except (typer.Exit, typer.Abort, KeyboardInterrupt):
+        except KeyboardInterrupt:
+            _stop_children()
+            typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
+            raise typer.Exit(code=130) from None
+        except (typer.Exit, typer.Abort):
             raise
         except Exception as exc:  # noqa: BLE001 - the CLI must never show a traceback
             logging.getLogger("mechkin").debug("internal error", exc_info=True)

@@ -1,14 +1,18 @@
-"""A whole run's output folder: files are staged in a hidden sibling directory and moved into
-the output folder only when the ``with`` block ends without an exception.
+"""A whole run's output folder: files are staged in a hidden folder inside it (the same file
+system, even when the folder is a mount point) and moved into place only when the ``with``
+block ends without an exception; the moves run with SIGINT/SIGTERM held, so a signal leaves
+either the previous files or the complete new set.
 
 Imports: io.atomic, io.csv_out, io.summary, errors.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import shutil
+import signal
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path, PurePosixPath
@@ -26,6 +30,44 @@ __all__ = ["OutputDir"]
 
 log = logging.getLogger(__name__)
 
+_HELD = {signal.SIGINT, signal.SIGTERM}
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def sweep_stale_staging(folder: Path) -> list[Path]:
+    """Remove staging folders in ``folder`` left by runs whose process is gone."""
+    removed = []
+    with contextlib.suppress(OSError):
+        for d in folder.glob(f"{_STAGING_PREFIX}*"):
+            parts = d.name[len(_STAGING_PREFIX):].split("-")
+            pid = int(parts[0]) if parts and parts[0].isdigit() else None
+            if d.is_dir() and (pid is None or (pid != os.getpid() and not _pid_alive(pid))):
+                shutil.rmtree(d, ignore_errors=True)
+                removed.append(d)
+    return removed
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Hold SIGINT and SIGTERM (delivered when the block ends): for the renames of a commit."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
 
 def _check_relative(name: str | os.PathLike[str]) -> str:
     rel = PurePosixPath(Path(name).as_posix())
@@ -37,11 +79,13 @@ def _check_relative(name: str | os.PathLike[str]) -> str:
 class OutputDir:
     """Stage the files of one run and move them into ``path`` only if the run succeeds.
 
-    Files are written under a hidden staging directory created beside ``path`` (same
-    filesystem, so the final moves are ``os.replace`` renames). On normal exit of the ``with``
-    block ``path`` is created if needed and each staged file is renamed into place; files of
-    ``path`` not written in this run are left alone. On an exception the staging directory is
-    removed and nothing appears in ``path``.
+    Files are written under a hidden staging folder ``path/.mechkin-staging-<pid>-*`` (the
+    same file system as the final files, so the moves are ``os.replace`` renames even when
+    ``path`` is a mount point). On normal exit of the ``with`` block each staged file is
+    renamed into place with SIGINT/SIGTERM held, then the files of ``replaces`` (the previous
+    run's list) that this run did not write are removed. On an exception (a signal included)
+    the staging folder is removed, the folder keeps its previous content, and a folder this
+    run created is removed again. Staging folders of dead runs are swept on entry.
 
     Parameters
     ----------
@@ -49,6 +93,9 @@ class OutputDir:
         The output folder, e.g. ``outputs/<scenario name>``.
     fsync : bool
         Flush every staged file to disk before it is moved into place.
+    replaces : list of str, optional
+        Relative names written by the previous run into ``path``; those not written again are
+        removed after a successful commit (a ``--no-plots`` rerun leaves no old PNG behind).
 
     Attributes
     ----------
@@ -65,11 +112,14 @@ class OutputDir:
     ...     od.write_json("summary.json", {"status": "ok", "files": od.files})
     """
 
-    def __init__(self, path: str | os.PathLike[str], *, fsync: bool = True) -> None:
+    def __init__(self, path: str | os.PathLike[str], *, fsync: bool = True,
+                 replaces: Sequence[str] = ()) -> None:
         self.path = Path(path)
         self._fsync = fsync
         self._staging: Path | None = None
         self._files: list[str] = []
+        self._replaces = list(replaces)
+        self._created = False
 
     @property
     def files(self) -> list[str]:
@@ -88,14 +138,16 @@ class OutputDir:
             raise OutputError(f"{self.path}: OutputDir entered twice")
         if self.path.exists() and not self.path.is_dir():
             raise OutputError(f"{self.path}: expected a directory, got an existing file")
-        parent = self.path.absolute().parent
         try:
-            parent.mkdir(parents=True, exist_ok=True)
-            self._staging = Path(
-                tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}{self.path.name}-", dir=parent)
-            )
+            self._created = not self.path.exists()
+            self.path.mkdir(parents=True, exist_ok=True)
+            sweep_stale_staging(self.path)
+            self._staging = Path(tempfile.mkdtemp(
+                prefix=f"{_STAGING_PREFIX}{os.getpid()}-", dir=self.path))
         except OSError as e:
-            raise OutputError(f"{self.path}: cannot create a staging directory: {e}") from e
+            self._remove_if_created()
+            raise OutputError(f"{self.path}: cannot create a staging directory: "
+                              f"{e.strerror or e}") from e
         self._files = []
         return self
 
@@ -106,28 +158,42 @@ class OutputDir:
         tb: TracebackType | None,
     ) -> None:
         staging = self.staging
+        ok = False
         try:
             if exc_type is None:
                 self._commit(staging)
+                ok = True
         finally:
             shutil.rmtree(staging, ignore_errors=True)
             self._staging = None
+            if not ok:
+                self._remove_if_created()
+
+    def _remove_if_created(self) -> None:
+        if self._created:
+            with contextlib.suppress(OSError):
+                self.path.rmdir()  # only if empty
 
     def _commit(self, staging: Path) -> None:
         missing = [n for n in self._files if not (staging / n).is_file()]
         if missing:
             raise OutputError(f"{self.path}: files requested but never written: {missing}")
         try:
-            self.path.mkdir(parents=True, exist_ok=True)
-            for name in self._files:
-                src = staging / name
-                if self._fsync:
-                    _fsync_file(src)
-                dst = self.path / name
-                dst.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(src, dst)
+            if self._fsync:
+                for name in self._files:
+                    _fsync_file(staging / name)
+            with signals_held():
+                for name in self._files:
+                    dst = self.path / name
+                    dst.parent.mkdir(parents=True, exist_ok=True)
+                    os.replace(staging / name, dst)
+                for name in self._replaces:
+                    if name not in self._files:
+                        with contextlib.suppress(OSError, OutputError):
+                            (self.path / _check_relative(name)).unlink()
         except OSError as e:
-            raise OutputError(f"{self.path}: cannot move outputs into place: {e}") from e
+            raise OutputError(f"{self.path}: cannot move outputs into place: "
+                              f"{e.strerror or e}") from e
         log.info("wrote %d file(s) to %s", len(self._files), self.path)
 
     def path_for(self, name: str | os.PathLike[str]) -> Path:

@@ -18,7 +18,9 @@ from typing import Any
 
 from mechkin.records.motion import MotionRecord
 
-__all__ = ["FkResult", "MotionRecord", "OutputFlags", "Report"]
+EXPECT_FAILED = "expect failed"
+
+__all__ = ["EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report"]
 
 
 @dataclass
@@ -100,6 +102,11 @@ class Report:
     outputs: OutputFlags = field(default_factory=OutputFlags)
     scenario_path: Path | None = None
     messages: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        # honest statuses: a run whose solver succeeded but whose expect: failed says so
+        if self.solver_ok and not self.expect_ok and self.summary.get("status") == "ok":
+            self.summary["status"] = EXPECT_FAILED
 
     @property
     def status(self) -> str:

@@ -68,7 +68,8 @@ def test_output_dir_commits_on_success(tmp_path: Path) -> None:
         od.write_text("notes.txt", "a\n")
         od.write_csv("tables/q.csv", {"t_s": np.array([0.0, 0.5]), "q1_rad": [0.1, 0.2]})
         od.path_for("blob.bin").write_bytes(b"\x01")
-        assert not out.exists()
+        # staged inside the folder (same file system even on a mount point), nothing final yet
+        assert [p.name for p in out.iterdir()] == [od.staging.name]
         od.write_json("summary.json", {"files": od.files})
     assert od.files == ["notes.txt", "tables/q.csv", "blob.bin", "summary.json"]
     assert json.loads((out / "summary.json").read_text())["files"] == od.files[:3]
@@ -122,3 +123,27 @@ def test_output_dir_onto_existing_file(tmp_path: Path) -> None:
     (tmp_path / "demo").write_text("x")
     with pytest.raises(OutputError, match="expected a directory"), OutputDir(tmp_path / "demo"):
         pass
+
+
+def test_output_dir_replaces_the_previous_runs_files(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    with OutputDir(out) as od:
+        od.write_text("a.csv", "1\n")
+        od.write_text("plot.png", "png")
+    with OutputDir(out, replaces=["a.csv", "plot.png", "../evil"]) as od:
+        od.write_text("a.csv", "2\n")
+    assert _names(out) == ["a.csv"] and (out / "a.csv").read_text() == "2\n"
+    assert _names(tmp_path) == ["demo"]
+
+
+def test_output_dir_sweeps_stale_staging_of_dead_runs(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    out.mkdir()
+    stale = out / ".mechkin-staging-999999999-abc"
+    stale.mkdir()
+    (stale / "x.csv").write_text("x")
+    mine = out / f".mechkin-staging-{os.getpid()}-keep"
+    mine.mkdir()
+    with OutputDir(out) as od:
+        od.write_text("a.csv", "1\n")
+    assert not stale.exists() and mine.exists()
