@@ -67,4 +67,8 @@ def version_cli() -> None:
 
 
 def main() -> None:
-    app()
+    try:
+        app()
+    except KeyboardInterrupt:  # outside a command's own handler (argument parsing, start-up)
+        typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
+        raise SystemExit(130) from None

@@ -1,0 +1,124 @@
+"""Outputs that are always whole (issue: reliability): the output folder is checked before any
+work, locked while a run writes, replaced completely by a rerun, and a signal at any moment
+leaves no staging folder, no process, and either the previous or the complete new outputs."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+FK = ROOT / "scenarios" / "kim1995_direct_drive_fk.yaml"
+PUMA = ROOT / "scenarios" / "puma560_wave_fk.yaml"
+
+
+def _env(tmp_path: Path) -> dict[str, str]:
+    env = dict(os.environ)
+    env.update(PYTHONPATH=str(ROOT), MPLBACKEND="Agg", MECHKIN_JIT="0",
+               NUMBA_CACHE_DIR=str(tmp_path / "numba"))
+    return env
+
+
+def _mechkin(tmp_path: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "mechkin", *args], capture_output=True,
+                          text=True, timeout=timeout, cwd=tmp_path, env=_env(tmp_path))
+
+
+def _visible(d: Path) -> list[str]:
+    return sorted(p.name for p in d.iterdir())
+
+
+def test_rerun_without_plots_replaces_the_folder(tmp_path):
+    out = tmp_path / "o"
+    assert _mechkin(tmp_path, "fk", str(FK), "--out", str(out)).returncode == 0
+    assert "stick.png" in _visible(out)
+    r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
+    assert r.returncode == 0, r.stderr
+    assert _visible(out) == ["fk.csv", "fk.mcap", "summary.json"]
+
+
+def test_another_scenarios_folder_is_refused_unless_forced(tmp_path):
+    out = tmp_path / "o"
+    assert _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots").returncode == 0
+    before = (out / "fk.csv").read_bytes()
+    r = _mechkin(tmp_path, "fk", str(PUMA), "--out", str(out), "--no-plots")
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and "kim1995_direct_drive_fk" in r.stderr
+    assert (out / "fk.csv").read_bytes() == before
+    r = _mechkin(tmp_path, "fk", str(PUMA), "--out", str(out), "--no-plots", "--force")
+    assert r.returncode == 0, r.stderr
+    assert json.loads((out / "summary.json").read_text())["scenario"] == "puma560_wave_fk"
+
+
+@pytest.mark.parametrize("kind", ["file", "long", "foreign"])
+def test_unusable_out_is_refused_before_any_work(tmp_path, kind):
+    if kind == "file":
+        out = tmp_path / "afile"
+        out.write_text("x")
+    elif kind == "long":
+        out = tmp_path / ("n" * 300)
+    else:
+        out = tmp_path / "notes"
+        out.mkdir()
+        (out / "mine.txt").write_text("keep")
+    t0 = time.perf_counter()
+    r = _mechkin(tmp_path, "fk", str(PUMA), "--out", str(out), "--no-plots")
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert "--out" in r.stderr
+    assert time.perf_counter() - t0 < 60  # before the 201-step solve, not after
+    if kind == "foreign":
+        assert _visible(out) == ["mine.txt"]
+
+
+def test_a_held_lock_refuses_a_second_run(tmp_path):
+    out = tmp_path / "o"
+    out.mkdir()
+    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        (out / ".mechkin.lock").write_text(f"{holder.pid}\n")
+        r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
+        assert r.returncode == 2 and f"pid {holder.pid}" in r.stderr
+    finally:
+        holder.kill()
+        holder.wait()
+    # the holder is gone: its lock is stale and taken over
+    r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
+    assert r.returncode == 0, r.stderr
+    assert not (out / ".mechkin.lock").exists()
+
+
+def _leftovers(root: Path) -> list[str]:
+    return sorted(str(p.relative_to(root)) for p in root.rglob(".mechkin-*"))
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_signal_at_random_moments_leaves_previous_or_complete_outputs(tmp_path, sig):
+    out = tmp_path / "o"
+    r = _mechkin(tmp_path, "fk", str(PUMA), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    old = {p.name: p.read_bytes() for p in out.iterdir()}
+    rng = random.Random(sig)
+    for _ in range(3):
+        proc = subprocess.Popen([sys.executable, "-m", "mechkin", "fk", str(PUMA), "--out",
+                                 str(out)], cwd=tmp_path, env=_env(tmp_path),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(rng.uniform(0.5, 6.0))
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=120)
+        assert "Traceback" not in err
+        assert proc.returncode in (0, 130, 143, -sig), (proc.returncode, err)
+        assert _leftovers(tmp_path) == []
+        now = {p.name: p.read_bytes() for p in out.iterdir()}
+        assert set(now) == set(old)
+        s = json.loads(now["summary.json"])
+        assert s["status"] == "ok" and set(s["files"]) == set(old)
+        old = now
