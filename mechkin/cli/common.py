@@ -26,6 +26,10 @@ OutOption = Annotated[Path | None, typer.Option(
     "--out", "-o", help="Output folder [default: outputs/<scenario name>]")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print summary.json to stdout too")]
 PlotsOption = Annotated[bool, typer.Option("--plots/--no-plots", help="Write PNG plots")]
+MaxMemoryOption = Annotated[str | None, typer.Option(
+    "--max-memory", metavar="SIZE",
+    help="Memory budget of the job, e.g. 8G or 512M [default: MECHKIN_MAX_MEMORY, else half "
+         "of this machine's memory]")]
 ForceOption = Annotated[bool, typer.Option(
     "--force", help="Replace an output folder that holds another scenario's results")]
 
@@ -42,8 +46,10 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
         json_out: JsonOption = False,
         plots: PlotsOption = True,
         force: ForceOption = False,
+        max_memory: MaxMemoryOption = None,
     ) -> None:
-        raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force))
+        raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force,
+                                 max_memory=max_memory))
 
     command.__doc__ = doc
     command.__name__ = f"{task}_cli"
@@ -52,7 +58,7 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
 
 def execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots: bool,
             line: Callable[[dict[str, Any]], str], *, force: bool = False,
-            **options: Any) -> int:
+            max_memory: str | None = None, **options: Any) -> int:
     """Run one scenario end to end (the body of every run command); returns the exit code.
 
     Order: load and validate the scenario, check and lock the output folder (before any
@@ -61,17 +67,25 @@ def execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots: 
     """
     with terminate_cleanly():
         return handle_errors(_execute)(task, scenario, out, json_out, plots, line, force,
-                                       **options)
+                                       max_memory, **options)
 
 
 def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots: bool,
-             line: Callable[[dict[str, Any]], str], force: bool, **options: Any) -> int:
+             line: Callable[[dict[str, Any]], str], force: bool, max_memory: str | None,
+             **options: Any) -> int:
+    from mechkin.errors import ConfigError
     from mechkin.io.report import prepare_output
-    from mechkin.tasks import run
+    from mechkin.tasks import budget, run
     from mechkin.tasks.common import load_task_scenario
 
+    try:
+        limit = budget.parse_size(max_memory) if max_memory is not None else None
+    except ValueError:
+        raise ConfigError(f"--max-memory: expected a size like 8G or 512M, got "
+                          f"{max_memory[:40]!r}") from None
     sc = load_task_scenario(scenario, task)
-    with prepare_output(default_out_dir(sc.name, out), sc.name, force=force) as out_dir:
+    with budget.memory_budget(limit), prepare_output(
+            default_out_dir(sc.name, out), sc.name, force=force) as out_dir:
         rep = run(sc, **options)
         summary = rep.write(out_dir, plots=plots)
     report(summary, json_out, line(summary))

@@ -118,6 +118,32 @@ def with_expect(summary: dict[str, Any], scenario: Any) -> list[dict[str, Any]]:
     return checks
 
 
+def motion_bytes(mech: Any, m: int, scenario: Any) -> float:
+    """Estimated peak memory [bytes] of m configurations of ``mech`` with the scenario's
+    outputs: joints, link and frame poses, the /tf tree and stick segments, CSV text and MCAP
+    messages (a factor 2 for temporaries)."""
+    outs = scenario.spec.outputs
+    nf = len(mech.frame_names)
+    per = 8 * 4 * mech.n + 128 * (mech.n_links + nf) + 8 * 6 * max(mech.n_equations, 0)
+    if outs.plots or outs.mcap:
+        per += 48 * 3 * (mech.n + nf)            # stick segments
+    if outs.mcap:
+        per += 128 * nf + 24 * mech.n + 200 * nf  # /tf tree, axis points, encoded messages
+    if outs.csv:
+        per += 25 * (mech.n + 12)
+    return 2.0 * per * m
+
+
+def check_motion_budget(scenario: Any, mech: Any, m: int, key: tuple[str, ...],
+                        what: str, extra_per_item: float = 0.0) -> None:
+    """Refuse m configurations beyond the memory budget (before any work); ``extra_per_item``
+    adds bytes per configuration (e.g. an ik target's summary record)."""
+    from mechkin.tasks import budget
+
+    budget.check(scenario.doc.where(key), motion_bytes(mech, m, scenario) + extra_per_item * m,
+                 f"{m} {what} of {mech.name} ({mech.n} joints)")
+
+
 # ---- the motion record of fk and ik runs -----------------------------------------------------
 
 

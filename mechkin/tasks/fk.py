@@ -21,6 +21,7 @@ from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
 from mechkin.tasks.common import (
     UNIT_TO_SI,
+    check_motion_budget,
     expect_messages,
     joint_factor,
     motion_record,
@@ -146,6 +147,7 @@ def run(scenario: Scenario) -> Report:
     """
     mech = load_mechanism(scenario.mechanism_path)
     t, qv = independent_motion(scenario, mech)
+    check_motion_budget(scenario, mech, len(t), ("fk",), "fk steps")
     q_w0 = initial_dependent(scenario, mech)
     tol = scenario.section.tolerances
     t0 = time.perf_counter()

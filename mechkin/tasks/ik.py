@@ -29,6 +29,7 @@ from mechkin.solvers.ik_optimize import (
     solve_ik_batch,
 )
 from mechkin.tasks.common import (
+    check_motion_budget,
     expect_messages,
     joint_factor,
     motion_record,
@@ -49,6 +50,8 @@ def _targets(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray, lis
         names.append(t.name or f"P{i + 1}")
     if spec.random_targets is not None:
         rt = spec.random_targets
+        check_motion_budget(sc, mech, rt.count + len(Ts), ("ik", "random_targets", "count"),
+                            "ik targets", extra_per_item=4000.0)  # + the summary record
         rng = np.random.default_rng(rt.seed)
         iv = mech.independent
         lo = np.where(np.isfinite(mech.lower[iv]), mech.lower[iv], -np.pi)
