@@ -60,7 +60,12 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
 
     Grubler-Kutzbach (spatial): M = 6 (N_bodies - 1) - sum(6 - f_i). With 1-DOF joints and cut
     links each merging two tree links into one body, M = n - sum over cuts of the equations.
+    ``singularity_at_home``: condition numbers of d(phi)/d(q_w) and of the reduced end-effector
+    Jacobian at home and the singularity class
+    (:func:`mechkin.model.singularity.mechanism_singularity_at_home`).
     """
+    from mechkin.model.singularity import mechanism_singularity_at_home
+
     q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)[None]
     _, J = closure_jacobian(mech, forward_kinematics(mech, q0))
     rank = int(np.linalg.matrix_rank(J[0], tol=1e-9)) if J.shape[1] else 0
@@ -101,4 +106,5 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
              "equations": int(c.mask.sum())}
             for c in mech.cuts
         ],
+        "singularity_at_home": mechanism_singularity_at_home(mech),
     }

@@ -277,6 +277,8 @@ def mechanism_singularity_at_home(mech: Mechanism) -> dict[str, Any]:
 
     The dependent joints are closed from their home values first (:func:`solve_closure`); if
     that fails the home values are used as they are and ``closure_converged`` is false.
+    ``constraint`` is None without dependent joints, ``end_effector`` None without an
+    end-effector frame; infinite condition numbers are written as None (JSON has no inf).
     """
     from mechkin.model.closure import ClosureStatus, solve_closure
 
@@ -299,10 +301,11 @@ def mechanism_singularity_at_home(mech: Mechanism) -> dict[str, Any]:
         "length_scale_m": rep.length_scale,
         "tol_singular": rep.tol_singular,
         "tol_near": rep.tol_near,
-        "constraint": {"cond": num(rep.cond_constraint[0]),
-                       "cond_unscaled": num(rep.cond_closure[0]),
-                       "ratio": float(rep.ratio_constraint[0]),
-                       "level": str(rep.constraint_level[0])},
+        "constraint": None if not len(mech.dependent) else {
+            "cond": num(rep.cond_constraint[0]),
+            "cond_unscaled": num(rep.cond_closure[0]),
+            "ratio": float(rep.ratio_constraint[0]),
+            "level": str(rep.constraint_level[0])},
         "end_effector": None if rep.end_effector is None else {
             "frame": rep.end_effector,
             "cond": num(rep.cond_reduced[0]),
