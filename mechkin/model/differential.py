@@ -14,12 +14,14 @@ parameters of ``R_a^T R_b``). Differentiating Eq. (4) once and twice along a mot
           \quad \gamma = \dot\Phi \dot q
 
 with ``Phi_w = d phi/d q_w``, ``Phi_v = d phi/d q_v`` (:func:`closure_jacobian`). The pseudo-inverse
-is the SVD one (the direct-drive arm's planar loop has 6 equations of rank 3); at a constraint
-singularity (``Phi_w`` loses column rank) it returns the minimum-norm rates and the record says
-so (:mod:`mechkin.model.singularity`).
+is the SVD one of the nondimensionalised ``Phi_w`` (lengths divided by the characteristic
+length, :mod:`mechkin.model.singularity`; the direct-drive arm's planar loop has 6 equations of
+rank 3). While ``Phi_w`` has full column rank this is the exact solution; at a constraint
+singularity (rank lost) it returns the minimum-norm rates in those units and the record says
+so.
 
 The quadratic term ``gamma`` is analytic, from the structure of the cut residual: with the link
-twists and the velocity-product ("bias") accelerations of a recursive pass over the tree
+twists and the velocity-product ("bias") accelerations of the tree
 (:func:`link_motion`, ``qdd = 0``), for a cut between frames a and b, ``d = p_b - p_a``,
 
 .. math:: \gamma_p = R_a^T\left(\ddot d - \alpha_a\times d - 2\,\omega_a\times\dot d
@@ -74,92 +76,99 @@ RCOND = 1e-12  # singular values below RCOND * sigma_max are dropped by the pseu
 
 @dataclass(frozen=True)
 class LinkMotion:
-    """Twists and classical accelerations of every link frame origin, in the base frame.
+    """Spatial velocities and accelerations of every link, referred to the base origin.
 
-    omega, v, alpha, a : (m, nl, 3) angular velocity, origin velocity, angular acceleration,
-    origin acceleration [rad/s, m/s, rad/s^2, m/s^2].
+    V, A : (m, nl, 6) ``(omega, v_O)`` and its time derivative ``(alpha, a_O)``, where ``v_O``
+    is the velocity of the body point at the base origin (Featherstone's spatial vectors,
+    base frame). :func:`frame_motion` turns them into twists and classical accelerations of
+    frame origins.
     """
 
-    omega: np.ndarray
-    v: np.ndarray
-    alpha: np.ndarray
-    a: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+
+
+def joint_twists(mech: Mechanism, kin: Kinematics) -> np.ndarray:
+    """Unit twists xi_j (m, n, 6) of the joints, base frame, referred to the base origin.
+
+    Revolute: ``(z, o x z)``; prismatic: ``(0, z)`` (z the axis, o a point on it; kim1995
+    Eq. (2): s_i picks the kind). ``xi_j qd_j`` is the velocity of joint j's child link
+    relative to its parent.
+    """
+    z, o = kin.axes()
+    rev = (mech.s == 0)[None, :, None]
+    xi = np.empty(z.shape[:2] + (6,))
+    xi[..., :3] = np.where(rev, z, 0.0)
+    xi[..., 3:] = np.where(rev, _cross(o, z), z)
+    return xi
+
+
+def _crm(V: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Spatial motion cross product ``V x X`` over the last axis (6,): (w x a, v x a + w x b)."""
+    w, v = V[..., :3], V[..., 3:]
+    a, b = X[..., :3], X[..., 3:]
+    out = np.empty(np.broadcast_shapes(V.shape, X.shape))
+    out[..., :3] = _cross(w, a)
+    out[..., 3:] = _cross(v, a) + _cross(w, b)
+    return out
+
+
+def _ancestors(mech: Mechanism) -> np.ndarray:
+    cache = mech.__dict__.get("_ancestors_f")
+    if cache is None:
+        cache = mech.link_ancestors.astype(np.float64)
+        object.__setattr__(mech, "_ancestors_f", cache)
+    return cache
 
 
 def link_motion(mech: Mechanism, kin: Kinematics, qd: np.ndarray,
-                qdd: np.ndarray | None = None) -> LinkMotion:
-    r"""Recursive twists and accelerations of the links of the tree (all joints moving).
+                qdd: np.ndarray | None = None, *, xi: np.ndarray | None = None) -> LinkMotion:
+    r"""Spatial velocities and accelerations of all links of the tree (all joints moving).
 
-    For joint j from parent link P to child link C, axis z through o (base frame),
-    ``r = p_C - p_P``:
+    .. math:: V_l = \sum_{j \prec l} \xi_j \dot q_j,\qquad
+              A_l = \sum_{j \prec l} \left(\xi_j \ddot q_j
+              + (V_{p(j)} \times \xi_j)\,\dot q_j\right)
 
-    - revolute: ``omega_C = omega_P + z qd``, ``alpha_C = alpha_P + omega_P x z qd + z qdd``,
-      ``v_C = v_o + omega_C x (p_C - o)``,
-      ``a_C = a_o + alpha_C x (p_C - o) + omega_C x (omega_C x (p_C - o))`` with ``v_o, a_o``
-      those of the point o of the parent (o lies on the axis, so it is the same point of C);
-    - prismatic: ``omega_C = omega_P``, ``v_C = v_P + omega_P x r + z qd``,
-      ``a_C = a_P + alpha_P x r + omega_P x (omega_P x r) + 2 omega_P x z qd + z qdd``.
-
-    This is the time derivative of the kim1995 Eq. (2) chain ``A Z(q) B``, one batched step
-    per depth of the tree. ``qdd = None`` gives the velocity-product accelerations.
+    over the joints j on the path from the base to link l, with ``xi_j`` the joint's unit twist
+    (:func:`joint_twists`) and ``V_p(j)`` the spatial velocity of its parent link: the axis is
+    fixed in the parent, so ``xi_j' = V_p(j) x xi_j`` (spatial motion cross product). This is
+    the time derivative of the kim1995 Eq. (2) chain ``A Z(q) B``; the sums over the tree are
+    one product with ``mech.link_ancestors``. ``qdd = None`` gives the velocity-product
+    accelerations (``A`` at ``qdd = 0``).
 
     Parameters
     ----------
     qd, qdd : (m, n) joint rates [rad/s | m/s] and accelerations [rad/s^2 | m/s^2].
+    xi : (m, n, 6), optional; the joint twists if already computed.
     """
-    m, nl = kin.q.shape[0], mech.n_links
+    xi = joint_twists(mech, kin) if xi is None else xi
+    anc = _ancestors(mech)  # (nl, n)
     qd = np.asarray(qd, dtype=np.float64)
-    z, o = kin.axes()
-    p = kin.T_links[:, :, :3, 3]
-    omega = np.zeros((m, nl, 3))
-    v = np.zeros((m, nl, 3))
-    alpha = np.zeros((m, nl, 3))
-    a = np.zeros((m, nl, 3))
-    rev_all = mech.s == 0
-    for lvl in mech.levels:
-        P, C = mech.joint_parent_link[lvl], mech.joint_child_link[lvl]
-        zj, oj = z[:, lvl], o[:, lvl]
-        qdj = qd[:, lvl, None]
-        qddj = 0.0 if qdd is None else np.asarray(qdd, dtype=np.float64)[:, lvl, None]
-        wP, vP, aP, accP = omega[:, P], v[:, P], alpha[:, P], a[:, P]
-        pP, pC = p[:, P], p[:, C]
-        rev = rev_all[lvl][None, :, None]
-        # revolute branch
-        ro = oj - pP
-        v_o = vP + _cross(wP, ro)
-        a_o = accP + _cross(aP, ro) + _cross(wP, _cross(wP, ro))
-        wC_r = wP + zj * qdj
-        aC_r = aP + _cross(wP, zj) * qdj + zj * qddj
-        rc = pC - oj
-        vC_r = v_o + _cross(wC_r, rc)
-        accC_r = a_o + _cross(aC_r, rc) + _cross(wC_r, _cross(wC_r, rc))
-        if rev.all():
-            omega[:, C], alpha[:, C], v[:, C], a[:, C] = wC_r, aC_r, vC_r, accC_r
-            continue
-        # prismatic branch
-        r = pC - pP
-        vC_p = vP + _cross(wP, r) + zj * qdj
-        accC_p = (accP + _cross(aP, r) + _cross(wP, _cross(wP, r))
-                  + 2.0 * _cross(wP, zj) * qdj + zj * qddj)
-        omega[:, C] = np.where(rev, wC_r, wP)
-        alpha[:, C] = np.where(rev, aC_r, aP)
-        v[:, C] = np.where(rev, vC_r, vC_p)
-        a[:, C] = np.where(rev, accC_r, accC_p)
-    return LinkMotion(omega, v, alpha, a)
+    V = anc @ (xi * qd[..., None])  # (m, nl, 6)
+    Vp = V[:, mech.joint_parent_link]  # (m, n, 6)
+    rate = _crm(Vp, xi) * qd[..., None]
+    if qdd is not None:
+        rate = rate + xi * np.asarray(qdd, dtype=np.float64)[..., None]
+    return LinkMotion(V, anc @ rate)
 
 
 def frame_motion(mech: Mechanism, kin: Kinematics, lm: LinkMotion, idx: np.ndarray):
     """Twists (m, k, 6) and classical accelerations (m, k, 6) of frames ``idx`` (origins).
 
-    A frame is fixed on its link: ``v_f = v_l + omega x r``,
-    ``a_f = a_l + alpha x r + omega x (omega x r)`` with ``r = p_f - p_l``.
+    From the spatial vectors of the frame's link and the origin p:
+    ``omega``, ``v_p = v_O + omega x p``, ``alpha``, ``a_p = a_O + alpha x p + omega x v_p``.
     """
     idx = np.asarray(idx, dtype=int)
     lk = mech.frame_link[idx]
-    r = kin.frames(mech, idx)[:, :, :3, 3] - kin.T_links[:, lk][..., :3, 3]
-    w, al = lm.omega[:, lk], lm.alpha[:, lk]
-    tw = np.concatenate([w, lm.v[:, lk] + _cross(w, r)], axis=-1)
-    acc = np.concatenate([al, lm.a[:, lk] + _cross(al, r) + _cross(w, _cross(w, r))], axis=-1)
+    p = kin.frames(mech, idx)[:, :, :3, 3]
+    V, A = lm.V[:, lk], lm.A[:, lk]
+    w, al = V[..., :3], A[..., :3]
+    tw = np.empty(V.shape)
+    acc = np.empty(V.shape)
+    tw[..., :3] = w
+    tw[..., 3:] = V[..., 3:] + _cross(w, p)
+    acc[..., :3] = al
+    acc[..., 3:] = A[..., 3:] + _cross(al, p) + _cross(w, tw[..., 3:])
     return tw, acc
 
 
@@ -352,7 +361,7 @@ def motion_derivatives(
     ----------
     kim1995_complex_chain_ik §2, Eq. (3)-(4); §5.1 Eq. (10) (reduced Jacobian).
     """
-    from mechkin.model.singularity import classify
+    from mechkin.model.singularity import classify, constraint_scaling, resolve_length_scale
 
     q = np.atleast_2d(np.asarray(q, dtype=np.float64))
     if q.ndim != 2 or q.shape[1] != mech.n:
@@ -365,19 +374,26 @@ def motion_derivatives(
     kin = forward_kinematics(mech, q)
     _, Phi = closure_jacobian(mech, kin)
     Phi_w, Phi_v = Phi[:, :, iw], Phi[:, :, iv]
-    Pinv, s_w = _svd_pinv(Phi_w)
+    # one SVD of the nondimensionalised Phi_w: the pseudo-inverse and the singular values of
+    # the classification (the same solution as the plain pseudo-inverse unless rank deficient)
+    L = resolve_length_scale(mech, length_scale)
+    row, col = constraint_scaling(mech, L)
+    Pinv, s_c = _svd_pinv(Phi_w * row[None, :, None] * col[None, None, :])
+    Pinv = Pinv * col[None, :, None] * row[None, None, :]
     S = -Pinv @ Phi_v
     qd = mech.assemble(qd_v, np.einsum("mij,mj->mi", S, qd_v))
-    lm0 = link_motion(mech, kin, qd)  # qdd = 0: velocity-product accelerations
+    xi = joint_twists(mech, kin)
+    lm0 = link_motion(mech, kin, qd, xi=xi)  # qdd = 0: velocity-product accelerations
     gamma = _closure_second_derivative(mech, kin, lm0)
     rhs = np.einsum("mij,mj->mi", Phi_v, qdd_v) + gamma
     qdd = mech.assemble(qdd_v, -np.einsum("mij,mj->mi", Pinv, rhs))
-    lm = link_motion(mech, kin, qd, qdd)
+    lm = LinkMotion(lm0.V, lm0.A + _ancestors(mech) @ (xi * qdd[..., None]))
     tw, acc = frame_motion(mech, kin, lm, idx)
     rate_res = np.linalg.norm(np.einsum("mij,mj->mi", Phi, qd), axis=1)
     acc_res = np.linalg.norm(np.einsum("mij,mj->mi", Phi, qdd) + gamma, axis=1)
-    report = classify(mech, q, kin=kin, Phi=Phi, S=S, s_w=s_w, end_effector=end_effector,
-                      length_scale=length_scale, tol_singular=tol_singular, tol_near=tol_near)
+    report = classify(mech, q, kin=kin, Phi=Phi, S=S, s_constraint=s_c,
+                      end_effector=end_effector, length_scale=L, tol_singular=tol_singular,
+                      tol_near=tol_near)
     return MotionDerivatives(
         q=q, qd=qd, qdd=qdd, S=S, gamma=gamma, closure_rate_residual=rate_res,
         closure_accel_residual=acc_res, frames=idx,

@@ -35,7 +35,8 @@ The unscaled condition number of ``Phi_w`` (what the Newton-Raphson of
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -68,7 +69,7 @@ class SingularityReport:
 
     Attributes
     ----------
-    cond_closure : (m,)
+    cond_closure : (m,), property
         Unscaled ``sigma_1 / sigma_{n_w}`` of ``Phi_w`` (= ``ClosureResult.cond`` at the
         solution); 1 without dependent joints, inf when rank deficient.
     cond_constraint, cond_reduced : (m,)
@@ -88,7 +89,6 @@ class SingularityReport:
         The frame of ``J_r``.
     """
 
-    cond_closure: np.ndarray
     cond_constraint: np.ndarray
     cond_reduced: np.ndarray
     constraint_level: np.ndarray
@@ -99,6 +99,17 @@ class SingularityReport:
     tol_singular: float
     tol_near: float
     end_effector: str | None
+    phi_w: np.ndarray | None = field(default=None, repr=False)  # unscaled (m, n_eq, n_w)
+
+    @cached_property
+    def cond_closure(self) -> np.ndarray:
+        """Unscaled cond of d(phi)/d(q_w) (m,), computed on first access (one SVD)."""
+        m = len(self.kind)
+        if self.phi_w is None or self.phi_w.shape[2] == 0:
+            return np.ones(m)
+        if self.phi_w.shape[1] == 0:
+            return np.full(m, np.inf)
+        return _cond_cols(np.linalg.svd(self.phi_w, compute_uv=False), self.phi_w.shape[2])
 
     @property
     def ratio_constraint(self) -> np.ndarray:
@@ -165,6 +176,32 @@ def _row_is_position(mech: Mechanism) -> np.ndarray:
     return kinds[mask]
 
 
+def constraint_scaling(mech: Mechanism, length_scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Row (n_eq,) and column (n_w,) factors of the nondimensionalised ``Phi_w``.
+
+    ``row * Phi_w * col``: position rows of the cut residuals divided by L, columns of
+    prismatic dependent joints multiplied by L (module docstring).
+    """
+    row = np.where(_row_is_position(mech), 1.0 / length_scale, 1.0) if mech.cuts else np.ones(0)
+    col = np.where(mech.s[mech.dependent] == 1, length_scale, 1.0)
+    return row, col
+
+
+def reduced_scaling(mech: Mechanism, length_scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Row (6,) and column (n_v,) factors of the nondimensionalised ``J_r``: v rows / L,
+    prismatic independent columns * L."""
+    row = np.array([1.0, 1.0, 1.0] + [1.0 / length_scale] * 3)
+    return row, np.where(mech.s[mech.independent] == 1, length_scale, 1.0)
+
+
+def resolve_length_scale(mech: Mechanism, length_scale: float | None) -> float:
+    """``length_scale`` checked (> 0), or :func:`characteristic_length` when None."""
+    L = characteristic_length(mech) if length_scale is None else float(length_scale)
+    if not L > 0.0:
+        raise ValueError(f"length_scale must be > 0, got {L}")
+    return L
+
+
 def _level(ratio: np.ndarray, tol_singular: float, tol_near: float) -> np.ndarray:
     out = np.full(ratio.shape, "regular", dtype=object)
     out[ratio < tol_near] = "near"
@@ -184,7 +221,7 @@ def classify(
     kin: Kinematics | None = None,
     Phi: np.ndarray | None = None,
     S: np.ndarray | None = None,
-    s_w: np.ndarray | None = None,
+    s_constraint: np.ndarray | None = None,
 ) -> SingularityReport:
     r"""Condition numbers of ``Phi_w`` and ``J_r`` and the singularity class of each configuration.
 
@@ -201,9 +238,9 @@ def classify(
     tol_singular, tol_near : float, optional
         Thresholds on ``sigma_min / sigma_max`` (defaults :data:`TOL_SINGULAR`,
         :data:`TOL_NEAR`).
-    kin, Phi, S, s_w
+    kin, Phi, S, s_constraint
         Already computed kinematics, closure Jacobian ``dphi/dq`` (m, n_eq, n), sensitivity
-        ``S`` and unscaled singular values of ``Phi_w`` (reused by
+        ``S`` and singular values of the nondimensionalised ``Phi_w`` (reused by
         :func:`mechkin.model.differential.motion_derivatives`).
     """
     from mechkin.model.differential import _frame_indices, _svd_pinv, reduced_jacobian
@@ -213,9 +250,7 @@ def classify(
     if not 0.0 < tol_singular <= tol_near < 1.0:
         raise ValueError(f"thresholds: need 0 < tol_singular ({tol_singular}) <= tol_near "
                          f"({tol_near}) < 1")
-    L = characteristic_length(mech) if length_scale is None else float(length_scale)
-    if not L > 0.0:
-        raise ValueError(f"length_scale must be > 0, got {L}")
+    L = resolve_length_scale(mech, length_scale)
     q = np.atleast_2d(np.asarray(q, dtype=np.float64))
     m = q.shape[0]
     kin = forward_kinematics(mech, q) if kin is None else kin
@@ -223,23 +258,17 @@ def classify(
     if Phi is None:
         _, Phi = closure_jacobian(mech, kin)
     Phi_w = Phi[:, :, iw]
-    if s_w is None:
-        s_w = (np.linalg.svd(Phi_w, compute_uv=False) if Phi_w.size
-               else np.zeros((m, 0)))
-    cond_closure = _cond_cols(s_w, len(iw))
-    # nondimensionalised Phi_w: position rows / L, prismatic columns * L
     if len(iw):
-        row = np.where(_row_is_position(mech), 1.0 / L, 1.0)
-        col_w = np.where(mech.s[iw] == 1, L, 1.0)
-        Pw = Phi_w * row[None, :, None] * col_w[None, None, :]
-        s_c = np.linalg.svd(Pw, compute_uv=False) if Pw.shape[1] else np.zeros((m, 0))
-        cond_constraint = _cond_cols(s_c, len(iw))
+        if s_constraint is None:
+            row, col = constraint_scaling(mech, L)
+            Pw = Phi_w * row[None, :, None] * col[None, None, :]
+            s_constraint = (np.linalg.svd(Pw, compute_uv=False) if Pw.shape[1]
+                            else np.zeros((m, 0)))
+        cond_constraint = _cond_cols(s_constraint, len(iw))
     else:
         cond_constraint = np.ones(m)
-    if end_effector is None:
-        f = mech.end_effector
-    else:
-        f = int(_frame_indices(mech, [end_effector])[0])
+    f = (mech.end_effector if end_effector is None
+         else int(_frame_indices(mech, [end_effector])[0]))
     if f is None or len(iv) == 0:
         cond_reduced = np.full(m, np.nan)
         ee_name = None if f is None else mech.frame_names[f]
@@ -247,8 +276,8 @@ def classify(
         if S is None and len(iw):
             S = -_svd_pinv(Phi_w)[0] @ Phi[:, :, iv]
         Jr = reduced_jacobian(mech, q, f, kin=kin, S=S)
-        Jr = Jr * np.array([1.0, 1.0, 1.0, 1.0 / L, 1.0 / L, 1.0 / L])[None, :, None]
-        Jr = Jr * np.where(mech.s[iv] == 1, L, 1.0)[None, None, :]
+        row, col = reduced_scaling(mech, L)
+        Jr = Jr * row[None, :, None] * col[None, None, :]
         s_r = np.linalg.svd(Jr, compute_uv=False)
         cond_reduced = _cond_cols(s_r, min(6, len(iv)))
         ee_name = mech.frame_names[f]
@@ -267,9 +296,9 @@ def classify(
             parts.append("near inverse-kinematic singularity")
         label[k] = "; ".join(parts) if parts else "regular"
     return SingularityReport(
-        cond_closure=cond_closure, cond_constraint=cond_constraint, cond_reduced=cond_reduced,
+        cond_constraint=cond_constraint, cond_reduced=cond_reduced,
         constraint_level=lc, inverse_level=li, kind=kind, label=label, length_scale=L,
-        tol_singular=tol_singular, tol_near=tol_near, end_effector=ee_name)
+        tol_singular=tol_singular, tol_near=tol_near, end_effector=ee_name, phi_w=Phi_w)
 
 
 def mechanism_singularity_at_home(mech: Mechanism) -> dict[str, Any]:

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from mechkin.model import load_mechanism
-from mechkin.model.closure import ClosureStatus, solve_closure, solve_trajectory
+from mechkin.model.closure import solve_closure, solve_trajectory
 from mechkin.model.differential import motion_derivatives, reduced_jacobian
 from mechkin.model.kinematics import _cut_arrays, closure_jacobian, forward_kinematics
 from mechkin.model.singularity import (
