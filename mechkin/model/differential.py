@@ -370,6 +370,12 @@ def motion_derivatives(
     iv, iw = mech.independent, mech.dependent
     qd_v = _as_batch(qd_v, m, len(iv), "qd_v")
     qdd_v = np.zeros((m, len(iv))) if qdd_v is None else _as_batch(qdd_v, m, len(iv), "qdd_v")
+    ok = np.isfinite(q).all(axis=1)
+    if not ok.all():  # e.g. failed closure steps: nan rows, "undefined" class
+        sub = motion_derivatives(mech, q[ok], qd_v[ok], qdd_v[ok], frames,
+                                 end_effector=end_effector, length_scale=length_scale,
+                                 tol_singular=tol_singular, tol_near=tol_near)
+        return scatter_rows(sub, ok, q=q)
     idx = _frame_indices(mech, frames)
     kin = forward_kinematics(mech, q)
     _, Phi = closure_jacobian(mech, kin)
@@ -401,6 +407,37 @@ def motion_derivatives(
         positions=kin.frames(mech, idx)[:, :, :3, 3], singularity=report)
 
 
+def scatter_rows(rec, ok: np.ndarray, **keep):
+    """A record (dataclass) of the rows ``ok`` (m,) spread back to m rows: float arrays nan,
+    object arrays (labels) "undefined" (enum members: their ``UNDEFINED``); fields in ``keep``
+    replaced as given. Arrays that do not have the sample axis first (e.g. frame indices) and
+    scalars are kept."""
+    import dataclasses
+
+    m, n_ok = len(ok), int(ok.sum())
+    out = {}
+    for f in dataclasses.fields(rec):
+        if not f.init:
+            continue
+        v = getattr(rec, f.name)
+        if f.name in keep:
+            out[f.name] = keep[f.name]
+        elif dataclasses.is_dataclass(v):
+            out[f.name] = scatter_rows(v, ok)
+        elif isinstance(v, np.ndarray) and v.ndim and v.shape[0] == n_ok and f.name != "frames":
+            if v.dtype == object:
+                fill = next((type(x).UNDEFINED for x in v if hasattr(type(x), "UNDEFINED")),
+                            "undefined")
+                full = np.full(m, fill, dtype=object)
+            else:
+                full = np.full((m,) + v.shape[1:], np.nan)
+            full[ok] = v
+            out[f.name] = full
+        else:
+            out[f.name] = v
+    return type(rec)(**out)
+
+
 def reduced_jacobian(mech: Mechanism, q: np.ndarray, frame: int | str | None = None, *,
                      kin: Kinematics | None = None, S: np.ndarray | None = None) -> np.ndarray:
     r"""End-effector Jacobian through the loop closure, ``J_r = dx_E/dq_v`` (m, 6, n_v).
@@ -423,3 +460,23 @@ def reduced_jacobian(mech: Mechanism, q: np.ndarray, frame: int | str | None = N
             S = -_svd_pinv(Phi[:, :, mech.dependent])[0] @ Phi[:, :, mech.independent]
         Jr = Jr + J[:, :, mech.dependent] @ S
     return Jr
+
+
+def rates_from_samples(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and second time derivatives of sampled values x (m, k) at times t (m,).
+
+    Second-order central differences on a possibly non-uniform grid (one-sided second order at
+    the ends; ``numpy.gradient`` with ``edge_order=2``), for motions given only as samples
+    (e.g. a table of independent joint values). Needs m >= 3 strictly increasing times. A
+    piecewise-linear motion has kinks at its knots: there the accelerations are the
+    differences' smoothing of a velocity jump, not an exact value.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    x = np.asarray(x, dtype=np.float64)
+    if t.ndim != 1 or x.shape[:1] != t.shape or t.size < 3:
+        raise ValueError(f"need t (m,) and x (m, k) with m >= 3, got {t.shape} and {x.shape}")
+    if not np.all(np.diff(t) > 0):
+        raise ValueError("times must be strictly increasing")
+    xd = np.gradient(x, t, axis=0, edge_order=2)
+    return xd, np.gradient(xd, t, axis=0, edge_order=2)
+

@@ -61,6 +61,11 @@ class SingularityKind(enum.Enum):
     CONSTRAINT = "constraint singularity"
     INVERSE_KINEMATIC = "inverse-kinematic singularity"
     BOTH = "constraint and inverse-kinematic singularity"
+    UNDEFINED = "undefined"  # the configuration is not finite (e.g. a failed closure step)
+
+
+_SINGULAR_KINDS = (SingularityKind.CONSTRAINT, SingularityKind.INVERSE_KINEMATIC,
+                   SingularityKind.BOTH)
 
 
 @dataclass(frozen=True)
@@ -78,7 +83,8 @@ class SingularityReport:
     ratio_constraint, ratio_reduced : (m,)
         Their inverses ``sigma_min / sigma_max`` (0 at a singularity, 1 isotropic).
     constraint_level, inverse_level : (m,) str
-        ``"regular"``, ``"near"`` or ``"singular"`` for each matrix.
+        ``"regular"``, ``"near"`` or ``"singular"`` for each matrix (``"undefined"`` for a
+        configuration that is not finite; its measures are nan).
     kind : (m,) SingularityKind
     label : (m,) str
         ``kind.value`` when singular, else e.g. ``"near constraint singularity"``, or
@@ -109,7 +115,12 @@ class SingularityReport:
             return np.ones(m)
         if self.phi_w.shape[1] == 0:
             return np.full(m, np.inf)
-        return _cond_cols(np.linalg.svd(self.phi_w, compute_uv=False), self.phi_w.shape[2])
+        out = np.full(m, np.nan)
+        ok = np.isfinite(self.phi_w).all(axis=(1, 2))
+        if ok.any():
+            s = np.linalg.svd(self.phi_w[ok], compute_uv=False)
+            out[ok] = _cond_cols(s, self.phi_w.shape[2])
+        return out
 
     @property
     def ratio_constraint(self) -> np.ndarray:
@@ -122,7 +133,7 @@ class SingularityReport:
     @property
     def singular(self) -> np.ndarray:
         """(m,) bool: any singularity (constraint or inverse-kinematic)."""
-        return np.array([k is not SingularityKind.REGULAR for k in self.kind], dtype=bool)
+        return np.array([k in _SINGULAR_KINDS for k in self.kind], dtype=bool)
 
     @property
     def near(self) -> np.ndarray:
@@ -253,6 +264,15 @@ def classify(
     L = resolve_length_scale(mech, length_scale)
     q = np.atleast_2d(np.asarray(q, dtype=np.float64))
     m = q.shape[0]
+    ok = np.isfinite(q).all(axis=1)
+    if not ok.all():  # failed closure steps: nan measures, "undefined" class
+        from mechkin.model.differential import scatter_rows
+
+        sub = classify(mech, q[ok], end_effector=end_effector, length_scale=L,
+                       tol_singular=tol_singular, tol_near=tol_near,
+                       S=None if S is None else S[ok],
+                       s_constraint=None if s_constraint is None else s_constraint[ok])
+        return scatter_rows(sub, ok)
     kin = forward_kinematics(mech, q) if kin is None else kin
     iv, iw = mech.independent, mech.dependent
     if Phi is None:

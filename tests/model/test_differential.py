@@ -24,7 +24,7 @@ from mechkin.model.kinematics import closure_jacobian, forward_kinematics, frame
 
 ROOT = Path(__file__).resolve().parents[2]
 MECHS = ["kim1995_direct_drive", "kim1995_stewart", "kim1995_end_effector_robot", "puma560",
-         "lee_spherical_rrps"]
+         "lee_spherical_rrps", "data/fourbar", "data/fourbar_ground_cut"]
 H_TRAJ = 2.5e-4  # time step of the central differences along the trajectory [s]
 H_JAC = 1e-5  # step of the Jacobian differences for gamma
 # central differences are O(h^2) ~ 6e-8 times the fourth derivative; closure round-off
@@ -34,6 +34,8 @@ RTOL_GAMMA = 1e-7
 
 
 def _mech(name):
+    if name.startswith("data/"):  # test mechanisms in tests/data
+        return load_mechanism(ROOT / "tests" / f"{name}.yaml")
     return load_mechanism(ROOT / "mechanisms" / f"{name}.yaml")
 
 
@@ -122,7 +124,8 @@ def test_twists_are_jacobian_times_rates(name):
 
 
 @pytest.mark.parametrize("name", ["kim1995_direct_drive", "kim1995_stewart",
-                                  "kim1995_end_effector_robot", "lee_spherical_rrps"])
+                                  "kim1995_end_effector_robot", "lee_spherical_rrps",
+                                  "data/fourbar_ground_cut"])
 @pytest.mark.parametrize("closed", [True, False])
 def test_gamma_is_derivative_of_jacobian_times_rates(name, closed):
     """gamma(q, qd) = (d/dt dphi/dq) qd by central differences of the analytic Jacobian."""
@@ -197,3 +200,22 @@ def test_direct_drive_passive_rates_closed_form():
         np.testing.assert_allclose(x[:, mech.joint_index("p_C")], -s, atol=1e-12)
         np.testing.assert_allclose(x[:, mech.joint_index("p_R")], s, atol=1e-12)
         np.testing.assert_allclose(x[:, mech.joint_index("p_Q")], s, atol=1e-12)
+
+
+def test_rates_from_samples_second_order():
+    """Sampled sine on a non-uniform grid: the error falls ~4x when the steps halve."""
+    from mechkin.model.differential import rates_from_samples
+
+    errs = []
+    for n in (101, 201):
+        u = np.linspace(0.0, 1.0, n)
+        t = u + 0.1 * u**2  # non-uniform
+        x = np.stack([np.sin(3 * t), np.cos(2 * t)], axis=1)
+        xd, xdd = rates_from_samples(t, x)
+        ref_d = np.stack([3 * np.cos(3 * t), -2 * np.sin(2 * t)], axis=1)
+        ref_dd = np.stack([-9 * np.sin(3 * t), -4 * np.cos(2 * t)], axis=1)
+        errs.append((np.abs(xd - ref_d)[1:-1].max(), np.abs(xdd - ref_dd)[2:-2].max()))
+    assert errs[1][0] < errs[0][0] / 3 and errs[1][1] < errs[0][1] / 3
+    assert errs[1][0] < 1e-3 and errs[1][1] < 1e-2
+    with pytest.raises(ValueError):
+        rates_from_samples(np.array([0.0, 1.0, 1.0]), np.zeros((3, 1)))

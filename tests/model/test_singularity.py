@@ -207,3 +207,25 @@ def test_info_reports_singularity_at_home():
     info = mechanism_info(_mech("kim1995_stewart"))
     assert info["singularity_at_home"]["class"] == "regular"
     assert info["singularity_at_home"]["constraint"]["cond_unscaled"] > 1.0
+
+
+def test_non_finite_configurations_are_undefined():
+    """A failed closure step (nan joints) gives nan rates and the class "undefined"; the other
+    rows are unchanged."""
+    mech = _mech("kim1995_stewart")
+    res = solve_trajectory(mech, _path(mech, 3), _home(mech)[mech.dependent])
+    q = res.q.copy()
+    q[1, 7] = np.nan
+    qd_v = np.ones(6)
+    md = motion_derivatives(mech, q, qd_v)
+    ref = motion_derivatives(mech, res.q[[0, 2]], qd_v)
+    assert np.isnan(md.qd[1]).all() and np.isnan(md.twists[1]).all()
+    np.testing.assert_array_equal(md.qdd[[0, 2]], ref.qdd)
+    np.testing.assert_array_equal(md.q, q)
+    rep = md.singularity
+    assert rep.kind[1] is SingularityKind.UNDEFINED and rep.label[1] == "undefined"
+    assert list(rep.label[[0, 2]]) == ["regular", "regular"] and not rep.singular[1]
+    assert np.isnan(rep.cond_closure[1]) and np.isfinite(rep.cond_closure[[0, 2]]).all()
+    assert classify(mech, q).label[1] == "undefined"
+    allnan = motion_derivatives(mech, np.full((2, mech.n), np.nan), qd_v)
+    assert allnan.qd.shape == (2, mech.n) and list(allnan.singularity.label) == ["undefined"] * 2
