@@ -41,6 +41,9 @@ def _info(mechanism: Path, json_out: bool) -> None:
     typer.echo(f"  independent               {', '.join(info['independent'])}")
     typer.echo(f"  dependent                 {', '.join(info['dependent']) or '-'}")
     typer.echo(f"  end effector              {info['end_effector'] or '-'}")
+    sing = info.get("singularity_at_home") or {}
+    if sing:
+        typer.echo(f"  at home                   {sing.get('class', '?')}")
 
 
 def run_info(*, mechanism: Path) -> dict[str, Any]:
@@ -61,10 +64,14 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
 
     Grubler-Kutzbach (spatial): M = 6 (N_bodies - 1) - sum(6 - f_i). With 1-DOF joints and cut
     links each merging two tree links into one body, M = n - sum over cuts of the equations.
+    ``singularity_at_home``: condition numbers of d(phi)/d(q_w) and of the reduced end-effector
+    Jacobian at home and the singularity class
+    (:func:`mechkin.model.singularity.mechanism_singularity_at_home`).
     """
     import numpy as np
 
     from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+    from mechkin.model.singularity import mechanism_singularity_at_home
 
     q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)[None]
     _, J = closure_jacobian(mech, forward_kinematics(mech, q0))
@@ -106,4 +113,5 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
              "equations": int(c.mask.sum())}
             for c in mech.cuts
         ],
+        "singularity_at_home": mechanism_singularity_at_home(mech),
     }

@@ -32,7 +32,11 @@ class ClosureResult:
     """Batch result: one row per configuration.
 
     q (m, n) all joints; status (m,) of ClosureStatus; iterations (m,); residual (m,) ||phi||_2
-    at exit [m and rad mixed]; cond (m,) condition number of d(phi)/d(q_w) at exit.
+    at exit [m and rad mixed]; cond (m,) condition number sigma_1 / sigma_{n_w} of
+    d(phi)/d(q_w) at exit (at the solution when converged; unscaled: position rows in m,
+    Euler-parameter rows dimensionless; inf when the columns lose rank; 1 when the mechanism
+    has no dependent joints). A large cond means the closed chain is near a constraint
+    singularity, see :mod:`mechkin.model.singularity`.
     """
 
     q: np.ndarray
@@ -164,11 +168,12 @@ def solve_closure(
                 continue
         res[act] = nphi
         Jw = J[:, :, dep]
-        step, c = _pinv_solve(Jw, phi)
-        if c is not None:
-            cond[act] = c
+        step, _ = _pinv_solve(Jw, phi)
         ndq = np.linalg.norm(step, axis=1)
         conv = (nphi < tol_phi) & ((ndq < tol_dq) | (nphi < 1e-14))
+        if conv.any():
+            # the Jacobian of the converged iterate: cond at the solution (one small SVD)
+            cond[act[conv]] = _cond(Jw[conv])
         done[act[conv]] = True
         upd = act[~conv]
         upd = upd[iters[upd] < max_iter]
