@@ -33,7 +33,7 @@ def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog
     return MotionLog(
         times=times - min(0.0, float(times[0])), root_frame=rec.frame_root,
         frame_names=rec.frame_names, frame_parents=rec.frame_parents,
-        T_parent_child=rec.T_parent_child, joint_names=list(rec.joint_names), q=rec.q,
+        T_parent_child=rec.T_parent_child, joint_names=list(rec.joint_names), q=rec.q, qd=rec.qd,
         effort=effort, scene=motion_scene(rec), state=rec.state, metadata=rec.metadata,
     )
 

@@ -26,6 +26,8 @@ class MotionRecord:
         Every joint [rad | m].
     joint_names, joint_units : list of str
         Names and SI unit suffixes (``rad`` | ``m``) of the n joints.
+    qd : array (m, n), optional
+        Joint rates (fk), for ``/joint_states`` velocities.
     columns : dict
         The CSV table, in column order (units in the names).
     segments : array (m, s, 2, 3), optional
@@ -54,6 +56,7 @@ class MotionRecord:
     joint_names: list[str]
     joint_units: list[str]
     columns: dict[str, Any]
+    qd: np.ndarray | None = None
     segments: np.ndarray | None = None
     axis_points: np.ndarray | None = None
     frame_root: str | None = None

@@ -17,6 +17,7 @@ from mechkin.config.units import angle_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.closure import ClosureStatus, solve_trajectory
+from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
 from mechkin.tasks.common import (
@@ -35,6 +36,16 @@ SUFFIX_TO_SI = {k: UNIT_TO_SI[k] for k in ("rad", "deg", "m", "mm")}
 
 def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
     """Times (m,) [s] and independent joint values (m, n_v) in SI from the fk section."""
+    t, qv, _, _ = independent_motion_rates(sc, mech)
+    return t, qv
+
+
+def independent_motion_rates(sc: Scenario, mech: Mechanism
+                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Times (m,), independent joints (m, n_v) and their first and second time derivatives:
+    analytic for ``constant`` / ``ramp`` / ``sinusoid`` motions, from a twice-differentiable
+    spline through the samples (scipy ``CubicSpline``, not-a-knot) for a ``table`` or ``csv``
+    (finite differences where the times repeat; zero for a single sample)."""
     spec: FkSpec = sc.section
     doc = sc.doc
     names = mech.independent_names
@@ -52,6 +63,8 @@ def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.nd
                 problems.append(f"{doc.where(('fk', 'motion', k))}: not an independent joint "
                                 f"(independent: {', '.join(names)})")
         qv = np.zeros((m, len(names)))
+        qd = np.zeros((m, len(names)))
+        qdd = np.zeros((m, len(names)))
         span = max(t[-1] - t[0], 1e-300)
         for i, name in enumerate(names):
             mo = spec.motion.get(name)
@@ -64,10 +77,13 @@ def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.nd
                 qv[:, i] = mo.value * f
             elif mo.type == "ramp":
                 qv[:, i] = (mo.start + (mo.to - mo.start) * (t - t[0]) / span) * f
+                qd[:, i] = (mo.to - mo.start) / span * f
             else:
-                qv[:, i] = (mo.offset + mo.amplitude * np.sin(
-                    2 * np.pi * mo.frequency * t + mo.phase * angle_factor(sc.spec.units.angle)
-                )) * f
+                w = 2 * np.pi * mo.frequency
+                arg = w * t + mo.phase * angle_factor(sc.spec.units.angle)
+                qv[:, i] = (mo.offset + mo.amplitude * np.sin(arg)) * f
+                qd[:, i] = mo.amplitude * w * np.cos(arg) * f
+                qdd[:, i] = -mo.amplitude * w * w * np.sin(arg) * f
     elif spec.table is not None:
         tab = spec.table
         if "t" not in tab:
@@ -100,7 +116,25 @@ def independent_motion(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.nd
         raise ConfigError(f"{doc.where(('fk',))}: times must be non-decreasing")
     if t[0] < 0:
         raise ConfigError(f"{doc.where(('fk',))}: times must be >= 0")
-    return t, qv
+    if spec.motion is None:
+        qd, qdd = sampled_rates(t, qv)
+    return t, qv, qd, qdd
+
+
+def sampled_rates(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and second derivatives of samples x (m, k) at times t: a not-a-knot cubic spline
+    (C2) when the times increase strictly and m >= 4, else second-order differences (m = 3) or
+    zeros."""
+    m = len(t)
+    if m >= 4 and np.all(np.diff(t) > 0):
+        from scipy.interpolate import CubicSpline
+
+        sp = CubicSpline(t, x, axis=0)
+        return sp(t, 1), sp(t, 2)
+    if m >= 3 and np.all(np.diff(t) > 0):
+        xd = np.gradient(x, t, axis=0, edge_order=2)
+        return xd, np.gradient(xd, t, axis=0, edge_order=2)
+    return np.zeros_like(x), np.zeros_like(x)
 
 
 def _read_motion_csv(sc: Scenario, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -146,8 +180,9 @@ def run(scenario: Scenario) -> Report:
     results and the motion record for CSV, plots and MCAP.
     """
     mech = load_mechanism(scenario.mechanism_path)
-    t, qv = independent_motion(scenario, mech)
-    check_motion_budget(scenario, mech, len(t), ("fk",), "fk steps")
+    t, qv, qd_v, qdd_v = independent_motion_rates(scenario, mech)
+    check_motion_budget(scenario, mech, len(t), ("fk",), "fk steps", extra_per_item=
+                        8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
     q_w0 = initial_dependent(scenario, mech)
     tol = scenario.section.tolerances
     t0 = time.perf_counter()
@@ -157,6 +192,12 @@ def run(scenario: Scenario) -> Report:
     phi = closure_residual(mech, kin)
     phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(t))
     status = [s.value for s in res.status]
+    t1 = time.perf_counter()
+    ee = [int(mech.end_effector)] if mech.end_effector is not None else []
+    q_ok = np.where(res.ok[:, None], res.q, np.nan)
+    md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
+    rates_s = time.perf_counter() - t1
+    sing = md.singularity
     n_ok = int(sum(s is ClosureStatus.CONVERGED for s in res.status))
     overall = "ok" if n_ok == len(t) else next(
         s for s in ("singular", "not converged") if s in status)
@@ -180,8 +221,10 @@ def run(scenario: Scenario) -> Report:
             "iterations_max": int(res.iterations.max(initial=0)),
             "max_condition": float(np.max(res.cond[np.isfinite(res.cond)], initial=1.0)),
         },
+        "singularity": singularity_summary(sing, t),
         "joints_outside_limits": outside,
         "solve_time_s": solve_s,
+        "rates_time_s": rates_s,
         "time_per_step_s": solve_s / max(len(t), 1),
         "t_s": [float(t[0]), float(t[-1])],
         "final": {"q": {n: float(v) for n, v in zip(mech.joint_names, res.q[-1], strict=False)}},
@@ -194,9 +237,95 @@ def run(scenario: Scenario) -> Report:
             "R": T_e[-1, :3, :3].tolist(),
         }
     checks = with_expect(summary, scenario)
+    extra = rate_columns(mech, md, ee)
+    extra.update(singularity_columns(sing))
+    state = [{"singularity": str(sing.label[k]),
+              "cond_constraint": _finite(sing.cond_constraint[k]),
+              "cond_reduced": _finite(sing.cond_reduced[k])} for k in range(len(t))]
     rec = motion_record(scenario=scenario, mech=mech, kin=kin, times=t, step_status=status,
-                        residual=phin, task="fk")
+                        residual=phin, task="fk", extra_columns=extra, extra_state=state)
+    rec.qd = np.nan_to_num(md.qd, nan=0.0)
     return Report(task="fk", scenario=scenario.name, summary=summary, checks=checks,
                   solver_ok=overall == "ok", writer="motion", data=rec,
                   outputs=output_flags(scenario), scenario_path=scenario.path,
-                  messages=expect_messages(checks, scenario.path))
+                  messages=singularity_messages(summary["singularity"], scenario.path)
+                  + expect_messages(checks, scenario.path))
+
+
+def _finite(x: float) -> float:
+    """A condition number for CSV/JSON: inf (rank lost) and nan (undefined) as -1."""
+    return float(x) if np.isfinite(x) else -1.0
+
+
+def rate_columns(mech: Mechanism, md: Any, ee: list[int]) -> dict[str, np.ndarray]:
+    """``<joint>_rad_s``, ``<joint>_rad_s2`` (``_m_s``, ``_m_s2``) for every joint, and the
+    end-effector twist (angular velocity, origin velocity; base frame) and acceleration."""
+    cols: dict[str, np.ndarray] = {}
+    qd = np.nan_to_num(md.qd, nan=0.0)
+    qdd = np.nan_to_num(md.qdd, nan=0.0)
+    for j, name in enumerate(mech.joint_names):
+        u = mech.joint_unit(j)
+        cols[f"{name}_{u}_s"] = qd[:, j]
+    for j, name in enumerate(mech.joint_names):
+        u = mech.joint_unit(j)
+        cols[f"{name}_{u}_s2"] = qdd[:, j]
+    if ee:
+        tw = np.nan_to_num(md.twists[:, 0], nan=0.0)
+        ac = np.nan_to_num(md.accelerations[:, 0], nan=0.0)
+        for k, ax in enumerate("xyz"):
+            cols[f"ee_w{ax}_rad_s"] = tw[:, k]
+        for k, ax in enumerate("xyz"):
+            cols[f"ee_v{ax}_m_s"] = tw[:, 3 + k]
+        for k, ax in enumerate("xyz"):
+            cols[f"ee_alpha{ax}_rad_s2"] = ac[:, k]
+        for k, ax in enumerate("xyz"):
+            cols[f"ee_a{ax}_m_s2"] = ac[:, 3 + k]
+    return cols
+
+
+def singularity_columns(sing: Any) -> dict[str, Any]:
+    """Per-step condition numbers (-1 where the rank is lost or undefined) and the class."""
+    return {"cond_constraint": np.array([_finite(c) for c in sing.cond_constraint]),
+            "cond_reduced": np.array([_finite(c) for c in sing.cond_reduced]),
+            "singularity": [str(x) for x in sing.label]}
+
+
+def singularity_summary(sing: Any, t: np.ndarray) -> dict[str, Any]:
+    """Counts of each class, the worst condition numbers and the first singular / near step."""
+    labels = [str(x) for x in sing.label]
+    counts: dict[str, int] = {}
+    for lab in labels:
+        counts[lab] = counts.get(lab, 0) + 1
+    singular = np.flatnonzero(np.asarray(sing.singular, bool))
+    near = np.flatnonzero(np.asarray(sing.near, bool) & ~np.asarray(sing.singular, bool))
+
+    def worst(c: np.ndarray) -> float | None:
+        c = np.asarray(c, float)
+        fin = c[np.isfinite(c)]
+        if np.any(np.isinf(c)):
+            return -1.0
+        return float(fin.max()) if fin.size else None
+
+    return {
+        "counts": counts,
+        "max_cond_constraint": worst(sing.cond_constraint),
+        "max_cond_reduced": worst(sing.cond_reduced),
+        "first_singular_step": int(singular[0]) if singular.size else None,
+        "first_singular_t_s": float(t[singular[0]]) if singular.size else None,
+        "first_near_step": int(near[0]) if near.size else None,
+        "length_scale_m": float(sing.length_scale),
+        "thresholds": {"singular": float(sing.tol_singular), "near": float(sing.tol_near)},
+    }
+
+
+def singularity_messages(s: dict[str, Any], path: Any) -> list[str]:
+    """Warning lines when the motion passes a singularity or within the near threshold."""
+    out = []
+    if s["first_singular_step"] is not None:
+        kinds = ", ".join(k for k in s["counts"] if "singularity" in k and "near" not in k)
+        out.append(f"{path}: warning: the motion passes a singularity ({kinds}) first at step "
+                   f"{s['first_singular_step']} (t = {s['first_singular_t_s']:.6g} s)")
+    elif s["first_near_step"] is not None:
+        out.append(f"{path}: warning: the motion comes near a singularity (sigma_min/sigma_max "
+                   f"< {s['thresholds']['near']:g}) first at step {s['first_near_step']}")
+    return out
