@@ -11,6 +11,7 @@ import functools
 import json
 import logging
 import sys
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
@@ -86,7 +87,10 @@ def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots:
     sc = load_task_scenario(scenario, task)
     with budget.memory_budget(limit), prepare_output(
             default_out_dir(sc.name, out), sc.name, force=force) as out_dir:
-        rep = run(sc, **options)
+        with warnings.catch_warnings():
+            # floating-point warnings of a diverging solve: the statuses and summary say it
+            warnings.simplefilter("ignore", RuntimeWarning)
+            rep = run(sc, **options)
         summary = rep.write(out_dir, plots=plots)
     report(summary, json_out, line(summary))
     for msg in rep.messages:

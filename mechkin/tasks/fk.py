@@ -186,16 +186,22 @@ def run(scenario: Scenario) -> Report:
     q_w0 = initial_dependent(scenario, mech)
     tol = scenario.section.tolerances
     t0 = time.perf_counter()
-    res = solve_trajectory(mech, qv, q_w0, tol_phi=tol.phi, tol_dq=tol.dq, max_iter=tol.max_iter)
-    solve_s = time.perf_counter() - t0
-    kin = forward_kinematics(mech, res.q)
-    phi = closure_residual(mech, kin)
-    phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(t))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        res = solve_trajectory(mech, qv, q_w0, tol_phi=tol.phi, tol_dq=tol.dq,
+                               max_iter=tol.max_iter)
+        res = _finite_closure(mech, res, q_w0)
+        solve_s = time.perf_counter() - t0
+        kin = forward_kinematics(mech, res.q)
+        phi = closure_residual(mech, kin)
+        phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(t))
+    # overflow (e.g. legs driven to 1e300 m) is a solver failure, never inf in a file
+    phin = np.nan_to_num(phin, nan=np.finfo(float).max, posinf=np.finfo(float).max)
     status = [s.value for s in res.status]
     t1 = time.perf_counter()
     ee = [int(mech.end_effector)] if mech.end_effector is not None else []
     q_ok = np.where(res.ok[:, None], res.q, np.nan)
-    md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
     rates_s = time.perf_counter() - t1
     sing = md.singularity
     n_ok = int(sum(s is ClosureStatus.CONVERGED for s in res.status))
@@ -250,6 +256,22 @@ def run(scenario: Scenario) -> Report:
                   outputs=output_flags(scenario), scenario_path=scenario.path,
                   messages=singularity_messages(summary["singularity"], scenario.path)
                   + expect_messages(checks, scenario.path))
+
+
+def _finite_closure(mech: Mechanism, res: Any, q_w0: np.ndarray) -> Any:
+    """Steps whose closure overflowed or produced non-finite joints: dependent joints back at
+    the first guess, status ``not converged`` (a solver failure the summary reports)."""
+    bad = ~np.all(np.isfinite(res.q), axis=1) | ~np.isfinite(res.residual)
+    if not bad.any():
+        return res
+    from dataclasses import replace
+
+    q = res.q.copy()
+    q[np.ix_(bad, mech.dependent)] = q_w0
+    status = res.status.copy()
+    status[bad] = ClosureStatus.NOT_CONVERGED
+    return replace(res, q=np.nan_to_num(q, nan=0.0, posinf=np.finfo(float).max,
+                                        neginf=-np.finfo(float).max), status=status)
 
 
 def _finite(x: float) -> float:

@@ -110,6 +110,46 @@ def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray) -> IkResult:
                     method="closed-form")
 
 
+def reach_bound(mech: Mechanism) -> float:
+    """An upper bound [m] of the distance of any frame from the base: the sum of every stick
+    segment at home (constant for revolute joints) plus the largest stroke of every prismatic
+    joint; inf when a stroke is unbounded."""
+    from mechkin.model.drawing import skeleton_segments
+
+    q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)[None]
+    seg = skeleton_segments(mech, forward_kinematics(mech, q0))[0]
+    total = float(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=-1).sum()) if seg.size else 0.0
+    for j in np.flatnonzero(mech.s == 1):
+        total += float(max(abs(mech.lower[j]), abs(mech.upper[j]))) + abs(float(q0[0, j]))
+    return total
+
+
+def beyond_reach(mech: Mechanism, T_P: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """Targets (k,) whose weighted position lies farther from the base than any frame can be
+    (:func:`reach_bound`, with a 10 % margin): unreachable without a search."""
+    bound = reach_bound(mech)
+    if not np.isfinite(bound):
+        return np.zeros(len(T_P), dtype=bool)
+    dist = _safe_norm(T_P[:, :3, 3] * (W[:, :3] > 0))
+    return dist > 1.1 * bound + 1e-9
+
+
+def _safe_norm(x: np.ndarray) -> np.ndarray:
+    """Row norms of x (k, 3) without overflow (scaled by the largest entry)."""
+    scale = np.max(np.abs(x), axis=1)
+    safe = np.where(scale > 0, scale, 1.0)
+    return scale * np.sqrt(((x / safe[:, None]) ** 2).sum(axis=1))
+
+
+def _out_of_reach(mech: Mechanism, qv: np.ndarray, qw: np.ndarray) -> IkResult:
+    q = np.asarray(mech.home, dtype=float).copy()
+    q[mech.independent], q[mech.dependent] = qv, qw
+    return IkResult(q_v=np.asarray(qv, float), q_w=np.asarray(qw, float), q=q,
+                    status=IkStatus.UNREACHABLE, position_error=float("inf"),
+                    orientation_error=0.0, f=0.0, grad_norm=0.0, iterations=0, evaluations=0,
+                    time_s=0.0, f_history=np.zeros(0), method="reach bound")
+
+
 def batch_results(br: Any, k: int) -> list[IkResult]:
     """One IkResult per row of a batched solve (its time shared equally)."""
     per = br.time_s / k
@@ -144,6 +184,7 @@ def run(scenario: Scenario) -> Report:
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
     qv0, qw0 = _initial(scenario, mech)
+    far = beyond_reach(mech, T_P, W)
     tol = spec.tolerances
     L = length_factor(scenario.spec.units.length)
     A = angle_factor(scenario.spec.units.angle)
@@ -154,12 +195,15 @@ def run(scenario: Scenario) -> Report:
         seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart)
     t0 = time.perf_counter()
     results: list[IkResult] = []
-    if spec.batch:
+    if spec.batch and not far.any():
         br = solve_ik_batch(mech, T_P, q_v0=qv0, q_w0=qw0, weights=W, options=opts)
         results = batch_results(br, len(T_P))
     else:
         qv, qw = qv0, qw0
-        for T, w in zip(T_P, W, strict=False):
+        for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
+            if far[i]:
+                results.append(_out_of_reach(mech, qv, qw))
+                continue
             if spec.method == "closed-form":
                 r = _closed_form(mech, T, qw)
             else:
@@ -172,7 +216,9 @@ def run(scenario: Scenario) -> Report:
     q = np.where(np.isfinite(q), q, mech.home)
     kin = forward_kinematics(mech, q)
     T_E = kin.frames(mech, [mech.end_effector])[:, 0]
-    pe, oe = pose_errors(T_E, T_P)  # verified by forward kinematics of the model
+    with np.errstate(over="ignore", invalid="ignore"):
+        pe, oe = pose_errors(T_E, T_P)  # verified by forward kinematics of the model
+    pe = np.where(np.isfinite(pe), pe, _safe_norm(T_E[:, :3, 3] - T_P[:, :3, 3]))
     phi = closure_residual(mech, kin)
     phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(q))
     status = [r.status.value for r in results]
