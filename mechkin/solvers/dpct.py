@@ -55,13 +55,13 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
 from mechkin.errors import ConfigError
+from mechkin.records.track import TrackTrajectory  # re-exported: the realised plan
 from mechkin.solvers.dynamics import InverseDynamics
 from mechkin.solvers.path import JointPath, PhaseCoefficients, phase_coefficients
 from mechkin.solvers.result import Status
@@ -235,60 +235,6 @@ class DPGrid:
     def dx2(self) -> float:
         """State spacing in r' [1/s]."""
         return self.x2_max / self.N2
-
-
-@dataclass(frozen=True)
-class TrackTrajectory:
-    """The realised trajectory at the DP nodes (plus a rest node at ``t = 0`` if the hand waits).
-
-    All arrays have K rows. ``qdd`` (Eq. (32)) and ``jerk`` (Eq. (33)) are forward differences
-    and NaN where undefined: ``qdd`` at the last node, ``jerk`` at the last two nodes and across
-    the initial wait. ``rdd`` and ``torque`` at node k belong to the transition leaving it
-    (``rdd = 0`` at the last node). ``part`` and ``tracking_error`` are None without a reference.
-    """
-
-    t: np.ndarray  # (K,) [s]
-    r: np.ndarray  # (K,) [-]
-    rd: np.ndarray  # (K,) [1/s]
-    rdd: np.ndarray  # (K,) [1/s^2]
-    q: np.ndarray  # (K, n) [rad | m]
-    qd: np.ndarray  # (K, n)
-    qdd: np.ndarray  # (K, n)
-    jerk: np.ndarray  # (K, n)
-    torque: np.ndarray  # (K, n) [N m | N]
-    hand: np.ndarray  # (K, d) [m]
-    part: np.ndarray | None  # (K, d) [m]
-    tracking_error: np.ndarray | None  # (K, d) hand - part [m]
-
-    def columns(self, prismatic: Sequence[bool] | None = None) -> dict[str, np.ndarray]:
-        """CSV-ready columns ``name_unit -> (K,)``: ``t_s, r, rd_1_s, q1_rad, u1_Nm, hand_x_m``...
-
-        ``prismatic[k]`` switches joint k's units to m, m/s, ... and N (default: all revolute).
-        """
-        n = self.q.shape[1]
-        pris = [False] * n if prismatic is None else list(prismatic)
-        cols: dict[str, np.ndarray] = {
-            "t_s": self.t,
-            "r": self.r,
-            "rd_1_s": self.rd,
-            "rdd_1_s2": self.rdd,
-        }
-        for name, arr, unit_r, unit_p in (
-            ("q", self.q, "rad", "m"),
-            ("qd", self.qd, "rad_s", "m_s"),
-            ("qdd", self.qdd, "rad_s2", "m_s2"),
-            ("jerk", self.jerk, "rad_s3", "m_s3"),
-            ("u", self.torque, "Nm", "N"),
-        ):
-            for k in range(n):
-                cols[f"{name}{k + 1}_{unit_p if pris[k] else unit_r}"] = arr[:, k]
-        axes = "xyz"
-        points = (("hand", self.hand), ("part", self.part), ("error", self.tracking_error))
-        for label, pts in points:
-            if pts is not None:
-                for k in range(pts.shape[1]):
-                    cols[f"{label}_{axes[k]}_m"] = pts[:, k]
-        return cols
 
 
 @dataclass(frozen=True)

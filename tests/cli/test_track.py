@@ -10,9 +10,9 @@ from mcap_protobuf.decoder import DecoderFactory
 from typer.testing import CliRunner
 
 from mechkin.cli.app import app
-from mechkin.cli.track import run_track
 from mechkin.config.scenario import load_scenario
 from mechkin.io.csv_out import read_csv
+from mechkin.tasks.track import run
 
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "scenarios"
@@ -54,7 +54,8 @@ def _mcap(path: Path):
 @pytest.mark.parametrize("name", PARK)
 def test_park_scenarios_exit_0(tmp_path: Path, name: str) -> None:
     sc = load_scenario(SCEN / f"{name}.yaml")
-    summary, code = run_track(scenario=sc, out_dir=tmp_path / "out", plots=False)
+    rep = run(sc)
+    summary, code = rep.write(tmp_path / "out", plots=False), rep.exit_code
     assert code == 0, (summary["message"], summary.get("expect"))
     assert set(summary) >= KEYS
     assert summary["status"] == "ok" and summary["limits_ok"]
@@ -118,9 +119,8 @@ def test_full_case_outputs_csv_and_mcap(tmp_path: Path) -> None:
 
 def test_closed_form_dynamics_gives_the_same_plan(tmp_path: Path) -> None:
     p = _local(tmp_path, "park_conveyor_torque", ("dynamics: rnea", "dynamics: closed_form_2link"))
-    a, _ = run_track(scenario=load_scenario(p), out_dir=tmp_path / "a", plots=False)
-    b, _ = run_track(scenario=load_scenario(SCEN / "park_conveyor_torque.yaml"),
-                     out_dir=tmp_path / "b", plots=False)
+    a = run(load_scenario(p)).write(tmp_path / "a", plots=False)
+    b = run(load_scenario(SCEN / "park_conveyor_torque.yaml")).write(tmp_path / "b", plots=False)
     assert a["t_a_s"] == b["t_a_s"]
     np.testing.assert_allclose(a["peak_torque"], b["peak_torque"], atol=1e-9)
 

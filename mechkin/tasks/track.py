@@ -1,0 +1,234 @@
+"""The track task: conveyor tracking (or minimum time) by DP in the phase plane (park §2-§5).
+
+The hand moves on a straight line (park Eq. (7)); the joints follow it by the path inverse
+kinematics of :mod:`mechkin.solvers.path_ik` (continued along the line from the start solution,
+on the branch the scenario names); the torques come from the mechanism's inertial parameters
+(recursive Newton-Euler, park Eq. (8)); the DP of
+:func:`mechkin.solvers.dpct.solve_conveyor_tracking` plans ``r(t)``. Returns a
+:class:`mechkin.records.Report` whose record (:class:`mechkin.records.track.TrackRecord`) the
+writer :mod:`mechkin.io.track_out` turns into ``track.csv``, plots like park Figs. 4-8 and
+``track.mcap``; writes nothing.
+
+Imports: config, model, solvers, records, tasks.common.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from mechkin.config.scenario import Scenario
+from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, point_si
+from mechkin.config.units import length_factor
+from mechkin.errors import ConfigError
+from mechkin.model import Mechanism, load_mechanism
+from mechkin.model.kinematics import forward_kinematics
+from mechkin.records import Report
+from mechkin.records.track import GridTrace, TrackRecord
+from mechkin.solvers.dpct import (
+    ConveyorReference,
+    TrackLimits,
+    TrackResult,
+    TrackStatus,
+    solve_conveyor_tracking,
+)
+from mechkin.solvers.dynamics import InverseDynamics
+from mechkin.solvers.dynamics_from_mechanism import (
+    dynamics_from_mechanism,
+    planar_two_link_from_mechanism,
+)
+from mechkin.solvers.path import IKLinePath
+from mechkin.solvers.path_ik import HandLineIK, PathIKError
+from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
+
+CSV_NOTE = ("qdd and jerk are forward differences (park Eq. (32)-(33)); where undefined (qdd at "
+            "the last node, jerk at the last two nodes and across the initial wait) they are "
+            "written as 0 and flagged 0 in qdd_defined / jerk_defined")
+
+
+def _dynamics(sc: Scenario, mech: Mechanism) -> InverseDynamics:
+    spec: TrackSpec = sc.section
+    if spec.dynamics == "closed_form_2link":
+        return planar_two_link_from_mechanism(mech)
+    return dynamics_from_mechanism(mech)
+
+
+def hand_ik(sc: Scenario, mech: Mechanism, p0: np.ndarray, p1: np.ndarray) -> HandLineIK:
+    """The path inverse kinematics of the scenario's hand frame, initial guess and branch
+    (park Eq. (9)); every failure is a ConfigError located at its scenario key."""
+    spec: TrackSpec = sc.section
+    doc = sc.doc
+    tol = spec.ik.tolerance * length_factor(sc.spec.units.length)
+    fname = spec.path.frame
+    if fname is None:
+        if mech.end_effector is None:
+            raise ConfigError(f"{doc.where(('track', 'path'))}: the mechanism has no "
+                              "end_effector; name the hand frame in path.frame")
+        f = int(mech.end_effector)
+    else:
+        try:
+            f = mech.frame_index(fname)
+        except KeyError as exc:
+            raise ConfigError(f"{doc.where(('track', 'path', 'frame'))}: {exc.args[0]}") \
+                from None
+    q0 = np.asarray(mech.home, dtype=float).copy()
+    guess = spec.ik.initial_guess or {}
+    for name, v in guess.items():
+        try:
+            j = mech.joint_index(name)
+        except KeyError as exc:
+            raise ConfigError(f"{doc.where(('track', 'ik', 'initial_guess', name))}: "
+                              f"{exc.args[0]}") from None
+        q0[j] = v * joint_factor(mech, j, sc.spec.units)
+    branch: dict[int, int] = {}
+    for name, sign in (spec.ik.branch or {}).items():
+        try:
+            branch[mech.joint_index(name)] = 1 if sign == "positive" else -1
+        except KeyError as exc:
+            raise ConfigError(f"{doc.where(('track', 'ik', 'branch', name))}: "
+                              f"{exc.args[0]}") from None
+    try:
+        return HandLineIK(mech, f, p0, p1, q0, tol, branch)
+    except PathIKError as exc:
+        key = {"start": ("track", "path", "start"), "path": ("track", "path"),
+               "branch": ("track", "ik", "branch", exc.joint)}[exc.key]
+        raise ConfigError(f"{doc.where(key)}: {exc.message}") from None
+
+
+def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: IKLinePath,
+           ref: ConveyorReference | None, limits: TrackLimits) -> TrackResult:
+    return solve_conveyor_tracking(
+        dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
+        objective=spec.objective, nt_fraction=grid.nt_fraction,
+        x2_max=grid.x2_max if spec.objective == "time" else None,
+    )
+
+
+def _grid_record(res: TrackResult) -> dict[str, Any]:
+    s = res.summary()
+    keys = ("status", "message", "t_a_s", "t_start_s", "duration_s", "peak_torque", "limits_ok",
+            "active_limits", "solve_time_s", "cost", "blocked_at_r", "blocking_limits")
+    rec = {"N1": res.grid.N1, "N2": res.grid.N2, "Nt": res.grid.Nt,
+           "x2_max_1_s": res.grid.x2_max}
+    rec.update({k: s[k] for k in keys})
+    return rec
+
+
+def run(scenario: Scenario) -> Report:
+    """Plan the scenario's tracking (or minimum-time) motion.
+
+    The report's ``solver_ok`` holds when the plan exists and every limit holds on the
+    realised trajectory (on every grid of a grid study); an infeasible problem has status
+    ``infeasible`` and a message naming the blocking limit and where it blocks.
+    """
+    spec: TrackSpec = scenario.section
+    units = scenario.spec.units
+    doc = scenario.doc
+    mech = load_mechanism(scenario.mechanism_path)
+    dyn = _dynamics(scenario, mech)
+    lim = limits_si(spec.limits, units, np.asarray(mech.s) == 1)
+    for name, (lo, _) in lim.items():
+        if lo.shape != (mech.n,):
+            raise ConfigError(f"{doc.where(('track', 'limits', name))}: expected {mech.n} "
+                              f"values (one per joint: {', '.join(mech.joint_names)}), got "
+                              f"{lo.shape[0]}")
+    limits = TrackLimits(**lim)
+    p0, p1 = point_si(spec.path.start, units), point_si(spec.path.end, units)
+    ik = hand_ik(scenario, mech, p0, p1)
+    path = IKLinePath(p0=p0, p1=p1, ik=ik, jacobian=ik.jacobian, n=mech.n)
+    ref = None
+    if spec.conveyor is not None:
+        ref = ConveyorReference(part_start=point_si(spec.conveyor.part_start, units),
+                                belt_velocity=point_si(spec.conveyor.belt_velocity, units))
+        try:
+            ref.phase(path)
+        except ConfigError as exc:
+            raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
+
+    res = _solve(spec, spec.grid, dyn, path, ref, limits)
+    study: list[dict[str, Any]] | None = None
+    study_results: list[TrackResult] = []
+    if spec.grid_study is not None:
+        for g in spec.grid_study:
+            study_results.append(res if g == spec.grid
+                                 else _solve(spec, g, dyn, path, ref, limits))
+        study = [_grid_record(r) for r in study_results]
+
+    summary: dict[str, Any] = {
+        "scenario": scenario.name,
+        "task": "track",
+        "mechanism": mech.name,
+        "dynamics": spec.dynamics,
+        **res.summary(),
+    }
+    summary["peak_torque_by_joint"] = (
+        None if res.peak_torque is None
+        else {n: float(v) for n, v in zip(mech.joint_names, res.peak_torque, strict=True)})
+    summary["path"] = {"start_m": p0.tolist(), "end_m": p1.tolist(),
+                       "frame": mech.frame_names[ik.f],
+                       "length_m": float(np.linalg.norm(p1 - p0))}
+    if ref is not None:
+        r0, rd = ref.phase(path)
+        summary["reference"] = {"r0": r0, "rd_1_s": rd, "t_f_s": (1.0 - r0) / rd}
+    summary["limits_si"] = {k: {"min": lo.tolist(), "max": hi.tolist()}
+                            for k, (lo, hi) in lim.items()}
+    if study is not None:
+        summary["grid_study"] = study
+    traj = res.trajectory
+    if traj is not None:
+        summary["n_samples"] = int(traj.t.shape[0])
+        summary["csv_notes"] = CSV_NOTE
+    checks = evaluate_expect(summary, scenario.spec.expect)
+    for c in checks:  # a value missing from the summary (infeasible: t_a_s None) is null, not NaN
+        for k in ("actual", "error"):
+            if isinstance(c.get(k), float) and not np.isfinite(c[k]):
+                c[k] = None
+                c.setdefault("message", f"no value at {c['key']!r} in the summary")
+    if checks:
+        summary["expect"] = checks
+    ok = res.status is TrackStatus.OK and res.limits_ok
+    if study is not None:
+        ok = ok and all(r["status"] == "ok" and r["limits_ok"] for r in study)
+    messages = expect_messages(checks, scenario.path)
+    if res.status is not TrackStatus.OK:
+        messages.append(f"{scenario.path}: {res.message}")
+    rec = None
+    if traj is not None:
+        rec = _record(scenario, mech, res, [r for r in study_results if r is not res], lim,
+                      summary.get("reference"), (p0, p1), ref)
+    return Report(task="track", scenario=scenario.name, summary=summary, checks=checks,
+                  solver_ok=ok, writer="track", data=rec, outputs=output_flags(scenario),
+                  scenario_path=scenario.path, messages=messages)
+
+
+def _record(scenario: Scenario, mech: Mechanism, res: TrackResult, others: list[TrackResult],
+            lim: dict[str, tuple[np.ndarray, np.ndarray]], reference: dict[str, float] | None,
+            ends: tuple[np.ndarray, np.ndarray], ref: ConveyorReference | None) -> TrackRecord:
+    """The writer's record of a feasible plan: trajectory, grid traces, frame tree, scene."""
+    traj = res.trajectory
+    assert traj is not None
+    spec: TrackSpec = scenario.section
+    rec = TrackRecord(
+        title=scenario.name, mechanism=mech.name, joint_names=list(mech.joint_names),
+        prismatic=[bool(s == 1) for s in mech.s], trajectory=traj,
+        grid=(res.grid.N1, res.grid.N2), t_a_s=res.t_a_s,
+        phase_ref=None if reference is None else (reference["r0"], reference["rd_1_s"]),
+        study=[GridTrace(o.grid.N1, o.grid.N2, o.trajectory.r, o.trajectory.rd)
+               for o in others if o.trajectory is not None],
+        limits={k: (np.asarray(lo), np.asarray(hi)) for k, (lo, hi) in lim.items()},
+        ends=np.stack(ends),
+        metadata={"scenario": scenario.name, "mechanism": mech.name, "task": "track"},
+    )
+    if ref is not None and spec.conveyor is not None:
+        rec.belt_velocity = np.asarray(ref.belt_velocity, dtype=float)
+        rec.part_size = point_si(spec.conveyor.part_size, scenario.spec.units)
+    if scenario.spec.outputs.mcap:
+        from mechkin.model.drawing import frame_tree, skeleton_segments
+
+        kin = forward_kinematics(mech, traj.q)
+        rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child = \
+            frame_tree(mech, kin)
+        rec.segments = skeleton_segments(mech, kin)
+        rec.axis_points = kin.axes()[1]
+    return rec
