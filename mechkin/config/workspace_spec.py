@@ -29,7 +29,7 @@ and drawn side by side with a comparison table. Jobs (design values, task-space 
 ``workers`` processes (default min(cpu count, jobs)), or on a Dask cluster with ``executor:
 {kind: dask, address: "tcp://..."}`` (optional extra ``mechkin[dask]``).
 
-Angles are in the scenario's angle unit, lengths in its length unit; :mod:`mechkin.cli.workspace`
+Angles are in the scenario's angle unit, lengths in its length unit; :mod:`mechkin.tasks.workspace`
 converts them to SI.
 """
 

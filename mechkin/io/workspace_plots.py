@@ -1,6 +1,8 @@
-"""Workspace figures: sigma_KI contour maps (lee Figs. 3-5) and gamma_min/gamma_max (lee Fig. 2).
+"""Workspace figures: sigma_KI contour maps (lee Figs. 3-5), gamma_min/gamma_max (lee Fig. 2),
+design-sweep panels, task-space dexterity and joint-sweep point clouds.
 
-Plot functions take plain arrays (radians in, degrees on the axes) and never import solvers.
+Plot functions take plain arrays or records (:mod:`mechkin.records.workspace`; radians in,
+degrees on the axes) and never import solvers; :mod:`mechkin.io.workspace_out` calls them.
 Figures are drawn on the Agg canvas without pyplot (no global state) and every PNG is written to
 a temp name and renamed (:func:`mechkin.io.atomic.atomic_path`).
 """
@@ -8,7 +10,7 @@ a temp name and renamed (:func:`mechkin.io.atomic.atomic_path`).
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,21 +20,18 @@ from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from mechkin.io.output_dir import OutputDir, atomic_path
+from mechkin.io.atomic import atomic_path
 
 if TYPE_CHECKING:
-    from mechkin.solvers.sweeps import DesignSweepRecord, TaskSpaceRecord
-    from mechkin.solvers.workspace import LeeWorkspaceRecord
+    from mechkin.records.workspace import TaskSpaceRecord
 
 __all__ = [
     "plot_design_gamma_range",
     "plot_design_isotropy",
     "plot_gamma_range",
     "plot_isotropy_maps",
+    "plot_point_cloud",
     "plot_task_space",
-    "write_lee_design_sweep",
-    "write_lee_workspace",
-    "write_task_space",
 ]
 
 _SIGMA_LEVELS = np.linspace(0.0, 1.0, 21)
@@ -239,100 +238,6 @@ def plot_gamma_range(
     return _save(fig, path, dpi)
 
 
-def write_lee_workspace(
-    record: LeeWorkspaceRecord,
-    out_dir: str | os.PathLike[str],
-    *,
-    plots: bool = True,
-    csv: bool = True,
-    extra_summary: Mapping[str, Any] | None = None,
-) -> list[str]:
-    """Write the figures, CSV grids and summary.json of a lee workspace record.
-
-    ``extra_summary`` entries (scenario name, expect results, ...) are merged into
-    ``record.summary`` (they win on equal keys); summary.json is written once, last.
-
-    Files (in ``out_dir``): per gamma set ``NAME`` of ``record.isotropy``:
-    ``sigma_ki_NAME.png`` and ``sigma_ki_NAME.csv`` (one row per grid pose: ``alpha_deg,
-    beta_deg, gamma_deg, l1_m, l2_m, l3_m, sigma_ki, within_stroke, in_workspace``); when the
-    gamma range was computed: ``gamma_range.png`` and ``gamma_range.csv`` (``alpha_deg,
-    beta_deg, n_gamma_in, n_runs, gamma_min_deg, gamma_max_deg``, only rows where gamma_min is
-    defined; their count is in summary.json); and ``summary.json``. Lengths are in units of
-    the base radius ``R`` (written ``_m``). All files appear together or not at all.
-
-    Returns
-    -------
-    list of str
-        Names written, relative to ``out_dir``.
-    """
-    summary: dict[str, Any] = {**record.summary, **(extra_summary or {})}
-    with OutputDir(out_dir) as od:
-        _write_lee_files(od, record, plots=plots, csv=csv)
-        summary["files"] = [*od.files, "summary.json"]
-        od.write_json("summary.json", summary)
-        return od.files
-
-
-def _write_lee_files(od: OutputDir, record: LeeWorkspaceRecord, *, plots: bool, csv: bool,
-                     prefix: str = "") -> None:
-    """PNGs and CSV grids of one record into ``od`` (names prefixed by ``prefix``)."""
-    geom = record.geometry
-    for name, maps in record.isotropy.items():
-        gam_txt = "/".join(f"{g:g}" for g in _deg(maps.gamma))
-        if plots:
-            plot_isotropy_maps(
-                od.path_for(f"{prefix}sigma_ki_{name}.png"),
-                maps.alpha,
-                maps.beta,
-                maps.gamma,
-                maps.sigma,
-                maps.within_limits,
-                threshold=maps.threshold,
-                title=f"lee: $\\sigma_{{KI}}$ over $\\alpha$-$\\beta$, r = {geom.r:g}, "
-                f"$\\gamma$ = {gam_txt}° ({name})",
-            )
-        if csv:
-            G, A, B = np.meshgrid(maps.gamma, maps.alpha, maps.beta, indexing="ij")
-            cols: dict[str, np.ndarray] = {
-                "alpha_deg": _deg(A).ravel(),
-                "beta_deg": _deg(B).ravel(),
-                "gamma_deg": _deg(G).ravel(),
-            }
-            if maps.actuators is not None:
-                for i in range(maps.actuators.shape[-1]):
-                    cols[f"l{i + 1}_m"] = maps.actuators[..., i].ravel()
-            cols["sigma_ki"] = maps.sigma.ravel()
-            cols["within_stroke"] = maps.within_limits.ravel()
-            cols["in_workspace"] = maps.in_workspace.ravel()
-            od.write_csv(f"{prefix}sigma_ki_{name}.csv", cols)
-    gr = record.gamma_range
-    if gr is not None:
-        if plots:
-            plot_gamma_range(
-                od.path_for(f"{prefix}gamma_range.png"),
-                gr.alpha,
-                gr.beta,
-                gr.gamma_min,
-                gr.gamma_max,
-                title=f"lee Fig. 2: $\\gamma_{{min}}$, $\\gamma_{{max}}$ ({gr.mode}), "
-                f"r = {geom.r:g}, $\\sigma_{{KI}}$ ≥ {gr.threshold:g}, legs within stroke",
-            )
-        if csv:
-            A, B = np.meshgrid(gr.alpha, gr.beta, indexing="ij")
-            d = gr.defined
-            od.write_csv(
-                f"{prefix}gamma_range.csv",
-                {
-                    "alpha_deg": _deg(A[d]),
-                    "beta_deg": _deg(B[d]),
-                    "n_gamma_in": gr.n_in[d],
-                    "n_runs": gr.n_runs[d],
-                    "gamma_min_deg": _deg(gr.gamma_min[d]),
-                    "gamma_max_deg": _deg(gr.gamma_max[d]),
-                },
-            )
-
-
 # --------------------------------------------------------------------------- design sweeps
 
 
@@ -424,83 +329,6 @@ def plot_design_gamma_range(
     return _save(fig, path, dpi)
 
 
-def _value_dir(parameter: str, value: float) -> str:
-    return f"{parameter}_{value:g}/"
-
-
-def write_lee_design_sweep(
-    sweep: DesignSweepRecord,
-    out_dir: str | os.PathLike[str],
-    *,
-    plots: bool = True,
-    csv: bool = True,
-    extra_summary: Mapping[str, Any] | None = None,
-) -> list[str]:
-    """Write a design sweep: side-by-side figures, the comparison table, per-value grids.
-
-    Files: ``design_sigma_ki_NAME.png`` (a row per value, a column per gamma of the set
-    ``NAME``), ``design_gamma_range.png`` (when the gamma range was computed),
-    ``design_comparison.csv`` (:func:`mechkin.solvers.sweeps.design_comparison`), per value
-    the CSV grids of :func:`write_lee_workspace` under ``PARAM_VALUE/`` (e.g.
-    ``r_0.25/sigma_ki_text.csv``), and ``summary.json`` written once with ``extra_summary``
-    merged in. All files appear together or not at all.
-
-    Returns
-    -------
-    list of str
-        Names written, relative to ``out_dir``.
-    """
-    summary: dict[str, Any] = {**design_summary(sweep), **(extra_summary or {})}
-    par, vals, recs = sweep.parameter, sweep.values, sweep.records
-    with OutputDir(out_dir) as od:
-        if plots:
-            for name in recs[0].isotropy:
-                plot_design_isotropy(
-                    od.path_for(f"design_sigma_ki_{name}.png"), par, vals,
-                    [r.isotropy[name] for r in recs],
-                    title=f"lee design sweep over {par}: $\\sigma_{{KI}}$ ({name})",
-                )
-            if recs[0].gamma_range is not None:
-                plot_design_gamma_range(
-                    od.path_for("design_gamma_range.png"), par, vals,
-                    [r.gamma_range for r in recs],
-                    title=f"lee design sweep over {par}: $\\gamma_{{min}}$, "
-                          f"$\\gamma_{{max}}$ ({recs[0].gamma_range.mode})",
-                )
-        if sweep.comparison:
-            keys = list(dict.fromkeys(k for row in sweep.comparison for k in row))
-            od.write_csv("design_comparison.csv", {
-                k: [("" if row.get(k) is None else row.get(k, "")) for row in sweep.comparison]
-                for k in keys
-            })
-        if csv:
-            for v, rec in zip(vals, recs, strict=True):
-                _write_lee_files(od, rec, plots=False, csv=True, prefix=_value_dir(par, v))
-        summary["files"] = [*od.files, "summary.json"]
-        od.write_json("summary.json", summary)
-        return od.files
-
-
-def design_summary(sweep: DesignSweepRecord) -> dict[str, Any]:
-    """JSON-ready summary of a design sweep: ``design`` (parameter, values, per value the lee
-    summary: fractions, sigma_KI statistics, sigma_KI at the origin per gamma, gamma range) and
-    the ``comparison`` table."""
-    per_value = []
-    for v, rec in zip(sweep.values, sweep.records, strict=True):
-        s = dict(rec.summary)
-        s.pop("definition", None)
-        per_value.append({"value": float(v), **s})
-    first = sweep.records[0].summary
-    return {
-        "mechanism": first.get("mechanism"),
-        "threshold": first.get("threshold"),
-        "definition": first.get("definition"),
-        "design": {"parameter": sweep.parameter, "values": list(sweep.values),
-                   "per_value": per_value},
-        "comparison": sweep.comparison,
-    }
-
-
 # --------------------------------------------------------------------------- task space
 
 
@@ -544,41 +372,48 @@ def plot_task_space(
     return _save(fig, path, dpi)
 
 
-def write_task_space(
-    rec: TaskSpaceRecord,
-    out_dir: str | os.PathLike[str],
-    summary: Mapping[str, Any],
-    *,
-    joint_columns: Sequence[str],
-    plots: bool = True,
-    csv: bool = True,
-    title: str = "",
-) -> list[str]:
-    """Write ``task_points.csv`` (one row per target pose: position, quaternion (w, x, y, z),
-    status, reachable, errors, independent joints, dexterity), ``task_space.png`` and
-    ``summary.json`` (once, last)."""
-    from mechkin.spatial.rotations import quat_from_matrix
+# --------------------------------------------------------------------------- joint sweeps
 
-    out = dict(summary)
-    with OutputDir(out_dir) as od:
-        if csv:
-            m = rec.reachable.size
-            quat = quat_from_matrix(rec.T_P[:, :3, :3]) if m else np.zeros((0, 4))
-            cols: dict[str, Any] = {"pose": np.arange(m), "x_m": rec.T_P[:, 0, 3],
-                                    "y_m": rec.T_P[:, 1, 3], "z_m": rec.T_P[:, 2, 3]}
-            for k, c in enumerate("wxyz"):
-                cols[f"q{c}"] = quat[:, k]
-            cols.update(status=rec.status, reachable=rec.reachable,
-                        position_error_m=rec.position_error,
-                        orientation_error_rad=rec.orientation_error, iterations=rec.iterations)
-            for k, name in enumerate(joint_columns):
-                cols[name] = rec.q_v[:, k]
-            cols.update(isotropy=rec.isotropy, isotropy_position=rec.isotropy_position,
-                        condition_number=rec.condition_number,
-                        manipulability=rec.manipulability)
-            od.write_csv("task_points.csv", cols)
-        if plots and rec.reachable.size:
-            plot_task_space(od.path_for("task_space.png"), rec, title=title)
-        out["files"] = [*od.files, "summary.json"]
-        od.write_json("summary.json", out)
-        return od.files
+
+def plot_point_cloud(path: str | os.PathLike[str], P: np.ndarray, colour: np.ndarray | None,
+                     slices: dict[str, Any] | None, *, title: str) -> None:
+    """Three projections of the point cloud ``P`` (k, 3) [m] and up to three slabs normal to
+    one axis (``slices``: ``axis``, ``at`` plane offsets [m] or None for the quartiles,
+    ``thickness`` [m] or None for 1/25 of the extent); coloured by ``colour`` in [0, 1]."""
+    axis_names = "xyz"
+    k = axis_names.index(slices["axis"]) if slices is not None else 2
+    extent = float(np.ptp(P, axis=0).max()) or 1.0
+    if slices is not None and slices["at"]:
+        planes = list(slices["at"])[:3]
+    else:
+        planes = [float(np.quantile(P[:, k], qq)) for qq in (0.25, 0.5, 0.75)]
+    thick = slices["thickness"] if (slices is not None and slices["thickness"]) else extent / 25.0
+    others = [i for i in range(3) if i != k]
+    fig = Figure(figsize=(14, 9), layout="constrained")
+    c = colour if colour is not None else "tab:blue"
+    kw = {"s": 2, "c": c, "cmap": "viridis", "vmin": 0.0, "vmax": 1.0} if colour is not None \
+        else {"s": 2, "c": c}
+    sc_ = None
+    for p, (i, j) in enumerate([(0, 1), (0, 2), (1, 2)]):
+        ax = fig.add_subplot(2, 3, p + 1)
+        sc_ = ax.scatter(P[:, i], P[:, j], **kw)
+        ax.set_xlabel(f"{axis_names[i]} [m]")
+        ax.set_ylabel(f"{axis_names[j]} [m]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"projection on {axis_names[i]}{axis_names[j]}")
+    for p, z in enumerate(planes):
+        ax = fig.add_subplot(2, 3, 4 + p)
+        sel = np.abs(P[:, k] - z) <= thick / 2
+        ckw = dict(kw)
+        if colour is not None:
+            ckw["c"] = colour[sel]
+        ax.scatter(P[sel, others[0]], P[sel, others[1]], **ckw)
+        ax.set_xlabel(f"{axis_names[others[0]]} [m]")
+        ax.set_ylabel(f"{axis_names[others[1]]} [m]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"slice {axis_names[k]} = {z:.3g} m ± {thick / 2:.2g}\n"
+                     f"({int(sel.sum())} points)", fontsize=9)
+    if colour is not None and sc_ is not None:
+        fig.colorbar(sc_, ax=fig.axes, shrink=0.6, label="isotropy (position rows)")
+    fig.suptitle(title, fontsize=11)
+    _save(fig, path, 100)

@@ -1,6 +1,6 @@
 r"""Sweeps: design sweeps of lee's mechanism, task-space reachability/dexterity, job execution.
 
-Three pieces, all independent of the CLI:
+Three pieces, all independent of the CLI and of io/ (records: :mod:`mechkin.records.workspace`):
 
 * :func:`run_jobs` runs a list of independent jobs (a picklable top-level function and one
   argument per job) in order, sequentially (``workers=1``), on local processes
@@ -39,13 +39,14 @@ import os
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 
-from mechkin.solvers.workspace import LeeWorkspaceRecord, lee_workspace, sigma_statistics
+from mechkin.records.workspace import DesignSweepRecord, LeeWorkspaceRecord, TaskSpaceRecord
+from mechkin.solvers.dexterity import COND_CAP, dexterity
+from mechkin.solvers.workspace import lee_workspace, sigma_statistics
 
 __all__ = [
     "COND_CAP",
@@ -55,6 +56,7 @@ __all__ = [
     "TaskSpaceRecord",
     "default_workers",
     "design_comparison",
+    "design_summary",
     "dexterity",
     "lee_design_sweep",
     "run_jobs",
@@ -72,10 +74,6 @@ ProgressCallback = Callable[[int, int], None]
 
 DESIGN_PARAMETERS = ("r", "R", "l_min", "l_max")
 """Design parameters of lee's mechanism a sweep may vary (lengths, SI)."""
-
-COND_CAP = 1e16
-"""Condition numbers above this (numerically singular Jacobians) are reported as this value."""
-
 
 # --------------------------------------------------------------------------- execution
 
@@ -183,28 +181,6 @@ def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
 # --------------------------------------------------------------------------- lee design sweeps
 
 
-@dataclass(frozen=True)
-class DesignSweepRecord:
-    """One lee workspace record per value of a design parameter.
-
-    Attributes
-    ----------
-    parameter : str
-        ``r``, ``R``, ``l_min`` or ``l_max``.
-    values : tuple of float
-        The values swept (SI).
-    records : tuple of LeeWorkspaceRecord
-        ``records[i]`` computed with ``parameter = values[i]``.
-    comparison : list of dict
-        :func:`design_comparison` of the records (JSON-ready).
-    """
-
-    parameter: str
-    values: tuple[float, ...]
-    records: tuple[LeeWorkspaceRecord, ...]
-    comparison: list[dict[str, Any]]
-
-
 def _lee_job(params: dict[str, Any]) -> LeeWorkspaceRecord:
     """One design value: :func:`lee_workspace` (module level, so it pickles)."""
     return lee_workspace(**params)
@@ -306,6 +282,26 @@ def design_comparison(parameter: str, values: Sequence[float],
     return rows
 
 
+def design_summary(sweep: DesignSweepRecord) -> dict[str, Any]:
+    """JSON-ready summary of a design sweep: ``design`` (parameter, values, per value the lee
+    summary: fractions, sigma_KI statistics, sigma_KI at the origin per gamma, gamma range) and
+    the ``comparison`` table."""
+    per_value = []
+    for v, rec in zip(sweep.values, sweep.records, strict=True):
+        s = dict(rec.summary)
+        s.pop("definition", None)
+        per_value.append({"value": float(v), **s})
+    first = sweep.records[0].summary
+    return {
+        "mechanism": first.get("mechanism"),
+        "threshold": first.get("threshold"),
+        "definition": first.get("definition"),
+        "design": {"parameter": sweep.parameter, "values": list(sweep.values),
+                   "per_value": per_value},
+        "comparison": sweep.comparison,
+    }
+
+
 # --------------------------------------------------------------------------- task-space sweeps
 
 
@@ -340,55 +336,6 @@ def task_space_random(box: Sequence[tuple[float, float]], samples: int, seed: in
     else:
         T[:, :3, :3] = R0
     return T
-
-
-@dataclass(frozen=True)
-class TaskSpaceRecord:
-    """Reachability and dexterity of ``m`` task-space poses (rows follow the input poses).
-
-    Attributes
-    ----------
-    T_P : ndarray, shape (m, 4, 4)
-        Target poses.
-    q_v : ndarray, shape (m, n_v)
-        Independent joints at the solutions (best attempt where not reached).
-    status : ndarray of str, shape (m,)
-        :class:`mechkin.solvers.ik_optimize.IkStatus` values.
-    reachable : ndarray of bool, shape (m,)
-        Status ok.
-    position_error, orientation_error : ndarray, shape (m,)
-        Verified by forward kinematics [m], [rad].
-    iterations : ndarray of int, shape (m,)
-    isotropy, isotropy_position, condition_number, manipulability : ndarray, shape (m,)
-        Dexterity at the solutions (see the module docstring); 0 (condition number: 0 too)
-        where not reachable.
-    """
-
-    T_P: np.ndarray
-    q_v: np.ndarray
-    status: np.ndarray
-    reachable: np.ndarray
-    position_error: np.ndarray
-    orientation_error: np.ndarray
-    iterations: np.ndarray
-    isotropy: np.ndarray
-    isotropy_position: np.ndarray
-    condition_number: np.ndarray
-    manipulability: np.ndarray
-
-
-def dexterity(J: np.ndarray) -> dict[str, np.ndarray]:
-    """Isotropy, position-row isotropy, condition number (capped) and Yoshikawa manipulability
-    of a batch of Jacobians ``J`` (m, 6, n_v), rows (omega, v); finite everywhere."""
-    J = np.where(np.isfinite(J), J, 0.0)
-    s = np.linalg.svd(J, compute_uv=False)
-    sp = np.linalg.svd(J[:, 3:6, :], compute_uv=False)
-    smax, smin = s[:, 0], s[:, -1]
-    iso = np.where(smax > 0, smin / np.maximum(smax, 1e-300), 0.0)
-    iso_p = np.where(sp[:, 0] > 0, sp[:, -1] / np.maximum(sp[:, 0], 1e-300), 0.0)
-    cond = np.where(iso > 1.0 / COND_CAP, 1.0 / np.maximum(iso, 1e-300), COND_CAP)
-    return {"isotropy": iso, "isotropy_position": iso_p, "condition_number": cond,
-            "manipulability": np.prod(s, axis=1)}
 
 
 def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:

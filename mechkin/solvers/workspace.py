@@ -30,6 +30,11 @@ Definitions used throughout (lee §3.2):
   alpha-beta grid. **Volume fraction**: the same over the whole alpha-beta-gamma grid. Both are
   fractions of the *grid* (uniform in the Euler angles), not of the Haar measure on SO(3).
 
+The result types (:class:`~mechkin.records.workspace.OrientationMaps`,
+:class:`~mechkin.records.workspace.GammaRange`,
+:class:`~mechkin.records.workspace.LeeWorkspaceRecord`) live in :mod:`mechkin.records.workspace`
+(re-exported here); :mod:`mechkin.io.workspace_out` writes them. Nothing here writes files.
+
 References
 ----------
 lee_spherical_3dof_parallel §3.2, Eq. (21), Figs. 2-5.
@@ -39,12 +44,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 
+from mechkin.records.workspace import GammaRange, LeeWorkspaceRecord, OrientationMaps
 from mechkin.solvers.closed_form.lee_spherical import (
     DEFAULT_CHUNK,
     LeeGeometry,
@@ -65,7 +70,6 @@ __all__ = [
     "lee_evaluator",
     "lee_workspace",
     "orientation_maps",
-    "run_lee_workspace",
     "sigma_statistics",
     "volume_fraction",
 ]
@@ -127,36 +131,6 @@ def lee_evaluator(
 
 
 # --------------------------------------------------------------------------- maps
-
-
-@dataclass(frozen=True)
-class OrientationMaps:
-    """Isotropy and workspace over an alpha-beta grid at several gammas.
-
-    Attributes
-    ----------
-    alpha : ndarray, shape (n_a,)
-    beta : ndarray, shape (n_b,)
-    gamma : ndarray, shape (n_g,)
-        Grid axes [rad].
-    sigma : ndarray, shape (n_g, n_a, n_b)
-        sigma_KI at ``(alpha[i], beta[j], gamma[g])`` -> ``sigma[g, i, j]``.
-    within_limits, in_workspace : ndarray of bool, shape (n_g, n_a, n_b)
-    actuators : ndarray, shape (n_g, n_a, n_b, k), or None
-    threshold : float
-    branch : ndarray of int8, shape (n_g, n_a, n_b), or None
-        Sign of det of the rate Jacobian, when the evaluator provides it.
-    """
-
-    alpha: np.ndarray
-    beta: np.ndarray
-    gamma: np.ndarray
-    sigma: np.ndarray
-    within_limits: np.ndarray
-    in_workspace: np.ndarray
-    actuators: np.ndarray | None
-    threshold: float
-    branch: np.ndarray | None = None
 
 
 def _grid_poses(alpha: np.ndarray, beta: np.ndarray, gamma: float) -> np.ndarray:
@@ -235,45 +209,6 @@ def orientation_maps(
 
 
 # --------------------------------------------------------------------------- gamma range (Fig. 2)
-
-
-@dataclass(frozen=True)
-class GammaRange:
-    """gamma_min / gamma_max over the alpha-beta plane (lee Fig. 2); see the module docstring.
-
-    Attributes
-    ----------
-    alpha, beta : ndarray, shapes (n_a,), (n_b,)
-    gamma_grid : ndarray, shape (n_g,)
-        The gamma values searched [rad].
-    gamma_min, gamma_max : ndarray, shape (n_a, n_b)
-        [rad]; NaN where no grid gamma qualifies (``n_in == 0``, or for ``"component"`` when
-        the grid point nearest ``gamma_ref`` is outside the workspace).
-    n_in : ndarray of int, shape (n_a, n_b)
-        In-workspace grid gammas at each (alpha, beta).
-    n_runs : ndarray of int, shape (n_a, n_b)
-        Separate runs of consecutive in-workspace grid gammas (1 = one interval), cut also
-        where the sign of det of the rate Jacobian changes.
-    mode : {"extent", "component"}
-    gamma_ref : float or None
-    threshold : float
-    """
-
-    alpha: np.ndarray
-    beta: np.ndarray
-    gamma_grid: np.ndarray
-    gamma_min: np.ndarray
-    gamma_max: np.ndarray
-    n_in: np.ndarray
-    n_runs: np.ndarray
-    mode: str
-    gamma_ref: float | None
-    threshold: float
-
-    @property
-    def defined(self) -> np.ndarray:
-        """True where gamma_min/gamma_max are defined (not NaN), shape (n_a, n_b)."""
-        return np.isfinite(self.gamma_min)
 
 
 def gamma_range_from_mask(
@@ -408,32 +343,6 @@ def sigma_statistics(sigma: np.ndarray, mask: np.ndarray | None = None) -> dict[
 
 
 # --------------------------------------------------------------------------- lee scenarios
-
-
-@dataclass(frozen=True)
-class LeeWorkspaceRecord:
-    """Everything one lee workspace scenario computes (arrays + JSON-ready summary).
-
-    Attributes
-    ----------
-    geometry : LeeGeometry
-    isotropy : dict of str to OrientationMaps
-        One entry per named gamma set (e.g. ``"text"``: 20/30/40 deg, ``"captions"``:
-        20/40/60 deg), each a (n_g, n_a, n_b) map for lee Figs. 3-5.
-    gamma_range : GammaRange or None
-        lee Fig. 2, when requested.
-    summary : dict
-        Area/volume fractions and sigma_KI statistics per gamma set, gamma-range statistics,
-        grid descriptions; degrees in keys ending ``_deg``.
-    files : tuple of str
-        Files written by :func:`run_lee_workspace` (relative to its output folder).
-    """
-
-    geometry: LeeGeometry
-    isotropy: dict[str, OrientationMaps]
-    gamma_range: GammaRange | None
-    summary: dict[str, Any]
-    files: tuple[str, ...] = field(default=())
 
 
 def _axis_from_range(lo_hi: tuple[float, float], n: int, name: str) -> np.ndarray:
@@ -582,39 +491,3 @@ def lee_workspace(
             }
         summary["gamma_range"] = entry
     return LeeWorkspaceRecord(geom, isotropy, gr, summary)
-
-
-def run_lee_workspace(
-    *,
-    out_dir: str | Path,
-    plots: bool = True,
-    csv: bool = True,
-    extra_summary: Mapping[str, Any] | Callable[[dict[str, Any]], Mapping[str, Any]] | None = None,
-    **params: Any,
-) -> LeeWorkspaceRecord:
-    """:func:`lee_workspace` then write its PNGs, CSV grids and summary.json to ``out_dir``.
-
-    A convenience for wiring ``mechkin workspace SCENARIO.yaml``: ``params`` are the keyword
-    arguments of :func:`lee_workspace`. Files are staged and moved into ``out_dir`` only when
-    all of them were written (:class:`mechkin.io.atomic.OutputDir`); summary.json is written
-    once.
-
-    Parameters
-    ----------
-    extra_summary : mapping or callable, optional
-        Entries merged into summary.json (e.g. the scenario name and the ``expect`` results).
-        A callable receives the computed summary and returns the entries, so checks can be
-        evaluated on the values before anything is written.
-
-    Returns
-    -------
-    LeeWorkspaceRecord
-        With ``files`` set to the names written and ``summary`` as written (without
-        ``files``).
-    """
-    from mechkin.io.workspace_plots import write_lee_workspace
-
-    record = lee_workspace(**params)
-    extra = extra_summary(dict(record.summary)) if callable(extra_summary) else extra_summary
-    files = write_lee_workspace(record, out_dir, plots=plots, csv=csv, extra_summary=extra)
-    return replace(record, summary={**record.summary, **(extra or {})}, files=tuple(files))

@@ -9,6 +9,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from mechkin.io.csv_out import read_csv
+from mechkin.io.workspace_out import write_lee_workspace
 from mechkin.solvers.closed_form.lee_spherical import (
     LeeGeometry,
     inverse_position,
@@ -23,7 +24,6 @@ from mechkin.solvers.workspace import (
     lee_evaluator,
     lee_workspace,
     orientation_maps,
-    run_lee_workspace,
     sigma_statistics,
     volume_fraction,
 )
@@ -132,8 +132,7 @@ def test_lee_workspace_record_summary_is_strict_json():
 
 def test_run_lee_workspace_writes_every_output(tmp_path):
     out = tmp_path / "lee_fig5"
-    rec = run_lee_workspace(
-        out_dir=out,
+    rec = lee_workspace(
         r=0.75,
         gamma_sets={"text": np.deg2rad([20, 30, 40])},
         n_alpha=15,
@@ -143,6 +142,7 @@ def test_run_lee_workspace_writes_every_output(tmp_path):
         n_alpha_sweep=7,
         n_beta_sweep=7,
     )
+    files = write_lee_workspace(rec, out)
     names = {
         "sigma_ki_text.png",
         "sigma_ki_text.csv",
@@ -150,7 +150,7 @@ def test_run_lee_workspace_writes_every_output(tmp_path):
         "gamma_range.csv",
         "summary.json",
     }
-    assert set(rec.files) == names
+    assert set(files) == names
     assert {p.name for p in out.iterdir()} == names
     for name in names:
         assert (out / name).stat().st_size > 0

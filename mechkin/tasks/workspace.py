@@ -1,0 +1,487 @@
+"""The workspace task: isotropy and workspace maps (lee Figs. 2-5), design, joint and task-space
+sweeps. A validated ``workspace:`` scenario -> :class:`mechkin.records.Report`; writes nothing.
+
+Kinds of section (:mod:`mechkin.config.workspace_spec`):
+
+* ``lee_spherical``: :func:`mechkin.solvers.workspace.lee_workspace` with the design taken
+  from the mechanism file (R, r, P, stroke) and overridden by ``parameters``: sigma_KI maps
+  per named gamma set and gamma_min/gamma_max (Fig. 2). With ``design: {parameter, values}``
+  the maps are computed once per value (:func:`mechkin.solvers.sweeps.lee_design_sweep`)
+  with a comparison table.
+* ``joint_sweep``: the independent joints on a grid or at random (seeded); for a closed chain
+  the loop closure (kim1995 §5.1) is solved for every sample
+  (:func:`mechkin.solvers.joint_sweep.joint_sweep`): reachable positions of a frame, bounding
+  box, voxel and convex-hull volumes, statistics of Yoshikawa's manipulability and of the
+  isotropy of the reduced frame Jacobian.
+* ``task_space``: a grid (or seeded random set) of task-space poses through the batched ik
+  (:func:`mechkin.solvers.sweeps.task_space_sweep`): reachability and dexterity.
+
+Design values and task-space chunks run as jobs on ``workers`` local processes or on a Dask
+cluster (``scheduler`` / ``executor: {kind: dask, address}``). A progress bar is drawn on
+stderr when asked (``progress=True``; None: when stderr is a terminal).
+
+Imports: config, model, solvers, spatial, records, tasks.common (never io/ or cli/).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import sys
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+from mechkin.config.scenario import Scenario
+from mechkin.config.units import angle_factor, length_factor
+from mechkin.errors import ConfigError
+from mechkin.records import Report
+from mechkin.records.workspace import WorkspaceOutput
+from mechkin.tasks.common import expect_messages, output_flags, with_expect
+
+MAX_SWEEP_SAMPLES = 5_000_000
+
+
+def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = None,
+        progress: bool | None = False) -> Report:
+    """Run a workspace scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    workers : int, optional
+        Local worker processes of design and task-space sweeps (overrides ``workers:``).
+    scheduler : str, optional
+        Dask scheduler address (overrides ``executor:``).
+    progress : bool, optional
+        Progress bar on stderr; None: when stderr is a terminal.
+
+    Returns
+    -------
+    Report
+        Writer ``workspace`` (:mod:`mechkin.io.workspace_out`); exit code 1 when an expect
+        failed.
+    """
+    ex = _execution(scenario, workers, scheduler, progress)
+    kind = scenario.section.kind
+    if kind == "lee_spherical":
+        if scenario.section.design is not None:
+            return _run_lee_design(scenario, ex)
+        return _run_lee(scenario)
+    if kind == "task_space":
+        return _run_task_space(scenario, ex)
+    return _run_joint_sweep(scenario)
+
+
+def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
+               progress: bool | None) -> dict[str, Any]:
+    """workers / dask address / progress flag from the options, else the scenario."""
+    spec = sc.section
+    address = scheduler
+    if address is None and spec.executor is not None and spec.executor.kind == "dask":
+        address = spec.executor.address
+    if address is not None:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            where = "--scheduler" if scheduler is not None else sc.doc.where(
+                ("workspace", "executor"))
+            raise ConfigError(f"{where}: running on a Dask cluster needs the optional extra "
+                              "(pip install 'mechkin[dask]')") from None
+    show = sys.stderr.isatty() if progress is None else bool(progress)
+    return {"workers": workers if workers is not None else spec.workers, "address": address,
+            "progress": show, "force_terminal": progress is True}
+
+
+@contextlib.contextmanager
+def _progress_bar(ex: dict[str, Any], description: str
+                  ) -> Iterator[Callable[[int, int], None] | None]:
+    """A rich progress bar on stderr (never stdout) when enabled, as a progress callback."""
+    if not ex["progress"]:
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True, force_terminal=ex["force_terminal"] or None)
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), console=console, transient=False) as bar:
+        task = bar.add_task(description, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
+
+
+def _head(sc: Scenario, kind: str) -> dict[str, Any]:
+    return {"scenario": sc.name, "task": "workspace", "kind": kind, "status": "ok"}
+
+
+def _report(sc: Scenario, summary: dict[str, Any], out: WorkspaceOutput,
+            first: dict[str, Any] | None = None) -> Report:
+    """The report: expects evaluated on ``summary``; ``first`` (the solver's own summary)
+    leads the written summary.json, in its key order."""
+    checks = with_expect(summary, sc)
+    full = {**first, **summary} if first is not None else summary
+    return Report(task="workspace", scenario=sc.name, summary=full, checks=checks,
+                  solver_ok=True, writer="workspace", data=out, outputs=output_flags(sc),
+                  scenario_path=sc.path, messages=expect_messages(checks, sc.path))
+
+
+# --------------------------------------------------------------------------- lee
+
+
+def lee_design(scenario: Scenario) -> dict[str, Any]:
+    """R, r, center, stroke (SI) of lee's mechanism: lee §3.2 defaults < mechanism file <
+    the section's ``parameters``; also where each value came from."""
+    design: dict[str, Any] = {"R": 1.0, "r": 0.5, "center": (0.0, 0.0, 1.0), "stroke": (0.5, 2.0)}
+    source = dict.fromkeys(design, "lee §3.2")
+    if scenario.mechanism_path is not None:
+        from mechkin.model import load_mechanism
+
+        mech = load_mechanism(scenario.mechanism_path)
+        fr = set(mech.frame_names)
+        if {"base_u1", "base_u2", "base_u3"} <= fr:
+            p = mech.frame_offset[mech.frame_index("base_u1")][:3, 3]
+            design["R"], source["R"] = float(np.hypot(p[0], p[1])), "mechanism"
+        if "plate_s1" in fr:
+            p = mech.frame_offset[mech.frame_index("plate_s1")][:3, 3]
+            design["r"], source["r"] = float(np.hypot(p[0], p[1])), "mechanism"
+        if "center" in fr:
+            p = mech.frame_offset[mech.frame_index("center")][:3, 3]
+            design["center"], source["center"] = tuple(float(v) for v in p), "mechanism"
+        if "l1" in mech.joint_names:
+            j = mech.joint_index("l1")
+            lo, hi = float(mech.lower[j]), float(mech.upper[j])
+            if math.isfinite(lo) and math.isfinite(hi):
+                design["stroke"], source["stroke"] = (lo, hi), "mechanism"
+    par = scenario.section.parameters
+    if par is not None:
+        L = length_factor(scenario.spec.units.length)
+        for key in ("r", "R", "center", "stroke"):
+            v = getattr(par, key)
+            if v is None:
+                continue
+            design[key] = float(v) * L if key in ("r", "R") else tuple(float(x) * L for x in v)
+            source[key] = "scenario"
+    design["source"] = source
+    return design
+
+
+def _lee_params(sc: Scenario, design: dict[str, Any]) -> dict[str, Any]:
+    """Keyword arguments of :func:`mechkin.solvers.workspace.lee_workspace` (SI)."""
+    spec = sc.section
+    A = angle_factor(sc.spec.units.angle)
+    full = (-90.0 * math.pi / 180.0, 90.0 * math.pi / 180.0)
+    params: dict[str, Any] = {
+        "r": design["r"],
+        "R": design["R"],
+        "center": design["center"],
+        "stroke": design["stroke"],
+        "threshold": spec.threshold,
+        "method": spec.method or "closed_form",
+    }
+    for ax in ("alpha", "beta"):
+        g = getattr(spec, ax)
+        params[f"{ax}_range"] = full if g is None else (g.range[0] * A, g.range[1] * A)
+        params[f"n_{ax}"] = 181 if g is None else g.n
+    if spec.isotropy_maps:
+        params["gamma_sets"] = {k: [v * A for v in vs] for k, vs in spec.isotropy_maps.items()}
+    gr = spec.gamma_range
+    if gr is not None:
+        params.update(
+            gamma_sweep=(gr.range[0] * A, gr.range[1] * A),
+            n_gamma_sweep=gr.n,
+            n_alpha_sweep=gr.n_alpha,
+            n_beta_sweep=gr.n_beta,
+            gamma_mode=gr.mode,
+            gamma_ref=None if gr.ref is None else gr.ref * A,
+        )
+    return params
+
+
+def _run_lee(sc: Scenario) -> Report:
+    from mechkin.solvers.workspace import lee_workspace
+
+    design = lee_design(sc)
+    params = _lee_params(sc, design)
+    t0 = time.perf_counter()
+    try:
+        rec = lee_workspace(**params)
+    except ValueError as exc:  # a grid the solver refuses (should not pass the schema)
+        raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
+    summary: dict[str, Any] = {
+        **_head(sc, "lee_spherical"),
+        "design_source": design["source"],
+        **rec.summary,
+        "compute_time_s": time.perf_counter() - t0,
+    }
+    return _report(sc, summary, WorkspaceOutput("lee_spherical", rec), first=rec.summary)
+
+
+def _run_lee_design(sc: Scenario, ex: dict[str, Any]) -> Report:
+    from mechkin.solvers.sweeps import default_workers, design_summary, lee_design_sweep
+
+    spec = sc.section
+    dspec = spec.design
+    design = lee_design(sc)
+    params = _lee_params(sc, design)
+    L = length_factor(sc.spec.units.length)
+    values = [v * L for v in dspec.values]
+    if dspec.parameter in ("l_min", "l_max"):
+        lo, hi = design["stroke"]
+        bad = [v for v in values if (v >= hi if dspec.parameter == "l_min" else v <= lo)]
+        if bad:
+            raise ConfigError(f"{sc.doc.where(('workspace', 'design', 'values'))}: "
+                              f"{dspec.parameter} values {bad} do not leave l_min < l_max "
+                              f"(stroke {lo:g}..{hi:g})")
+    params.pop(dspec.parameter, None)
+    workers = ex["workers"] if ex["workers"] is not None else default_workers(len(values))
+    t0 = time.perf_counter()
+    with _progress_bar(ex, f"{sc.name}: {dspec.parameter} sweep") as cb:
+        try:
+            sweep = lee_design_sweep(dspec.parameter, values, workers=workers,
+                                     address=ex["address"], progress=cb, **params)
+        except ValueError as exc:
+            raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
+    design["source"][dspec.parameter if dspec.parameter in ("r", "R") else "stroke"] = "design"
+    ds = design_summary(sweep)
+    summary: dict[str, Any] = {
+        **_head(sc, "lee_spherical"),
+        "design_source": design["source"],
+        **ds,
+        "execution": {"executor": "dask" if ex["address"] else "process",
+                      "workers": None if ex["address"] else min(workers, len(values)),
+                      "jobs": len(values)},
+        "compute_time_s": time.perf_counter() - t0,
+    }
+    return _report(sc, summary, WorkspaceOutput("design", sweep), first=ds)
+
+
+# --------------------------------------------------------------------------- task space
+
+
+def _task_poses(sc: Scenario) -> np.ndarray:
+    """Target poses (m, 4, 4), SI, of a task_space section."""
+    from mechkin.solvers.sweeps import task_space_grid, task_space_random
+    from mechkin.spatial.euler_conventions import euler_matrix
+    from mechkin.spatial.rotations import matrix_from_quat
+
+    spec = sc.section
+    L = length_factor(sc.spec.units.length)
+    A = angle_factor(sc.spec.units.angle)
+    o = spec.orientation
+    R0: np.ndarray | None = np.eye(3)
+    if o is not None and o.euler is not None:
+        R0 = euler_matrix(o.euler.convention, np.asarray(o.euler.angles, dtype=float) * A)
+    elif o is not None and o.quaternion is not None:
+        R0 = matrix_from_quat(np.asarray(o.quaternion, dtype=float))
+    elif o is not None and o.random:
+        R0 = None
+    axes = [spec.positions[k] for k in "xyz"]
+    if spec.method == "grid":
+        vals = []
+        for a in axes:
+            if a.value is not None:
+                vals.append(np.array([a.value * L]))
+            elif a.n == 1:
+                vals.append(np.array([0.5 * (a.range[0] + a.range[1]) * L]))
+            else:
+                vals.append(np.linspace(a.range[0] * L, a.range[1] * L, a.n))
+        total = int(np.prod([v.size for v in vals]))
+        if total > MAX_SWEEP_SAMPLES:
+            raise ConfigError(f"{sc.doc.where(('workspace', 'positions'))}: the grid has "
+                              f"{total} poses, more than {MAX_SWEEP_SAMPLES}")
+        assert R0 is not None
+        return task_space_grid(vals, R0)
+    box = [(a.value * L, a.value * L) if a.value is not None else
+           (a.range[0] * L, a.range[1] * L) for a in axes]
+    return task_space_random(box, spec.samples, spec.seed, R0)
+
+
+def _sweep_frame(sc: Scenario, mech: Any) -> int:
+    """The frame a sweep maps: ``workspace.frame`` or the mechanism's end effector."""
+    spec = sc.section
+    if spec.frame is not None:
+        if spec.frame not in mech.frame_names:
+            raise ConfigError(f"{sc.doc.where(('workspace', 'frame'))}: unknown frame "
+                              f"{spec.frame!r}")
+        return mech.frame_index(spec.frame)
+    if mech.end_effector is not None:
+        return int(mech.end_effector)
+    raise ConfigError(f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; "
+                      "give frame")
+
+
+def _joint_columns(mech: Any) -> list[str]:
+    return [f"{n}_{'m' if mech.s[mech.independent[i]] == 1 else 'rad'}"
+            for i, n in enumerate(mech.independent_names)]
+
+
+def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
+    from mechkin.model import load_mechanism
+    from mechkin.solvers.sweeps import task_space_summary, task_space_sweep
+
+    spec = sc.section
+    if sc.mechanism_path is None:
+        raise ConfigError(f"{sc.doc.where(('mechanism',))}: a task_space sweep needs a mechanism")
+    mech = load_mechanism(sc.mechanism_path)
+    f = _sweep_frame(sc, mech)
+    T_P = _task_poses(sc)
+    t0 = time.perf_counter()
+    n_jobs = max(1, -(-T_P.shape[0] // spec.chunk))
+    with _progress_bar(ex, f"{sc.name}: ik chunks") as cb:
+        rec = task_space_sweep(sc.mechanism_path, T_P, frame=f, weights=spec.weights,
+                               restarts=spec.restarts, seed=spec.seed, max_iter=spec.max_iter,
+                               chunk=spec.chunk, workers=ex["workers"], address=ex["address"],
+                               progress=cb)
+    summary: dict[str, Any] = {
+        **_head(sc, "task_space"),
+        "mechanism": mech.name,
+        "method": spec.method,
+        "seed": spec.seed,
+        "frame": mech.frame_names[f],
+        "restarts": spec.restarts,
+        **task_space_summary(rec),
+        "definition": {
+            "reachable": "the batched lm ik (with seeded random restarts) reaches the pose: "
+                         "verified errors below 1e-6 m / 1e-6 rad with the joints within "
+                         "limits; a lower bound of the reachable set",
+            "isotropy": "sigma_min / sigma_max of the frame Jacobian (rows omega, v; SI) "
+                        "w.r.t. the independent joints at the solution (closed chains: "
+                        "J_v + J_w dq_w/dq_v); 0 at singular or unreached poses",
+            "isotropy_position": "the same for the position rows",
+            "condition_number": "sigma_max / sigma_min (1/isotropy), capped at 1e16",
+            "manipulability": "Yoshikawa w = product of the singular values of that Jacobian",
+        },
+        "execution": {"executor": "dask" if ex["address"] else "process", "jobs": n_jobs,
+                      "chunk": spec.chunk},
+        "compute_time_s": time.perf_counter() - t0,
+    }
+    title = (f"{mech.name}: task-space sweep of {mech.frame_names[f]} "
+             f"({int(rec.reachable.sum())}/{rec.reachable.size} poses reached, {spec.method})")
+    return _report(sc, summary, WorkspaceOutput("task_space", rec, title=title,
+                                                joint_columns=_joint_columns(mech)))
+
+
+# --------------------------------------------------------------------------- joint sweep
+
+
+def _sweep_values(sc: Scenario, mech: Any) -> tuple[np.ndarray, list[str]]:
+    """Independent joint values (m, n_v) in SI and the names of the swept joints."""
+    spec = sc.section
+    doc = sc.doc
+    names = mech.independent_names
+    given = spec.joints or {}
+    problems = [f"{doc.where(('workspace', 'joints', k))}: not an independent joint "
+                f"(independent: {', '.join(names)})" for k in given if k not in names]
+    if problems:
+        raise ConfigError(problems)
+    swept = [n for n in names if n in given] if (given or spec.method == "grid") else list(names)
+    if not swept:
+        raise ConfigError(f"{doc.where(('workspace', 'joints'))}: method grid needs at least "
+                          "one joint with n")
+    home = mech.home[mech.independent]
+    ranges: dict[str, tuple[float, float]] = {}
+    for name in swept:
+        j = mech.joint_index(name)
+        f = length_factor(sc.spec.units.length) if mech.s[j] == 1 else angle_factor(
+            sc.spec.units.angle)
+        js = given.get(name)
+        if js is not None and js.range is not None:
+            lo, hi = js.range[0] * f, js.range[1] * f
+        else:
+            lo, hi = float(mech.lower[j]), float(mech.upper[j])
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                problems.append(f"{doc.where(('workspace', 'joints', name))}: joint {name!r} has "
+                                "no limits; give a range")
+        ranges[name] = (lo, hi)
+        if spec.method == "grid" and (js is None or js.n is None):
+            problems.append(f"{doc.where(('workspace', 'joints', name))}: method grid needs n")
+    if problems:
+        raise ConfigError(problems)
+    if spec.method == "grid":
+        counts = [given[n].n for n in swept]
+        total = int(np.prod(counts, dtype=np.float64))
+        if total > MAX_SWEEP_SAMPLES:
+            raise ConfigError(f"{doc.where(('workspace', 'joints'))}: the grid has {total} "
+                              f"samples, more than {MAX_SWEEP_SAMPLES}")
+        axes = [np.linspace(*ranges[n], c) for n, c in zip(swept, counts, strict=True)]
+        mesh = np.meshgrid(*axes, indexing="ij")
+        qv = np.tile(home, (total, 1))
+        for n, g in zip(swept, mesh, strict=True):
+            qv[:, names.index(n)] = g.ravel()
+    else:
+        rng = np.random.default_rng(spec.seed)
+        qv = np.tile(home, (spec.samples, 1))
+        for n in swept:
+            qv[:, names.index(n)] = rng.uniform(*ranges[n], size=spec.samples)
+    return qv, swept
+
+
+def _run_joint_sweep(sc: Scenario) -> Report:
+    from mechkin.model import load_mechanism
+    from mechkin.solvers.joint_sweep import joint_sweep, point_cloud_volume
+    from mechkin.solvers.workspace import sigma_statistics
+
+    spec = sc.section
+    if sc.mechanism_path is None:
+        raise ConfigError(f"{sc.doc.where(('mechanism',))}: a joint_sweep needs a mechanism")
+    mech = load_mechanism(sc.mechanism_path)
+    f = _sweep_frame(sc, mech)
+    qv, swept = _sweep_values(sc, mech)
+    m = qv.shape[0]
+    L = length_factor(sc.spec.units.length)
+    t0 = time.perf_counter()
+    closed = mech.is_closed and len(mech.dependent) > 0
+    rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability)
+    reach = rec.reachable
+    elapsed = time.perf_counter() - t0
+    bbox, volume = point_cloud_volume(rec.position[reach],
+                                      spec.voxel * L if spec.voxel is not None else None)
+    summary: dict[str, Any] = {
+        "scenario": sc.name,
+        "task": "workspace",
+        "kind": "joint_sweep",
+        "mechanism": mech.name,
+        "status": "ok",
+        "method": spec.method,
+        "seed": spec.seed if spec.method == "monte_carlo" else None,
+        "swept_joints": swept,
+        "frame": mech.frame_names[f],
+        "closed_chain": bool(closed),
+        "n_samples": int(m),
+        "n_reachable": int(reach.sum()),
+        "reachable_fraction": float(reach.mean()) if m else 0.0,
+        "n_not_converged": int((~rec.converged).sum()),
+        "n_outside_limits": int((rec.converged & ~rec.within_limits).sum()),
+        "bounding_box": bbox,
+        "volume": volume,
+        "definition": {
+            "reachable": "loop closure converged (closed chains) and every joint within limits",
+            "manipulability": "Yoshikawa w = product of the singular values of the frame "
+                              "Jacobian (rows omega, v; SI) w.r.t. the independent joints "
+                              "(closed chains: J_v + J_w dq_w/dq_v)",
+            "isotropy": "sigma_min / sigma_max of that Jacobian (position rows only for "
+                        "isotropy_position); 0 at singular poses",
+            "volume": "voxel_m3: occupied cubes of edge voxel_edge_m; convex_hull_m3: hull of "
+                      "the reachable points (an upper bound for non-convex workspaces)",
+        },
+        "compute_time_s": elapsed,
+    }
+    if spec.manipulability:
+        summary["manipulability"] = sigma_statistics(rec.manipulability[reach])
+        summary["isotropy"] = sigma_statistics(rec.isotropy[reach])
+        summary["isotropy_position"] = sigma_statistics(rec.isotropy_position[reach])
+    sl = spec.slices
+    slices = None if sl is None else {
+        "axis": sl.axis, "at": [v * L for v in sl.at] if sl.at else None,
+        "thickness": sl.thickness * L if sl.thickness else None}
+    title = (f"{mech.name}: reachable positions of {mech.frame_names[f]} "
+             f"({reach.sum()}/{m} samples, {spec.method})")
+    return _report(sc, summary, WorkspaceOutput("joint_sweep", rec, title=title,
+                                                joint_columns=_joint_columns(mech),
+                                                slices=slices))
