@@ -1,4 +1,5 @@
-"""``run_biped``: the hwang2023 Fig. 7 scenarios end to end (summary, CSV, PNG, MCAP), bad input.
+"""The biped task (``mechkin.tasks.biped.run``): the hwang2023 Fig. 7 scenarios end to end
+(summary, CSV, PNG, MCAP), bad input.
 
 The Table 6 angles in the scenarios' ``expect:`` entries depend on the ESTIMATED geometry and body
 heights (see the scenario comments); theta6 of the roll cases and theta1 on plane (a) do not.
@@ -14,14 +15,20 @@ import pytest
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from mechkin.cli.biped_run import run_biped
 from mechkin.config.scenario import load_scenario
 from mechkin.errors import ConfigError
 from mechkin.io.csv_out import read_csv
+from mechkin.tasks.biped import run
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((ROOT / "scenarios").glob("hwang2023_*.yaml"))
 MECH = ROOT / "mechanisms" / "hwang2023_biped.yaml"
+
+
+def run_biped(*, scenario, out_dir: Path, plots: bool = True) -> tuple[dict, int]:
+    """The task's report written to ``out_dir``: (summary, exit code)."""
+    rep = run(scenario)
+    return rep.write(out_dir, plots=plots), rep.exit_code
 
 CASE = """name: t
 task: ik
