@@ -21,8 +21,8 @@ import numpy as np
 
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import forward_kinematics
-from mechkin.solvers import ik_optimize
-from mechkin.solvers.ik_optimize import (
+from mechkin.solvers.ik import accel
+from mechkin.solvers.ik import (
     IkKernel,
     IkOptions,
     pose_errors,
@@ -113,10 +113,10 @@ def main() -> None:
     ap.add_argument("--skip-cg", action="store_true")
     a = ap.parse_args()
     if a.backend == "numpy":
-        ik_optimize.compiled_lm_available = lambda: False
-    elif a.backend == "compiled" and not ik_optimize.compiled_lm_available():
+        accel.compiled_lm_available = lambda: False
+    elif a.backend == "compiled" and not accel.compiled_lm_available():
         raise SystemExit("--backend compiled needs numba: pip install -e '.[fast]'")
-    print(f"open-chain lm: {'compiled' if ik_optimize.compiled_lm_available() else 'numpy'}")
+    print(f"open-chain lm: {'compiled' if accel.compiled_lm_available() else 'numpy'}")
     for name in ("panda", "puma560"):
         bench_random(name, a.n, "lm", restarts=30, repeat=a.repeat)
         if not a.skip_cg:

@@ -42,7 +42,7 @@ _WHERE = {
     "fk": "mechkin.api", "ik": "mechkin.api", "load_mechanism": "mechkin.api",
     "load_scenario": "mechkin.api", "run": "mechkin.api",
     "FkResult": "mechkin.records", "Report": "mechkin.records",
-    "IkResult": "mechkin.solvers.ik_optimize", "Mechanism": "mechkin.model",
+    "IkResult": "mechkin.solvers.ik", "Mechanism": "mechkin.model",
     "Scenario": "mechkin.config.scenario",
     "MechkinError": "mechkin.errors", "ConfigError": "mechkin.errors",
 }

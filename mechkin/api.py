@@ -27,7 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from mechkin.config.scenario import Scenario
     from mechkin.model import Mechanism
     from mechkin.records import FkResult, Report
-    from mechkin.solvers.ik_optimize import IkResult
+    from mechkin.solvers.ik import IkResult
 
 
 def load_mechanism(path: str | Path) -> Mechanism:
@@ -146,7 +146,7 @@ def ik(
 
     from mechkin.config.ik_spec import IkSpec
     from mechkin.errors import ConfigError
-    from mechkin.solvers.ik_optimize import IkOptions, solve_ik, solve_ik_batch
+    from mechkin.solvers.ik import IkOptions, solve_ik, solve_ik_batch
 
     T = np.asarray(targets, dtype=float)
     T = T[None] if T.ndim == 2 else T

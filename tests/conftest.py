@@ -27,10 +27,10 @@ def scenarios_dir() -> Path:
 @pytest.fixture(params=["compiled", "numpy"])
 def lm_backend(request, monkeypatch):
     """The IK both ways: compiled kernels (numba, mechkin[fast]) and numpy on mechkin.model."""
-    from mechkin.solvers import ik_optimize
+    from mechkin.solvers.ik import accel
 
     if request.param == "compiled":
         pytest.importorskip("numba")
-    monkeypatch.setattr(ik_optimize, "compiled_lm_available",
+    monkeypatch.setattr(accel, "compiled_lm_available",
                         lambda: request.param == "compiled")
     return request.param

@@ -195,36 +195,3 @@ def echo_json(summary: dict[str, Any]) -> None:
 
 def dump(obj: Any) -> str:
     return json.dumps(obj, indent=2)
-
-
-# ---- TRANSITIONAL (removed when track, workspace and biped run through mechkin.tasks) ----------
-def __getattr__(name: str) -> Any:
-    if name in ("evaluate_expect", "joint_factor", "load_task_scenario", "lookup", "UNIT_TO_SI"):
-        from mechkin.tasks import common
-
-        return getattr(common, name)
-    if name == "report_expect":
-        def report_expect(checks: list[dict[str, Any]], scenario_path: Path) -> None:
-            from mechkin.tasks.common import expect_messages
-
-            for msg in expect_messages(checks, scenario_path):
-                typer.echo(msg, err=True)
-        return report_expect
-    raise AttributeError(name)
-
-
-def legacy_run_command(task: str, doc: str, run: Callable[[Path, Path | None, bool, bool], int]
-                       ) -> Callable[..., None]:
-    """TRANSITIONAL: the old shell around ``run(scenario, out, json_out, plots) -> code``."""
-
-    def command(
-        scenario: Path = typer.Argument(..., help=f"Scenario YAML (task: {task})"),
-        out: OutOption = None,
-        json_out: JsonOption = False,
-        plots: PlotsOption = True,
-    ) -> None:
-        raise typer.Exit(run(scenario, out, json_out, plots))
-
-    command.__doc__ = doc
-    command.__name__ = f"{task}_cli"
-    return command

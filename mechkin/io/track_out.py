@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from mechkin.io.atomic import OutputDir
+from mechkin.io.output_dir import OutputDir
 from mechkin.records import Report
 from mechkin.records.track import TrackRecord, TrackTrajectory
 

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from mechkin.io.atomic import OutputDir
+from mechkin.io.output_dir import OutputDir
 from mechkin.records import OutputFlags, Report
 from mechkin.records.workspace import (
     DesignSweepRecord,

@@ -164,7 +164,7 @@ class TaskSpaceRecord:
     q_v : ndarray, shape (m, n_v)
         Independent joints at the solutions (best attempt where not reached).
     status : ndarray of str, shape (m,)
-        :class:`mechkin.solvers.ik_optimize.IkStatus` values.
+        :class:`mechkin.solvers.ik.IkStatus` values.
     reachable : ndarray of bool, shape (m,)
         Status ok.
     position_error, orientation_error : ndarray, shape (m,)

@@ -12,7 +12,7 @@ Three pieces, all independent of the CLI and of io/ (records: :mod:`mechkin.reco
   design parameter (``r``, ``R``, ``l_min``, ``l_max``), one job per value, and a comparison
   table (:func:`design_comparison`).
 * :func:`task_space_sweep`: task-space poses of a frame through the batched Levenberg-Marquardt
-  inverse kinematics (:func:`mechkin.solvers.ik_optimize.solve_ik_batch`), chunks of poses as
+  inverse kinematics (:func:`mechkin.solvers.ik.solve_ik_batch`), chunks of poses as
   jobs, and at every solution the dexterity of the frame Jacobian ``J`` (rows omega, v; SI) with
   respect to the independent joints (closed chains: ``J_v + J_w dq_w/dq_v``, kim1995 Eq. (10)):
 
@@ -343,7 +343,7 @@ def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     from mechkin.model import load_mechanism
     from mechkin.model.closure import dependent_sensitivity
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian
-    from mechkin.solvers.ik_optimize import IkOptions, solve_ik_batch
+    from mechkin.solvers.ik import IkOptions, solve_ik_batch
 
     mech = load_mechanism(job["mechanism"])
     f = job["frame"]
@@ -395,7 +395,7 @@ def task_space_sweep(
     weights : sequence of 6 floats, optional
         Diagonal of W (kim1995 Eq. (9)): position, then orientation.
     restarts, seed, max_iter, tol_pos, tol_ori
-        :class:`mechkin.solvers.ik_optimize.IkOptions`; every chunk uses the same seed, so the
+        :class:`mechkin.solvers.ik.IkOptions`; every chunk uses the same seed, so the
         result depends on ``chunk`` but not on the executor or the number of workers.
     chunk : int
         Poses per job.

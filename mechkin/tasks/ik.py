@@ -20,7 +20,7 @@ from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
-from mechkin.solvers.ik_optimize import (
+from mechkin.solvers.ik import (
     IkOptions,
     IkResult,
     IkStatus,

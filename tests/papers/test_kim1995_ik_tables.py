@@ -15,7 +15,7 @@ from mechkin.model import load_mechanism
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.solvers.closed_form.direct_drive import direct_drive_ik
 from mechkin.solvers.closed_form.stewart import leg_lengths, stewart_attachments
-from mechkin.solvers.ik_optimize import IkOptions, IkStatus, pose_errors, solve_ik_sequence
+from mechkin.solvers.ik import IkOptions, IkStatus, pose_errors, solve_ik_sequence
 
 
 def _polar(T):

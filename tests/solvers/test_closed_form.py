@@ -14,7 +14,7 @@ from mechkin.solvers.closed_form.direct_drive import (
     direct_drive_ik,
 )
 from mechkin.solvers.closed_form.stewart import leg_lengths, stewart_attachments
-from mechkin.solvers.ik_optimize import IkOptions, IkStatus, solve_ik
+from mechkin.solvers.ik import IkOptions, IkStatus, solve_ik
 
 
 def _ee_poses(mech, q_v):

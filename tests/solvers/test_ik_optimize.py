@@ -11,8 +11,9 @@ from mechkin.model.kinematics import (
     forward_kinematics,
     relative_jacobian,
 )
-from mechkin.solvers import ik_optimize
-from mechkin.solvers.ik_optimize import (
+from mechkin.solvers.ik import accel
+from mechkin.solvers.ik import lm as ik_lm
+from mechkin.solvers.ik import (
     IkKernel,
     IkOptions,
     IkStatus,
@@ -175,9 +176,9 @@ def test_compiled_lm_takes_the_numpy_lm_steps(root, name, monkeypatch):
     opts = IkOptions()
     runs = {}
     for backend in ("compiled", "numpy"):
-        monkeypatch.setattr(ik_optimize, "compiled_lm_available", lambda b=backend: b == "compiled")
-        runs[backend] = ik_optimize._lm_batch(kern, q0, np.zeros((50, 0)), Ts, w, opts,
-                                              history=True)
+        monkeypatch.setattr(accel, "compiled_lm_available", lambda b=backend: b == "compiled")
+        runs[backend] = ik_lm.lm_batch(kern, q0, np.zeros((50, 0)), Ts, w, opts,
+                                        history=True)
     a, b = runs["compiled"], runs["numpy"]
     assert (a["iters"] == b["iters"]).mean() >= 0.8
     assert np.median(np.abs(a["q"] - b["q"]).max(axis=1)) < 1e-10
@@ -209,8 +210,8 @@ def test_compiled_closed_chain_lm_takes_the_numpy_lm_steps(root, name, monkeypat
     w = np.ones((len(Ts), 6))
     runs = {}
     for backend in ("compiled", "numpy"):
-        monkeypatch.setattr(ik_optimize, "compiled_lm_available", lambda b=backend: b == "compiled")
-        runs[backend] = ik_optimize._lm_batch(kern, qv0, qw0, Ts, w, IkOptions(), history=True)
+        monkeypatch.setattr(accel, "compiled_lm_available", lambda b=backend: b == "compiled")
+        runs[backend] = ik_lm.lm_batch(kern, qv0, qw0, Ts, w, IkOptions(), history=True)
     a, b = runs["compiled"], runs["numpy"]
     assert a["closed"].all() and b["closed"].all()
     np.testing.assert_array_equal(a["iters"], b["iters"])

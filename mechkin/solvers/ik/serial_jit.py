@@ -1,6 +1,6 @@
 r"""Compiled Levenberg-Marquardt for open chains (optional accelerator, needs ``numba``).
 
-The same iteration as the numpy ``lm`` of :mod:`mechkin.solvers.ik_optimize` on the serial path
+The same iteration as the numpy ``lm`` of :mod:`mechkin.solvers.ik.lm` on the serial path
 to {E} (:class:`mechkin.model.serial.SerialChain`), written as plain loops and compiled by numba
 (``pip install "mechkin[fast]"``). For one target the numpy version spends almost all its time
 in the fixed cost of small array calls; compiled, a whole solve takes tens of microseconds.
@@ -16,8 +16,13 @@ Per row (target), with the chain expressed in {P} (``F_0 = T_P^{-1} A_0``):
   E < f_abs, when a kept step gains less than 1e-14 E, when a rejected step is shorter than
   1e-13 or lambda > 1e10, or (``stall > 0``) when E has not halved in ``stall`` iterations.
 
-Importing this module imports numba; :func:`mechkin.solvers.accel.compiled_lm_available` says
+Importing this module imports numba; :func:`mechkin.solvers.ik.accel.compiled_lm_available` says
 whether it can be used (numba installed, ``MECHKIN_JIT`` not ``0``).
+
+Design
+------
+Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports only numpy and numba (the
+chain constants come in as arrays); never ``io/``, ``cli/`` or ``tasks/``.
 """
 
 from __future__ import annotations

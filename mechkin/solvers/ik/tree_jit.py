@@ -1,6 +1,6 @@
 r"""Compiled lm for closed and complex chains (optional accelerator, needs ``numba``).
 
-The numpy ``lm`` of :mod:`mechkin.solvers.ik_optimize` on a mechanism with cut joints, written as
+The numpy ``lm`` of :mod:`mechkin.solvers.ik.lm` on a mechanism with cut joints, written as
 loops over one configuration and compiled by numba (``pip install "mechkin[fast]"``). Each
 evaluation is what the numpy path does with :mod:`mechkin.model`:
 
@@ -17,6 +17,12 @@ limits of q_v, first-order predictor of q_w for the next closure).
 The pseudo-inverse is a direct LU solve for a square ``dphi/dq_w`` and the normal equations
 (Cholesky) for a tall one (rank-deficient rows, as the direct-drive arm's planar loop, are
 fine; a column-rank loss is reported as a failed closure, like the numpy path's "singular").
+
+Design
+------
+Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports numpy, numba and
+:mod:`mechkin.solvers.ik.serial_jit` (shared loop kernels); never ``io/``, ``cli/`` or
+``tasks/``.
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from mechkin.solvers.ik_serial_jit import (
+from mechkin.solvers.ik.serial_jit import (
     cholesky_solve,
     half_wsq,
     lm_decide,
@@ -351,7 +357,7 @@ def evaluate_closed(q, iv, iw, K, fe_link, fe_off, sigE, TP, tol_phi, tol_dq, ma
 def passive_limited_step(H, g, lam, mu, step, q, iw, S, lo_w, hi_w):
     """Re-solve the lm step (q_v <- q_v - step) with the dependent joints that the predicted
     ``q_w + S step`` would carry across a limit held on it (KKT system, active set grown until
-    nothing crosses): mechkin.solvers.ik_optimize._passive_limited_steps for one row."""
+    nothing crosses): mechkin.solvers.ik.lm.passive_limited_steps for one row."""
     nv, nw = step.size, iw.size
     act = np.zeros(nw, dtype=np.bool_)
     tgt = np.zeros(nw)
@@ -573,7 +579,8 @@ def tree_constants(mech, frame: int):
 def lm_closed_rows(kern, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, w: np.ndarray, *,
                    tol_phi: float, tol_dq: float, max_iter_closure: int, f_abs: float,
                    max_iter: int, mu: float, history: bool, passive_band: float):
-    """Run the compiled closed-chain lm on every row; returns a dict like ``_lm_batch``."""
+    """Run the compiled closed-chain lm on every row; returns a dict like
+    :func:`mechkin.solvers.ik.lm.lm_batch`."""
     mech = kern.mech
     K, fe_link, fe_off, sigE = tree_constants(mech, kern.frame)
     m, nv = q_v0.shape

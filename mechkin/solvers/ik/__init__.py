@@ -1,0 +1,79 @@
+r"""Inverse kinematics of complex chains by optimisation (kim1995 §3-§5).
+
+The end-effector frame {E} is driven onto a precision point {P} by searching the independent
+joints q_v; the dependent joints q_w follow from the loop closure (kim1995 Eq. (4)-(6)); the
+objective is f(q_v) = 1/2 x^T W x (Eq. (7)-(9)) with the gradient of Eq. (10). Two methods
+share that objective:
+
+* ``cg-golden``: kim1995 §5.2 as printed: Fletcher-Reeves conjugate gradient, golden-section
+  line search with bracketing (Arora 1989);
+* ``lm``: damped Gauss-Newton (Levenberg-Marquardt) on the reduced Jacobian; the default.
+  :func:`solve_ik_batch` runs it on many targets at once, vectorized across targets.
+
+Joint limits and leg strokes of the independent joints are respected by projection. Every
+result carries the position and orientation error of {E} recomputed by forward kinematics at
+the returned joints.
+
+Design
+------
+One solver family in several modules, each doing one thing:
+
+============== ===================================================================
+``kernel``     IkKernel (per-mechanism constants), the objective, evaluate, pose_errors
+``results``    IkOptions, IkResult, IkBatchResult, IkStatus; verification and status
+``seeds``      the seeded codebook (KD-tree of reachable poses), restart starts
+``lm``         Levenberg-Marquardt, batched (numpy; dispatches to the compiled kernels)
+``cg_golden``  kim1995 §5.2: conjugate gradient with golden-section line search
+``solve``      solve_ik, solve_ik_sequence, solve_ik_batch (starts, restarts, results)
+``accel``      whether the compiled kernels can be used
+``serial_jit`` compiled lm for open chains (numba, optional)
+``tree_jit``   compiled lm and evaluation for closed chains (numba, optional)
+============== ===================================================================
+
+Imports go down this table's dependency order (kernel <- results <- seeds, lm, cg_golden <-
+solve); the family imports :mod:`mechkin.model`, :mod:`mechkin.spatial` and
+:mod:`mechkin.solvers.result`, never ``io/``, ``cli/`` or ``tasks/``.
+
+References
+----------
+kim1995_complex_chain_ik §3-§5, Eq. (4)-(10); §5.1 (loop closure) and §5.2 (inverse kinematics).
+"""
+
+from __future__ import annotations
+
+from mechkin.solvers.ik.accel import compiled_lm_available
+from mechkin.solvers.ik.cg_golden import ACTIVE_BAND, GOLDEN, MAX_ITER_CG
+from mechkin.solvers.ik.kernel import (
+    MAX_ITER_CLOSURE,
+    TOL_DQ_CLOSURE,
+    TOL_PHI,
+    IkKernel,
+    evaluate,
+    gradient,
+    objective,
+    pose_errors,
+    reduced_jacobian,
+)
+from mechkin.solvers.ik.lm import LM_MU, MAX_ITER_LM, PASSIVE_BAND, STALL_WINDOW
+from mechkin.solvers.ik.results import (
+    GRAD_TOL,
+    TOL_ORI_RAD,
+    TOL_POS_M,
+    IkBatchResult,
+    IkOptions,
+    IkResult,
+    IkStatus,
+    Method,
+    verify,
+)
+from mechkin.solvers.ik.seeds import SEED_CODEBOOK, SEED_RESTARTS
+from mechkin.solvers.ik.solve import solve_ik, solve_ik_batch, solve_ik_sequence
+
+__all__ = [
+    "ACTIVE_BAND", "GOLDEN", "GRAD_TOL", "LM_MU", "MAX_ITER_CG", "MAX_ITER_CLOSURE",
+    "MAX_ITER_LM", "PASSIVE_BAND", "SEED_CODEBOOK", "SEED_RESTARTS", "STALL_WINDOW",
+    "TOL_DQ_CLOSURE", "TOL_ORI_RAD", "TOL_PHI", "TOL_POS_M", "IkBatchResult", "IkKernel",
+    "IkOptions", "IkResult", "IkStatus", "Method", "compiled_lm_available", "evaluate",
+    "gradient", "objective", "pose_errors", "reduced_jacobian", "solve_ik", "solve_ik_batch",
+    "solve_ik_sequence", "verify",
+]

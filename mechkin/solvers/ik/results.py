@@ -1,0 +1,210 @@
+"""Options, results and verification of the IK solvers.
+
+:class:`IkOptions` (what a solve is asked), :class:`IkResult` and :class:`IkBatchResult`
+(what it returns), :data:`IkStatus`, and the verification of a returned configuration: the
+position and orientation errors of {E} recomputed by forward kinematics at the returned joints
+(only the components with non-zero weight count towards "reached"), and the status that
+follows from them.
+
+Design
+------
+Part of the IK solver family :mod:`mechkin.solvers.ik`. May import
+:mod:`mechkin.solvers.ik.kernel`, :mod:`mechkin.solvers.result`, :mod:`mechkin.model` and
+:mod:`mechkin.spatial`; never ``io/``, ``cli/`` or ``tasks/``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from mechkin.solvers.ik.kernel import TOL_PHI, IkKernel, pose_errors
+from mechkin.solvers.result import Status
+from mechkin.spatial.rotations import rotation_log
+
+Method = Literal["lm", "cg-golden"]
+
+TOL_POS_M = 1e-6  # a target counts as reached below these verified errors
+TOL_ORI_RAD = 1e-6
+GRAD_TOL = 1e-10
+
+IkStatus = Status  # the statuses of mechkin.solvers.result (ok, not converged, ...)
+
+
+@dataclass(frozen=True)
+class IkOptions:
+    """Options of :func:`solve_ik`.
+
+    Attributes
+    ----------
+    method : {"lm", "cg-golden"}
+    grad_tol : float
+        Stop when ``||df/dq_v|| < grad_tol`` (kim1995 §5.2 Step 6, epsilon).
+    max_iter : int or None
+        Iterations of the method (default 100 for lm, 2000 for cg-golden).
+    tol_pos, tol_ori : float
+        Verified errors [m], [rad] below which a target counts as reached (status ok). Only the
+        components with non-zero weight count.
+    restarts : int
+        Extra solves from seeded random independent joints within the limits when a solve
+        does not reach the target; the best one is kept.
+    seed : int
+        Seed of the restarts.
+    tol_phi : float
+        Loop-closure tolerance ||phi_R|| (kim1995 §5.1 Step 3).
+    line_tol : float
+        Golden-section interval length at which the line search stops (cg-golden).
+    cg_restart : int or None
+        Reset the conjugate direction to -grad every ``cg_restart`` iterations (None: every
+        n_v iterations; 0: never, as printed in kim1995 §5.2). A direction that is not a
+        descent direction is always reset.
+    """
+
+    method: Method = "lm"
+    grad_tol: float = GRAD_TOL
+    max_iter: int | None = None
+    tol_pos: float = TOL_POS_M
+    tol_ori: float = TOL_ORI_RAD
+    restarts: int = 0
+    seed: int = 0
+    tol_phi: float = TOL_PHI
+    line_tol: float = 1e-7
+    cg_restart: int | None = None
+
+
+@dataclass(frozen=True)
+class IkResult:
+    """Record of one solve (one precision point).
+
+    Attributes
+    ----------
+    q_v : (n_v,) independent joints [rad | m]; q_w : (n_w,) dependent joints; q : (n,) all.
+    status : IkStatus
+    position_error : float
+        ``||p_E - p_P||`` [m], by forward kinematics at ``q``.
+    orientation_error : float
+        Rotation angle of ``R_P^T R_E`` [rad], by forward kinematics at ``q``.
+    f : float
+        Objective (kim1995 Eq. (9)) at exit; ``grad_norm`` its gradient norm (Eq. (10)).
+    iterations, evaluations : int
+        Iterations of the method and evaluations of f (each one loop closure for closed chains).
+    time_s : float
+    f_history : (iterations + 1,) f per iteration.
+    at_limit : tuple of joint names whose value sits on a limit.
+    restarts_used : int
+    """
+
+    q_v: np.ndarray
+    q_w: np.ndarray
+    q: np.ndarray
+    status: IkStatus
+    position_error: float
+    orientation_error: float
+    f: float
+    grad_norm: float
+    iterations: int
+    evaluations: int
+    time_s: float
+    f_history: np.ndarray
+    at_limit: tuple[str, ...] = ()
+    restarts_used: int = 0
+    method: str = "lm"
+
+    @property
+    def ok(self) -> bool:
+        return self.status is IkStatus.OK
+
+
+@dataclass(frozen=True)
+class IkBatchResult:
+    """Records of :func:`solve_ik_batch`, one row per target (shapes (m, ...))."""
+
+    q_v: np.ndarray
+    q_w: np.ndarray
+    q: np.ndarray
+    status: np.ndarray  # (m,) object array of IkStatus
+    position_error: np.ndarray
+    orientation_error: np.ndarray
+    f: np.ndarray
+    iterations: np.ndarray
+    time_s: float
+
+    @property
+    def ok(self) -> np.ndarray:
+        return np.array([s is IkStatus.OK for s in self.status], dtype=bool)
+
+
+# ---- verification -------------------------------------------------------------------------------
+
+
+def weighted_errors(T_E: np.ndarray, T_P: np.ndarray, w: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Errors of the components that carry weight (zero weight: not determined, not counted)."""
+    return pose_and_weighted_errors(T_E, T_P, w)[2:]
+
+
+def pose_and_weighted_errors(T_E: np.ndarray, T_P: np.ndarray, w: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Position and orientation errors of poses T_E (m, 4, 4) to T_P (m, 4, 4): all components,
+    then the weighted components only (w (m, 6)): four (m,) arrays [m, rad, m, rad]."""
+    m = T_E.shape[0]
+    RPt = np.swapaxes(T_P[:, :3, :3], 1, 2)
+    M = RPt @ T_E[:, :3, :]  # R_P^T [R_E | p_E]
+    xp = M[:, :, 3] - (RPt @ T_P[:, :3, 3:])[:, :, 0]
+    rv = rotation_log(np.ascontiguousarray(M[:, :, :3]).reshape(m, 3, 3))
+    pe = np.sqrt((xp * xp).sum(axis=1))
+    oe = np.sqrt((rv * rv).sum(axis=1))
+    xpw = np.where(w[:, :3] > 0, xp, 0.0)
+    rvw = np.where(w[:, 3:] > 0, rv, 0.0)
+    return pe, oe, np.sqrt((xpw * xpw).sum(axis=1)), np.sqrt((rvw * rvw).sum(axis=1))
+
+
+def verify(kern: IkKernel, q: np.ndarray, T_P: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pose of {E} (m, 4, 4) by forward kinematics at q (m, n) and its errors to T_P."""
+    T_E = kern.end_effector(kern.kinematics(q))
+    pe, oe = pose_errors(T_E, T_P)
+    return T_E, pe, oe
+
+
+
+def status_of(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, closed: bool,
+            converged: bool, opts: IkOptions, grad_norm: float = 0.0
+            ) -> tuple[IkStatus, float, float, tuple[str, ...]]:
+    T_E = kern.pose_check(q[None])
+    pe, oe, wpe, woe = pose_and_weighted_errors(T_E, T_P[None], w[None])
+    mech = kern.mech
+    tol_j = 1e-9
+    at = tuple(mech.joint_names[j] for j in
+               np.flatnonzero((q <= mech.lower + tol_j) | (q >= mech.upper - tol_j)))
+    pos, ori = float(pe[0]), float(oe[0])
+    if not closed or not np.all(np.isfinite(q)):
+        return IkStatus.SINGULAR, pos, ori, at
+    if wpe[0] <= opts.tol_pos and woe[0] <= opts.tol_ori:
+        return IkStatus.OK, pos, ori, at
+    if converged:
+        # stationary above tolerance: a limit blocks the descent (at a limit) or the target is
+        # outside the workspace of the mechanism (unreachable)
+        iv = kern.iv
+        on = (q[iv] <= kern.bound_lo + tol_j) | (q[iv] >= kern.bound_hi - tol_j)
+        return (IkStatus.AT_LIMIT if on.any() else IkStatus.UNREACHABLE), pos, ori, at
+    if not np.isfinite(grad_norm) or grad_norm > 1e6:
+        return IkStatus.SINGULAR, pos, ori, at
+    return IkStatus.NOT_CONVERGED, pos, ori, at
+
+
+def finite(a: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    return np.where(np.isfinite(a), a, fallback)
+
+
+
+def better(a: dict, b: dict) -> bool:
+    """Whether result fields a beat b: a better status, then a lower f."""
+    rank = {IkStatus.OK: 0, IkStatus.AT_LIMIT: 1, IkStatus.UNREACHABLE: 2,
+            IkStatus.NOT_CONVERGED: 2, IkStatus.SINGULAR: 3}
+    if rank[a["status"]] != rank[b["status"]]:
+        return rank[a["status"]] < rank[b["status"]]
+    return a["f"] < b["f"]
+

@@ -1,0 +1,83 @@
+"""Starts of the IK searches: the seeded codebook of reachable poses and restart starts.
+
+A solve without a guess starts from the nearest pose of a codebook of ``SEED_CODEBOOK`` seeded
+random configurations within the limits (forward kinematics once, a KD-tree of the poses);
+restarts take the next-nearest codebook poses, then seeded random joints within the limits.
+Open chains only (closed chains seldom assemble at random joints; their restarts jitter the
+given start).
+
+Design
+------
+Part of the IK solver family :mod:`mechkin.solvers.ik`. May import
+:mod:`mechkin.solvers.ik.kernel` and :mod:`mechkin.model`; never ``io/``, ``cli/`` or
+``tasks/``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mechkin.solvers.ik.kernel import IkKernel
+
+SEED_CODEBOOK = 8192  # configurations searched for the start of a solve without a guess
+SEED_RESTARTS = 8  # restarts that start from the next-nearest codebook poses
+
+
+def seed_starts(kern: IkKernel, T_P: np.ndarray, w: np.ndarray, ranks=(0,),
+                size: int = SEED_CODEBOOK) -> np.ndarray | None:
+    """Initial independent joints (m, len(ranks), n_v) for targets T_P (m, 4, 4): the
+    nearest poses of a seeded codebook of random configurations within the limits (open
+    chains only; None for closed chains).
+
+    Distance: position error [m] plus 0.5 m per unit of ``||R_P - R||_F`` (about 0.7 m per
+    radian for small angles), each counted only where ``w`` weights it, so far targets
+    start in the right region and LM needs few steps. ``ranks`` picks which neighbours
+    (0 = the nearest; restarts take the next ones).
+    """
+    if kern.n_cuts or kern.iw.size:
+        return None
+    ranks = np.asarray(ranks, dtype=int)
+    m = T_P.shape[0]
+    wp = (w[:, :3] > 0).any(axis=1)  # (m,)
+    wo = (w[:, 3:] > 0).any(axis=1)
+    out = np.empty((m, ranks.size, kern.iv.size))
+    # features: position [m] and 0.5 m per unit of ||R_t - R||_F (= 2 sqrt(2) sin(theta/2))
+    feats = np.empty((m, 12))
+    feats[:, :3] = T_P[:, :3, 3]
+    feats[:, 3:] = 0.5 * T_P[:, :3, :3].reshape(m, 9)
+    modes = wp.astype(int) * 2 + wo.astype(int)
+    for mode in (modes[0],) if m == 1 else np.unique(modes):
+        rows = slice(None) if m == 1 else np.flatnonzero(modes == mode)
+        cols = tuple(([0, 1, 2] if mode & 2 else []) + (list(range(3, 12)) if mode & 1
+                                                        else []))
+        if not cols:
+            out[rows] = codebook(kern, size)[0][ranks]
+            continue
+        qs, tree = codebook(kern, size, cols)
+        # approximate search (eps = 1: within twice the nearest distance) is as good a
+        # start and 5x faster on large batches
+        _, nearest = tree.query(feats[rows][:, cols], k=int(ranks.max()) + 1, eps=1.0,
+                                workers=-1 if m >= 256 else 1)
+        out[rows] = qs[nearest.reshape(len(feats[rows]), -1)[:, ranks]]
+    return out
+
+
+def codebook(kern: IkKernel, size: int, cols: tuple[int, ...] = tuple(range(12))):
+    """Seeded random configurations within the limits and a KD-tree of their poses."""
+    from scipy.spatial import cKDTree
+
+    cache = kern.__dict__.setdefault("_codebooks", {})
+    hit = cache.get((size, cols))
+    if hit is None:
+        rng = np.random.default_rng(12345)
+        lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+        hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+        qs = rng.uniform(lo, hi, size=(size, kern.iv.size))
+        q = np.zeros((size, kern.n))
+        q[:, kern.iv] = qs
+        T = kern.end_effector(kern.kinematics(q))
+        feats = np.concatenate([T[:, :3, 3], 0.5 * T[:, :3, :3].reshape(size, 9)], axis=1)
+        hit = (qs, cKDTree(feats[:, list(cols)]))
+        cache[(size, cols)] = hit
+    return hit
+

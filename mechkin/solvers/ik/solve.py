@@ -1,0 +1,270 @@
+r"""The public IK drivers: one precision point, a sequence, a batch (kim1995 §5.2).
+
+.. math:: q_v^* = \arg\min f(q_v),\quad f = \tfrac12 x^T W x,\quad
+          \phi_R(q_v^*, q_w^*) = 0
+
+:func:`solve_ik` solves one precision point by lm or cg-golden with seeded restarts (codebook
+seeds first, then random joints within the limits; closed chains jitter the start);
+:func:`solve_ik_sequence` warm-starts each point from the previous solution (kim1995 §5.2
+Step 2); :func:`solve_ik_batch` runs lm on many targets at once and re-solves the failed ones
+together. Every result is verified by forward kinematics (:mod:`mechkin.solvers.ik.results`).
+
+Design
+------
+Part of the IK solver family :mod:`mechkin.solvers.ik`. May import every module of the family
+and :mod:`mechkin.model`; never ``io/``, ``cli/`` or ``tasks/``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.cg_golden import cg_golden
+from mechkin.solvers.ik.lm import lm_batch
+from mechkin.solvers.ik.kernel import IkKernel, pose_errors
+from mechkin.solvers.ik.results import (
+    IkBatchResult,
+    IkOptions,
+    IkResult,
+    IkStatus,
+    better,
+    finite,
+    status_of,
+    weighted_errors,
+)
+from mechkin.solvers.ik.seeds import SEED_RESTARTS, seed_starts
+
+
+def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
+             q_w0: np.ndarray | None = None, weights: np.ndarray | None = None,
+             options: IkOptions | None = None, frame: int | None = None,
+             kernel: IkKernel | None = None) -> IkResult:
+    r"""Independent joints that bring {E} onto the precision point T_P (kim1995 Eq. (5)-(6)).
+
+    .. math:: q_v^* = \arg\min f(q_v),\quad f = \tfrac12 x^T W x,\quad
+              \phi_R(q_v^*, q_w^*) = 0
+
+    Parameters
+    ----------
+    mech : Mechanism
+    T_P : array, shape (4, 4)
+        Precision point {P} in the base frame.
+    q_v0 : array, shape (n_v,), optional
+        Initial independent joints (default: home).
+    q_w0 : array, shape (n_w,), optional
+        Initial approximation of the dependent joints (default: home).
+    weights : array, shape (6,), optional
+        Diagonal of W: position (3), then orientation (3); zeros allowed (default ones).
+    options : IkOptions, optional
+    frame : int, optional
+        {E} (default ``mech.end_effector``).
+
+    Returns
+    -------
+    IkResult
+        With errors verified by forward kinematics at the returned joints. A failed solve is
+        retried ``options.restarts`` times from seeded random q_v within the limits.
+
+    References
+    ----------
+    kim1995_complex_chain_ik §5.2 (cg-golden) and Eq. (7)-(10).
+    """
+    opts = options or IkOptions()
+    kern = kernel or IkKernel(mech, frame)
+    T_P = np.asarray(T_P, dtype=np.float64)
+    w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
+    t0 = time.perf_counter()
+    qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
+    if q_v0 is None:  # no guess: the nearest pose of the seeded codebook (open chains)
+        seeded = seed_starts(kern, T_P[None], w[None])
+        if seeded is not None:
+            qv0 = seeded[0, 0]
+    qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
+    rng: np.random.Generator | None = None
+    best: dict | None = None
+    tot_it = tot_ev = 0
+    attempt = 0
+    while attempt <= opts.restarts:
+        if attempt == 0:
+            starts_v, start_w = qv0[None], qw0
+        else:
+            rng = rng or np.random.default_rng(opts.seed)
+            lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+            hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+            # lm: every remaining restart at once, as rows of one batch that stops at the
+            # first success; cg-golden: one at a time (kim1995 §5.2 is sequential)
+            k = opts.restarts if opts.method == "lm" else 1
+            if kern.n_cuts:
+                # closed chains: random joints seldom assemble, so restart near the given start
+                # (which does) with a seeded jitter of 2 % of each range
+                starts_v = kern.project(qv0 + rng.normal(0.0, 0.02, size=(k, kern.iv.size))
+                                        * np.minimum(hi - lo, 2 * np.pi))
+                start_w = qw0
+            else:
+                starts_v = rng.uniform(lo, hi, size=(k, kern.iv.size))
+                start_w = qw0 if best is None else best["q_w"]
+            # the nearest codebook poses not tried yet come first (lm: all in one batch;
+            # cg-golden: the next one per attempt)
+            first = (1 if q_v0 is None else 0) + (attempt - 1 if opts.method != "lm" else 0)
+            nr = min(k, max(SEED_RESTARTS - first, 0))
+            seed = (seed_starts(kern, T_P[None], w[None], ranks=range(first, first + nr))
+                    if nr else None)
+            if seed is not None:
+                starts_v[:nr] = seed[0]
+        if opts.method == "cg-golden":
+            r = cg_golden(kern, starts_v[0], start_w, T_P, w, opts)
+            hist = np.asarray(r["hist"], dtype=float)
+            qv, qw = r["qv"], r["qw"]
+            f, iters, nev, gn = r["f"], r["iters"], r["nev"], r["gnorm"]
+            closed, conv = r["closed"], r["converged"]
+            attempt += 1
+        elif opts.method == "lm":
+            k = starts_v.shape[0]
+            r = lm_batch(kern, starts_v, np.broadcast_to(start_w, (k, kern.iw.size)),
+                          np.broadcast_to(T_P, (k, 4, 4)) if k > 1 else T_P[None],
+                          np.broadcast_to(w, (k, 6)) if k > 1 else w[None], opts,
+                          history=True, stop_on_first=k > 1)
+            if k == 1:
+                b = 0
+            else:
+                fr = np.where(r["closed"], r["f"], np.inf)
+                b = int(np.argmin(fr)) if np.isfinite(fr).any() else 0
+            hist = np.asarray(r["hist"][b], dtype=float)
+            qv, qw = r["qv"][b], r["qw"][b]
+            f, iters, nev, gn = (float(r["f"][b]), int(r["iters"].max()),
+                                 int(r["nev"].sum()), float(r["gnorm"][b]))
+            closed, conv = bool(r["closed"][b]), bool(r["converged"][b])
+            attempt += k
+        else:
+            raise ValueError(f"method: expected 'lm' or 'cg-golden', got {opts.method!r}")
+        tot_it += int(iters)
+        tot_ev += int(nev)
+        q = np.empty(kern.n)
+        q[kern.iv], q[kern.iw] = qv, qw
+        q = finite(q, mech.home)
+        st, pe, oe, at = status_of(kern, q, T_P, w, closed, conv, opts, float(gn))
+        f_fin = float(f) if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
+        if not np.isfinite(hist).all():
+            hist = finite(hist, np.full_like(hist, f_fin))
+        res = dict(q_v=q[kern.iv], q_w=q[kern.iw], q=q, status=st, position_error=pe,
+                   orientation_error=oe, f=f_fin, grad_norm=float(gn) if np.isfinite(gn) else 0.0,
+                   f_history=hist, at_limit=at, restarts_used=attempt - 1, method=opts.method)
+        if best is None or better(res, best):
+            best = res
+        if best["status"] is IkStatus.OK:
+            break
+    assert best is not None
+    return IkResult(**best, iterations=tot_it, evaluations=tot_ev,
+                    time_s=time.perf_counter() - t0)
+
+
+
+def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
+                      q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
+                      weights: np.ndarray | list[np.ndarray] | None = None,
+                      options: IkOptions | None = None, frame: int | None = None,
+                      ) -> list[IkResult]:
+    """Solve precision points in order, each warm-started from the previous solution
+    (kim1995 §5.2 Step 2). ``weights`` (6,) for all or (k, 6) per point."""
+    kern = IkKernel(mech, frame)
+    Ts = np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4)
+    W = np.ones((len(Ts), 6)) if weights is None else np.broadcast_to(
+        np.asarray(weights, dtype=np.float64), (len(Ts), 6))
+    qv = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
+    qw = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
+    out = []
+    for T, w in zip(Ts, W, strict=False):
+        r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=options, kernel=kern)
+        out.append(r)
+        if r.status is not IkStatus.SINGULAR:
+            qv, qw = r.q_v, r.q_w
+    return out
+
+
+
+def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
+                   q_w0: np.ndarray | None = None, weights: np.ndarray | None = None,
+                   options: IkOptions | None = None, frame: int | None = None,
+                   ) -> IkBatchResult:
+    r"""Levenberg-Marquardt on many targets at once, vectorized across targets.
+
+    Parameters
+    ----------
+    T_P : array, shape (m, 4, 4)
+        Precision points (a trajectory, a grid), solved independently.
+    q_v0 : array, shape (m, n_v) or (n_v,), optional
+        Initial independent joints (default home).
+    q_w0 : array, shape (m, n_w) or (n_w,), optional
+    weights : array, shape (m, 6) or (6,), optional
+    options : IkOptions, optional
+        ``method`` is ignored (always lm); ``restarts`` re-solve the failed targets together
+        from seeded random starts.
+
+    Returns
+    -------
+    IkBatchResult
+        Errors verified by forward kinematics at the returned joints.
+
+    References
+    ----------
+    kim1995_complex_chain_ik Eq. (7)-(10); the step is Levenberg-Marquardt, not §5.2.
+    """
+    opts = options or IkOptions()
+    kern = IkKernel(mech, frame)
+    t0 = time.perf_counter()
+    T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
+    m = T_P.shape[0]
+    nv, nw = kern.iv.size, kern.iw.size
+    qv0 = np.broadcast_to(mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float),
+                          (m, nv)).copy()
+    w_seed = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
+                             (m, 6))
+    if q_v0 is None:
+        seeded = seed_starts(kern, T_P, w_seed)
+        if seeded is not None:
+            qv0 = seeded[:, 0]
+    qw0 = np.broadcast_to(mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float),
+                          (m, nw)).copy()
+    w = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
+                        (m, 6)).copy()
+    r = lm_batch(kern, qv0, qw0, T_P, w, opts)
+    q, f, iters = r["q"], r["f"], r["iters"]
+    conv, closed = r["converged"], r["closed"]
+
+    def check(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray:
+        T_E = kern.pose_check(qq)
+        pe, oe = weighted_errors(T_E, TT, ww)
+        return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
+
+    ok = check(q, T_P, w) & closed
+    rng = np.random.default_rng(opts.seed)
+    lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+    hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+    for k in range(opts.restarts):
+        bad = np.flatnonzero(~ok)
+        if bad.size == 0:
+            break
+        # the next-nearest codebook poses first, then seeded random starts
+        start = (seed_starts(kern, T_P[bad], w[bad], ranks=(k + 1,))
+                 if q_v0 is None and k < SEED_RESTARTS else None)
+        start = (start[:, 0] if start is not None
+                 else rng.uniform(lo, hi, size=(bad.size, nv)))
+        r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
+        iters[bad] += r2["iters"]
+        better = r2["f"] < f[bad]
+        sel = bad[better]
+        q[sel], f[sel] = r2["q"][better], r2["f"][better]
+        conv[sel], closed[sel] = r2["converged"][better], r2["closed"][better]
+        ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
+    T_E = kern.pose_check(q)
+    pe, oe = pose_errors(T_E, T_P)
+    status = np.empty(m, dtype=object)
+    for i in range(m):
+        status[i] = (IkStatus.OK if ok[i] else IkStatus.SINGULAR if not closed[i]
+                     else IkStatus.UNREACHABLE if conv[i] else IkStatus.NOT_CONVERGED)
+    return IkBatchResult(q_v=q[:, kern.iv], q_w=q[:, kern.iw], q=q, status=status,
+                         position_error=pe, orientation_error=oe, f=f, iterations=iters,
+                         time_s=time.perf_counter() - t0)
