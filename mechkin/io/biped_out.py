@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mechkin.io.output_dir import OutputDir
 from mechkin.io.mcap_out import Box, Label, Lines, MotionLog, Scene, Spheres, write_mcap
+from mechkin.io.output_dir import OutputDir
 from mechkin.records import Report
 from mechkin.records.biped import BipedRecord
 

@@ -48,6 +48,7 @@ from mechkin.model.kinematics import (
     forward_kinematics,
 )
 from mechkin.model.mechanism import Mechanism
+from mechkin.model.reduced import _frame_indices, _svd_pinv, reduced_jacobian, scatter_rows
 
 TOL_SINGULAR = 1e-6
 TOL_NEAR = 1e-2
@@ -254,7 +255,6 @@ def classify(
         ``S`` and singular values of the nondimensionalised ``Phi_w`` (reused by
         :func:`mechkin.model.differential.motion_derivatives`).
     """
-    from mechkin.model.differential import _frame_indices, _svd_pinv, reduced_jacobian
 
     tol_singular = TOL_SINGULAR if tol_singular is None else float(tol_singular)
     tol_near = TOL_NEAR if tol_near is None else float(tol_near)
@@ -266,7 +266,6 @@ def classify(
     m = q.shape[0]
     ok = np.isfinite(q).all(axis=1)
     if not ok.all():  # failed closure steps: nan measures, "undefined" class
-        from mechkin.model.differential import scatter_rows
 
         sub = classify(mech, q[ok], end_effector=end_effector, length_scale=L,
                        tol_singular=tol_singular, tol_near=tol_near,

@@ -11,12 +11,11 @@ from mechkin.model.kinematics import (
     forward_kinematics,
     relative_jacobian,
 )
-from mechkin.solvers.ik import accel
-from mechkin.solvers.ik import lm as ik_lm
 from mechkin.solvers.ik import (
     IkKernel,
     IkOptions,
     IkStatus,
+    accel,
     gradient,
     objective,
     pose_errors,
@@ -24,6 +23,7 @@ from mechkin.solvers.ik import (
     solve_ik,
     solve_ik_batch,
 )
+from mechkin.solvers.ik import lm as ik_lm
 from mechkin.spatial.rotations import rot_z
 from tests.tolerances import FD_STEP
 

@@ -15,9 +15,12 @@ Part of the IK solver family :mod:`mechkin.solvers.ik`. May import
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from mechkin.solvers.ik.kernel import IkKernel
+if TYPE_CHECKING:
+    from mechkin.solvers.ik.kernel import IkKernel
 
 SEED_CODEBOOK = 8192  # configurations searched for the start of a solve without a guess
 SEED_RESTARTS = 8  # restarts that start from the next-nearest codebook poses
