@@ -155,7 +155,9 @@ class CutSpec(Spec):
 
 
 class MechanismSpec(Spec):
-    """A mechanism file: links, joints, cuts, independent joints, end effector."""
+    """A mechanism file: links, joints, cuts, independent joints, end effector, and optionally
+    the ``closed_form`` (stewart, direct_drive, lee_spherical) that solves its inverse
+    kinematics."""
 
     name: Name
     description: str | None = None
@@ -169,6 +171,10 @@ class MechanismSpec(Spec):
     independent: list[Name] | None = None
     end_effector: Name | None = None
     gravity: Vec3 | None = None  # in the file's length unit per s^2 (default -9.81 m/s^2 z)
+    closed_form: Literal["stewart", "direct_drive", "lee_spherical"] | None = Field(
+        default=None,
+        description="closed-form inverse kinematics that fits this structure; its parameters "
+                    "are read from the geometry (mechkin.solvers.closed_form.recognise)")
 
 
 def pydantic_problems(

@@ -64,10 +64,10 @@ task: ik
 mechanism: {root / 'mechanisms' / 'puma560.yaml'}
 ik:
   method: lm
-  targets:
-    - xyz: [0.3, 0.1, 0.4]
+  targets:  # z = 0.4 and 0.5 m above the MATLAB model's base, + the pedestal d1 = 0.67183 m
+    - xyz: [0.3, 0.1, 1.07183]
       euler: {{convention: ZYX, angles: [0.1, 0.2, 0.3]}}
-    - xyz: [3.0, 0.0, 0.5]
+    - xyz: [3.0, 0.0, 1.17183]
       quaternion: [1, 0, 0, 0]
 """)
     out = tmp_path / "far"

@@ -323,7 +323,7 @@ def test_puma_task_space_sweep(tmp_path):
     assert len(rows) == 16  # unreached poses are marked, not dropped
     assert {r["reachable"] for r in rows} == {"True", "False"} or \
         {r["reachable"] for r in rows} == {"1", "0"}
-    assert all(abs(float(r["z_m"]) - 0.2) < 1e-12 for r in rows)
+    assert all(abs(float(r["z_m"]) - 0.87183) < 1e-12 for r in rows)  # 0.2 + d1
     assert (out / "task_space.png").stat().st_size > 10_000
     _no_nan_in_csvs(out)
     out2 = tmp_path / "o2"

@@ -21,15 +21,19 @@ ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "mechanisms" / "puma560.yaml"
 FOURBAR = ROOT / "tests" / "data" / "fourbar.yaml"
 
-# Corke, Robotics Toolbox (mdl_puma560 / DH.Puma560), standard D-H: p560.fkine(q).
+# Corke, Robotics Toolbox, standard D-H: p560.fkine(q). The poses are those of MATLAB's
+# mdl_puma560 (d1 = 0) with z raised by the Python toolbox's pedestal d1 = 26.45 in = 0.67183 m
+# (models.DH.Puma560, which mechanisms/puma560.yaml follows): T_python = Tz(d1) T_matlab.
 # qz: the "L" shape; qr: ready, arm straight up; qs: stretched along x.
+PUMA_D1 = 0.67183
 PUMA_PUBLISHED = {
     "qz": ([0, 0, 0, 0, 0, 0],
-           [[1, 0, 0, 0.4521], [0, 1, 0, -0.15005], [0, 0, 1, 0.4318], [0, 0, 0, 1]]),
+           [[1, 0, 0, 0.4521], [0, 1, 0, -0.15005], [0, 0, 1, 0.4318 + PUMA_D1], [0, 0, 0, 1]]),
     "qr": ([0, np.pi / 2, -np.pi / 2, 0, 0, 0],
-           [[1, 0, 0, 0.0203], [0, 1, 0, -0.15005], [0, 0, 1, 0.8636], [0, 0, 0, 1]]),
+           [[1, 0, 0, 0.0203], [0, 1, 0, -0.15005], [0, 0, 1, 0.8636 + PUMA_D1], [0, 0, 0, 1]]),
     "qs": ([0, 0, -np.pi / 2, 0, 0, 0],
-           [[0, 0, 1, 0.8636], [0, 1, 0, -0.15005], [-1, 0, 0, -0.0203], [0, 0, 0, 1]]),
+           [[0, 0, 1, 0.8636], [0, 1, 0, -0.15005], [-1, 0, 0, -0.0203 + PUMA_D1],
+            [0, 0, 0, 1]]),
 }
 
 
@@ -42,7 +46,7 @@ def _dh(theta, d, a, alpha):
 def _puma_reference(q):
     """Independent product of Paul's standard D-H matrices (written out element by element)."""
     a = [0, 0.4318, 0.0203, 0, 0, 0]
-    d = [0, 0, 0.15005, 0.4318, 0, 0]
+    d = [PUMA_D1, 0, 0.15005, 0.4318, 0, 0]
     al = [np.pi / 2, 0, -np.pi / 2, np.pi / 2, -np.pi / 2, 0]
     T = np.eye(4)
     for i in range(6):

@@ -61,7 +61,7 @@ def park_arm_as_chain(*, frame_at_tip: bool) -> SerialChainDynamics:
 
 def puma_like() -> SerialChainDynamics:
     """PUMA 560 standard D-H and inertial parameters (Corke's toolbox / mechanisms/puma560.yaml)."""
-    d = [0.0, 0.0, 0.15005, 0.4318, 0.0, 0.0]
+    d = [0.67183, 0.0, 0.15005, 0.4318, 0.0, 0.0]  # d1: the Python toolbox's pedestal
     a = [0.0, 0.4318, 0.0203, 0.0, 0.0, 0.0]
     alpha = np.deg2rad([90.0, 0.0, -90.0, 90.0, -90.0, 0.0])
     masses = np.array([0.0, 17.4, 4.8, 0.82, 0.34, 0.09])
