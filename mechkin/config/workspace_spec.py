@@ -16,7 +16,7 @@ Registered with :func:`mechkin.config.scenario.register_task_section` on import.
 
 ``kind: task_space`` (any mechanism)
     Sweep task-space poses of a frame through the batched inverse kinematics
-    (:func:`mechkin.solvers.ik_optimize.solve_ik_batch`): a grid of positions (``positions``:
+    (:func:`mechkin.solvers.ik.solve_ik_batch`): a grid of positions (``positions``:
     per axis ``{range, n}`` or ``{value}``) with a fixed ``orientation`` (``method: grid``), or
     seeded random positions in the ``positions`` box (``method: monte_carlo`` with ``samples``,
     ``seed``; ``orientation: {random: true}`` draws uniform random orientations too). Maps

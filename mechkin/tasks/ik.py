@@ -37,7 +37,21 @@ from mechkin.tasks.common import (
     with_expect,
 )
 
-CLOSED_FORMS = ("kim1995_direct_drive", "kim1995_stewart")
+
+def _closed_form_kind(scenario: Scenario, mech: Mechanism) -> str:
+    """The closed form of ``mech`` by structure; a declared one that does not fit, or none
+    that fits, is bad input naming the mismatch."""
+    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch, recognise_closed_form
+
+    try:
+        kind = recognise_closed_form(mech)
+    except ClosedFormMismatch as exc:
+        raise ConfigError(f"{scenario.doc.where(('mechanism',))}: {exc}") from None
+    if kind is None:
+        raise ConfigError(f"{scenario.doc.where(('ik', 'method'))}: no closed form fits "
+                          f"mechanism {mech.name} (declare closed_form: stewart | direct_drive | "
+                          "lee_spherical in the mechanism file, or use method: lm)")
+    return kind
 
 
 def _targets(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -85,18 +99,14 @@ def _initial(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
     return qv, qw
 
 
-def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray) -> IkResult:
-    """kim1995 appendix (direct-drive arm) or leg lengths (Stewart), then the loop closure."""
+def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str) -> IkResult:
+    """The closed form the mechanism's structure admits (``closed_form:`` or recognised from
+    the geometry: Stewart leg lengths, kim1995's direct-drive appendix, lee's legs), then the
+    loop closure and verification by forward kinematics."""
+    from mechkin.solvers.closed_form.recognise import closed_form_ik
+
     t0 = time.perf_counter()
-    if mech.name == "kim1995_direct_drive":
-        from mechkin.solvers.closed_form.direct_drive import direct_drive_ik
-
-        qv, _ = direct_drive_ik(T[None], tol=1e-4)
-    else:
-        from mechkin.solvers.closed_form.stewart import leg_lengths, stewart_attachments
-
-        a, b = stewart_attachments(mech)
-        qv = leg_lengths(T[None], a, b)
+    qv, _ = closed_form_ik(mech, T[None], kind, tol=1e-4)
     res = solve_closure(mech, qv, q_w0[None])
     q = res.q[0]
     T_E = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[:, 0]
@@ -177,9 +187,7 @@ def run(scenario: Scenario) -> Report:
     if mech.end_effector is None:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: mechanism {mech.name} has no "
                           "end_effector frame")
-    if spec.method == "closed-form" and mech.name not in CLOSED_FORMS:
-        raise ConfigError(f"{scenario.doc.where(('ik', 'method'))}: no closed form for "
-                          f"mechanism {mech.name} (closed forms: {', '.join(CLOSED_FORMS)})")
+    kind = _closed_form_kind(scenario, mech) if spec.method == "closed-form" else None
     T_P, W, labels = _targets(scenario, mech)
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
@@ -205,7 +213,7 @@ def run(scenario: Scenario) -> Report:
                 results.append(_out_of_reach(mech, qv, qw))
                 continue
             if spec.method == "closed-form":
-                r = _closed_form(mech, T, qw)
+                r = _closed_form(mech, T, qw, kind)
             else:
                 r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
             results.append(r)

@@ -22,7 +22,7 @@ from mechkin.io.csv_out import read_csv
 from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import forward_kinematics
-from mechkin.solvers.ik_optimize import IkOptions, IkStatus, solve_ik
+from mechkin.solvers.ik import IkOptions, IkStatus, solve_ik
 from tests.mechanisms import reference_closed_forms as ref
 
 ROOT = Path(__file__).resolve().parents[2]

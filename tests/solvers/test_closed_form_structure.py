@@ -34,7 +34,7 @@ from mechkin.solvers.closed_form.recognise import (
     declared_closed_form,
     recognise_closed_form,
 )
-from mechkin.solvers.ik_optimize import IkOptions, IkStatus, pose_errors, solve_ik
+from mechkin.solvers.ik import IkOptions, IkStatus, pose_errors, solve_ik
 
 ROOT = Path(__file__).resolve().parents[2]
 STEWART_66 = ROOT / "tests" / "data" / "stewart_66.yaml"
