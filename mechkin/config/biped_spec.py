@@ -15,6 +15,8 @@ Per leg (hwang2023 Table 1, §2.2-§2.4):
   ``theta6`` is given: §2.3 with beta_Y unknown); roll: beta_Ya of the start state.
 * ``theta6`` - skate: the ankle angle with beta_Y unknown (§2.3); roll: the ankle angle the blade
   rolls to (§2.4), required.
+* ``plane`` - this leg's own inclined plane (same keys as the section's ``plane``); default the
+  step's (or the section's) plane, so one foot can stand on a slope and the other on the level.
 * ``branch`` - the expected branch (``knee back`` or ``knee forward``); the run picks it and fails
   the leg when that branch has no solution. Default: the first (knee back), or in a sequence the
   one nearest the previous step.
@@ -48,9 +50,13 @@ class PlaneSpec(Spec):
 
 
 class BodySpec(Spec):
-    """The body pose A_0G (hwang2023 Eq. 1a): position of G and the turn theta_z about z."""
+    """The body pose A_0G: position of G and its orientation ``Rz(theta_z) Ry(theta_y)
+    Rx(theta_x)`` (turns about the world x, then y, then z axes; hwang2023 Eq. 1a has theta_z
+    only, the closed forms accept any rigid A_0G)."""
 
     position: Vec3
+    theta_x: Num = 0.0
+    theta_y: Num = 0.0
     theta_z: Num = 0.0
 
 
@@ -63,6 +69,7 @@ class LegTaskSpec(Spec):
     beta: Num | None = None
     theta6: Num | None = None
     branch: Branch | None = None
+    plane: PlaneSpec | None = None
 
     @model_validator(mode="after")
     def _check(self) -> LegTaskSpec:
@@ -148,10 +155,11 @@ def plane_si(p: PlaneSpec, units: Units) -> dict[str, Any]:
             "origin": tuple(float(v) * L for v in p.origin)}
 
 
-def body_si(b: BodySpec, units: Units) -> tuple[np.ndarray, float]:
-    """Body position [m] and theta_z [rad]."""
+def body_si(b: BodySpec, units: Units) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """Body position [m] and (theta_x, theta_y, theta_z) [rad]."""
+    a = angle_factor(units.angle)
     return (np.asarray(b.position, float) * length_factor(units.length),
-            b.theta_z * angle_factor(units.angle))
+            (b.theta_x * a, b.theta_y * a, b.theta_z * a))
 
 
 def leg_si(t: LegTaskSpec, units: Units) -> dict[str, Any]:
@@ -164,6 +172,7 @@ def leg_si(t: LegTaskSpec, units: Units) -> dict[str, Any]:
         "beta": None if t.beta is None else t.beta * a,
         "theta6": None if t.theta6 is None else t.theta6 * a,
         "branch": t.branch,
+        "plane": None if t.plane is None else plane_si(t.plane, units),
     }
 
 
