@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -232,7 +233,7 @@ def run(scenario: Scenario, **_options: Any) -> Report:
                      "hip_offset_m": list(geometry.hip_offset),
                      "estimated": list(geometry.estimated),
                      "source": (ESTIMATED_NOTE if model.estimated
-                                else f"read from the mechanism file {mech.source}"),
+                                else f"read from the mechanism file {Path(str(mech.source)).name}"),
                      "joint_limits_rad": {mech.joint_names[j]: [float(mech.lower[j]),
                                                                 float(mech.upper[j])]
                                           for s in SIDES for j in joints[s]}},

@@ -402,3 +402,25 @@ def test_topology_errors_name_the_joint(tmp_path, old, new, msg):
     with pytest.raises(ConfigError) as exc:
         geometry_from_mechanism(load_mechanism(p))
     assert msg in str(exc.value)
+
+
+CUSTOM = sorted((ROOT / "scenarios").glob("custom_biped_*.yaml"))
+
+
+@pytest.mark.parametrize("path", CUSTOM, ids=lambda p: p.stem)
+def test_custom_biped_scenarios_hold_their_expects(path, tmp_path):
+    rep = run(load_scenario(path))
+    assert rep.summary["status"] == "ok"
+    assert rep.checks and all(c["ok"] for c in rep.checks), [c for c in rep.checks
+                                                              if not c["ok"]]
+    assert rep.exit_code == 0 and rep.summary["geometry"]["estimated"] == []
+    summary = rep.write(tmp_path / "o", plots=False)
+    with open(tmp_path / "o" / "biped.mcap", "rb") as f:
+        r = make_reader(f)
+        tf = next(m for _s, _c, m in r.iter_messages(topics=["/tf"]))
+    assert b"plane_left" in tf.data  # a second plane under the left leg
+    assert "leg_left.csv" in summary["files"]
+
+
+def test_there_is_a_custom_biped_scenario():
+    assert CUSTOM
