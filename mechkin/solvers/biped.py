@@ -31,9 +31,12 @@ from mechkin.solvers.closed_form.biped_leg import (
     InclinedPlane,
     LegSolution,
     LegTask,
+    blade_contact,
     contact_below_hip,
     leg_fk,
     psi_from_ee_rotation,
+    rolled_position,
+    solve_known_pose,
     solve_leg_case,
 )
 from mechkin.spatial.euler_conventions import Side, contact_angles_from_matrix
@@ -50,8 +53,10 @@ __all__ = [
     "check_mechanism",
     "geometry_from_mechanism",
     "leg_joints",
+    "interpolate_pose",
     "solve_sequence",
     "solve_step",
+    "time_law",
 ]
 
 SIDES: tuple[Side, Side] = ("right", "left")
@@ -274,7 +279,8 @@ class LegInput:
     ``position`` E [m] (world), or ``below_hip`` (x, y) [m] offset from the point of the plane
     below the hip, or neither (below the hip; a roll of a sequence starts from the previous
     step's state). ``beta_z``, ``beta``, ``theta6`` [rad]; ``branch`` the wanted knee branch;
-    ``plane`` this leg's own plane (None: the step's).
+    ``plane`` this leg's own plane (None: the step's); ``beta_end`` the tilt a roll ends at
+    (instead of ``theta6``).
     """
 
     position: np.ndarray | None = None
@@ -284,6 +290,7 @@ class LegInput:
     theta6: float | None = None
     branch: str | None = None
     plane: InclinedPlane | None = None
+    beta_end: float | None = None
 
 
 @dataclass(frozen=True)
@@ -298,6 +305,7 @@ class BipedStep:
     label: str
     duration: float = 1.0
     frames: int = 1
+    time_law: str = "linear"
 
     def leg_plane(self, side: str) -> InclinedPlane:
         """The plane under ``side``'s contact: its own, else the step's."""
@@ -307,12 +315,14 @@ class BipedStep:
 
 @dataclass
 class StepResult:
-    """A solved step: every solution and the chosen one per side, and the leg tasks."""
+    """A solved step: every solution and the chosen one per side, and the leg tasks (for a
+    roll: the start state; ``beta_end[side]`` the tilt it rolls to, when given)."""
 
     alternatives: dict[str, tuple[LegSolution, ...]]
     legs: dict[str, LegSolution]
     tasks: dict[str, LegTask]
     branches: dict[str, str | None]
+    beta_end: dict[str, float] = field(default_factory=dict)
 
     @property
     def status(self) -> str:
@@ -327,7 +337,7 @@ class BipedFrame:
     legs: dict[str, LegSolution]
     step: int
     kind: str
-    extra: dict[str, Any] = field(default_factory=dict)
+    T_0_G: np.ndarray | None = None  # the body pose of this frame (None: the step's)
 
 
 # --------------------------------------------------------------------------- solving
@@ -368,16 +378,47 @@ def _geometries(geometry: BipedGeometry | BipedModel) -> Mapping[str, BipedGeome
     return {s: geometry for s in SIDES}
 
 
+def time_law(name: str, f: float) -> float:
+    """Progress h(f) in [0, 1] at the fraction f of a step: ``linear`` (h = f) or ``smooth``
+    (quintic 10 f^3 - 15 f^4 + 6 f^5: zero speed and acceleration at both ends)."""
+    if name == "smooth":
+        return f * f * f * (10.0 - 15.0 * f + 6.0 * f * f)
+    return f
+
+
+def interpolate_pose(T_a: np.ndarray, T_b: np.ndarray, h: float) -> np.ndarray:
+    """Pose between T_a and T_b (4, 4): position along the straight line, rotation by slerp
+    (``R_a exp(h log(R_a^T R_b))``) at the progress h in [0, 1]."""
+    from scipy.spatial.transform import Rotation
+
+    rv = Rotation.from_matrix(T_a[:3, :3].T @ T_b[:3, :3]).as_rotvec()
+    out = np.eye(4)
+    out[:3, :3] = T_a[:3, :3] @ Rotation.from_rotvec(h * rv).as_matrix()
+    out[:3, 3] = T_a[:3, 3] + h * (T_b[:3, 3] - T_a[:3, 3])
+    return out
+
+
+def _relabel(alts: tuple[LegSolution, ...], method: str) -> tuple[LegSolution, ...]:
+    return tuple(replace(a, method=method) for a in alts)
+
+
 def solve_step(geometry: BipedGeometry | BipedModel, step: BipedStep,
                prev_q: dict[str, np.ndarray] | None,
-               theta6_override: dict[str, float] | None = None) -> StepResult:
+               theta6_override: dict[str, float] | None = None,
+               beta_override: dict[str, float] | None = None) -> StepResult:
     """Both legs of one step by the closed form of its class (hwang2023 §2.2-§2.4), each leg
-    on its own plane with its own joint ranges."""
+    on its own plane with its own joint ranges.
+
+    A roll to a given tilt ``beta_end`` (beta_Yb, 0 = upright) needs no root search: E_b
+    follows from the start state by Eq. (37) and the blade pose is known, so §2.2 solves it.
+    ``theta6_override`` / ``beta_override`` replace a roll's target (animation frames).
+    """
     geos = _geometries(geometry)
     TG = step.T_0_G
     tasks: dict[str, LegTask] = {}
     branches: dict[str, str | None] = {}
     alts: dict[str, tuple[LegSolution, ...]] = {}
+    ends: dict[str, float] = {}
     for side in SIDES:
         geo, plane = geos[side], step.leg_plane(side)
         t = step.legs[side]
@@ -393,7 +434,7 @@ def solve_step(geometry: BipedGeometry | BipedModel, step: BipedStep,
         else:
             p = contact_below_hip(geo, plane, TG, side)
         theta6 = t.theta6
-        if theta6_override is not None:
+        if theta6_override is not None and side in theta6_override:
             theta6 = theta6_override[side]
         if step.mode == "walk" or step.mode == "roll":
             beta = 0.0 if beta is None else beta
@@ -403,41 +444,94 @@ def solve_step(geometry: BipedGeometry | BipedModel, step: BipedStep,
                               None if beta is None else float(beta),
                               None if theta6 is None else float(theta6))
         prev = None if prev_q is None else prev_q.get(side)
+        if step.mode == "roll" and t.beta_end is not None:
+            b_end = float(t.beta_end if beta_override is None or side not in beta_override
+                          else beta_override[side])
+            ends[side] = b_end
+            Delta = plane.contact_base(side, t.beta_z)
+            E_b = rolled_position(p, Delta[:, 0], plane.normal, geo.wheel_radius,
+                                  float(beta), b_end)  # Eq. (37)
+            known = LegTask(tuple(float(v) for v in E_b), float(t.beta_z), b_end)
+            _, a = solve_leg_case(plane, "skate", side, known, T_0_G=TG, geometry=geo,
+                                  previous=prev, branch=t.branch)
+            alts[side] = _relabel(a, "hwang2023 §2.4 Eq. (37) to beta_Y, then §2.2")
+            continue
         _, alts[side] = solve_leg_case(plane, step.mode, side, tasks[side],  # type: ignore
                                        T_0_G=TG, geometry=geo, previous=prev,
                                        branch=t.branch)
     legs = {s: pick(alts[s], branches[s], None if prev_q is None else prev_q[s])
             for s in SIDES}
-    return StepResult(alts, legs, tasks, branches)
+    return StepResult(alts, legs, tasks, branches, ends)
+
+
+def _moving_frames(geometry: BipedGeometry | BipedModel, step: BipedStep, first: StepResult,
+                   prev_q: dict[str, np.ndarray], prev_TG: np.ndarray, kind: str
+                   ) -> list[tuple[float, dict[str, LegSolution], np.ndarray]]:
+    """The frames f = 1/n .. (n-1)/n of a walk or skate step: the body and each contact frame
+    move from where the previous step left them to the step's solved pose, every frame solved
+    by §2.2 (the solution nearest the previous frame). Returns (f, legs, T_0_G) per frame."""
+    geos = _geometries(geometry)
+    T_a = {s: leg_fk(geos[s], s, prev_q[s][None], prev_TG, kind)[0] for s in SIDES}
+    T_b = {s: first.legs[s].T_0_E for s in SIDES}
+    out = []
+    last = dict(prev_q)
+    for j in range(1, step.frames):
+        f = j / step.frames
+        h = time_law(step.time_law, f)
+        TG = interpolate_pose(prev_TG, step.T_0_G, h)
+        legs = {}
+        for s in SIDES:
+            T = interpolate_pose(T_a[s], T_b[s], h)
+            sols = solve_known_pose(geos[s], s, T, TG, kind)  # type: ignore[arg-type]
+            if kind == "blade":
+                sols = [blade_contact(geos[s], step.leg_plane(s), s, x) if x.ok else x
+                        for x in sols]
+            else:
+                sols = [replace(x, p_contact=x.T_0_E[:3, 3].copy()) if x.ok else x
+                        for x in sols]
+            legs[s] = pick(tuple(sols), None, last[s] if np.all(np.isfinite(last[s])) else None)
+            if legs[s].ok:
+                last[s] = legs[s].q
+        out.append((f, legs, TG))
+    return out
 
 
 def solve_sequence(geometry: BipedGeometry | BipedModel, steps: list[BipedStep]
                    ) -> tuple[list[StepResult], list[BipedFrame]]:
     """Solve every step in order; each starts from the joint angles the last solved step left.
 
-    A roll step with ``frames > 1`` after a solved step is animated: every frame rolls from
+    A step with ``frames > 1`` after a solved step is animated. A roll: every frame rolls from
     the same start state (E_a, beta_Ya: the previous step's blade) to an intermediate ankle
-    angle (Eq. 37 is path independent); the last frame is the step itself. Returns one
-    :class:`StepResult` per step and the frames of the animation (times in [s]).
+    angle or tilt (Eq. 37 is path independent). A walk or skate step: the body and contact
+    frames move from the previous step's (:func:`_moving_frames`). The last frame is the step
+    itself. Returns one :class:`StepResult` per step and the frames of the animation (times
+    in [s]).
     """
     results: list[StepResult] = []
     frames: list[BipedFrame] = []
     prev_q: dict[str, np.ndarray] | None = None
+    prev_TG: np.ndarray | None = None
     t = 0.0
     for k, step in enumerate(steps):
         t_end = t + (step.duration if k > 0 else 0.0)
         kind = "foot" if step.mode == "walk" else "blade"
-        if (step.mode == "roll" and step.frames > 1 and prev_q is not None
-                and all(np.all(np.isfinite(prev_q[s])) for s in SIDES)):
+        law = step.time_law
+        solved_before = (prev_q is not None
+                         and all(np.all(np.isfinite(prev_q[s])) for s in SIDES))
+        if step.mode == "roll" and step.frames > 1 and solved_before:
+            assert prev_q is not None
             first = solve_step(geometry, step, prev_q)
-            t6b = {s: first.tasks[s].theta6 for s in SIDES}
-            t6a = {s: float(prev_q[s][5]) for s in SIDES}
+            t6b = {s: first.tasks[s].theta6 for s in SIDES if s not in first.beta_end}
+            t6a = {s: float(prev_q[s][5]) for s in t6b}
+            b_a = {s: float(first.tasks[s].beta or 0.0) for s in first.beta_end}
             sub_prev = prev_q
             for j in range(1, step.frames + 1):
                 f = j / step.frames
                 if j < step.frames:
-                    t6 = {s: t6a[s] + (t6b[s] - t6a[s]) * f for s in SIDES}  # type: ignore
-                    r = solve_step(geometry, step, prev_q, t6)
+                    h = time_law(law, f)
+                    t6 = {s: t6a[s] + (t6b[s] - t6a[s]) * h for s in t6b}  # type: ignore
+                    bo = {s: b_a[s] + (first.beta_end[s] - b_a[s]) * h for s in b_a}
+                    r = solve_step(geometry, step, prev_q, t6, bo)
                     r.legs = {s: pick(r.alternatives[s], r.branches[s], sub_prev[s])
                               for s in SIDES}
                 else:
@@ -446,6 +540,13 @@ def solve_sequence(geometry: BipedGeometry | BipedModel, steps: list[BipedStep]
                 if all(r.legs[s].ok for s in SIDES):
                     sub_prev = {s: r.legs[s].q for s in SIDES}
             res = first
+        elif step.mode in ("walk", "skate") and step.frames > 1 and solved_before:
+            assert prev_q is not None and prev_TG is not None
+            res = solve_step(geometry, step, prev_q)
+            if all(res.legs[s].ok for s in SIDES):
+                for f, legs, TG in _moving_frames(geometry, step, res, prev_q, prev_TG, kind):
+                    frames.append(BipedFrame(t + (t_end - t) * f, legs, k, kind, TG))
+            frames.append(BipedFrame(t_end, res.legs, k, kind))
         else:
             res = solve_step(geometry, step, prev_q)
             frames.append(BipedFrame(t_end, res.legs, k, kind))
@@ -453,4 +554,5 @@ def solve_sequence(geometry: BipedGeometry | BipedModel, steps: list[BipedStep]
         results.append(res)
         if all(res.legs[s].ok for s in SIDES):
             prev_q = {s: res.legs[s].q for s in SIDES}
+            prev_TG = step.T_0_G
     return results, frames

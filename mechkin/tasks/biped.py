@@ -97,9 +97,9 @@ def _step_si(step: StepSpec, spec: BipedSpec, units: Any, k: int) -> tuple[Biped
             own = _plane(t["plane"])
             leg_planes[side] = _plane_info(t["plane"], own)
         legs[side] = LegInput(t["position"], t["below_hip"], float(t["beta_z"]), t["beta"],
-                              t["theta6"], t["branch"], own)
+                              t["theta6"], t["branch"], own, t["beta_end"])
     bs = BipedStep(step.mode, plane, TG, legs, step.name or f"{step.mode} {k}",
-                   float(step.duration), int(step.frames))
+                   float(step.duration), int(step.frames), step.time_law)
     info = {"plane": _plane_info(pl, plane),
             "body": {"position_m": pos.tolist(), "theta_x": float(ang[0]),
                      "theta_y": float(ang[1]), "theta_z": float(ang[2])},
@@ -124,6 +124,32 @@ def limit_violations(mech: Mechanism, joints: list[int], q: np.ndarray
 def _limits_text(v: list[dict[str, Any]]) -> str:
     return ", ".join(f"{x['joint']} = {np.rad2deg(x['value']):.4g} deg outside "
                      f"[{np.rad2deg(x['min']):.4g}, {np.rad2deg(x['max']):.4g}] deg" for x in v)
+
+
+def _model_fk_error(mech: Mechanism, joints: list[int], side: Side, sol: LegSolution,
+                    kind: str, TG: np.ndarray) -> float:
+    """|E by the mechanism file's forward kinematics - E of the closed form| [m]."""
+    q = np.zeros((1, mech.n))
+    q[0, joints] = sol.q
+    fr = EE_FRAMES[side][0 if kind == "blade" else 1]
+    T_model = TG @ forward_kinematics(mech, q).frames(mech, [mech.frame_index(fr)])[0, 0]
+    return float(np.linalg.norm(T_model[:3, 3] - sol.T_0_E[:3, 3]))
+
+
+def _all_solutions(mech: Mechanism, joints: list[int], side: Side,
+                   alts: tuple[LegSolution, ...], kind: str, TG: np.ndarray
+                   ) -> list[dict[str, Any]]:
+    """Every closed-form solution of a leg (``solutions: all``), each verified by the
+    mechanism file's forward kinematics."""
+    names = [mech.joint_names[j] for j in joints]
+    return [{"branch": a.branch, "method": a.method,
+             "q": {n: float(v) for n, v in zip(names, a.q, strict=True)},
+             "q_rad_list": [float(v) for v in a.q],
+             "beta": float(a.beta) if math.isfinite(a.beta) else None,
+             "position_error_m": float(a.position_error),
+             "orientation_error_rad": float(a.orientation_error),
+             "model_fk_error_m": _model_fk_error(mech, joints, side, a, kind, TG)}
+            for a in alts if a.ok]
 
 
 def _leg_record(mech: Mechanism, joints: list[int], side: Side, leg: LegSolution, kind: str,
@@ -154,11 +180,7 @@ def _leg_record(mech: Mechanism, joints: list[int], side: Side, leg: LegSolution
     rec["position_error_m"] = float(leg.position_error)
     rec["orientation_error_rad"] = float(leg.orientation_error)
     # independent check: the mechanism file's forward kinematics at the same q
-    q = np.zeros((1, mech.n))
-    q[0, joints] = leg.q
-    fr = EE_FRAMES[side][0 if kind == "blade" else 1]
-    T_model = TG @ forward_kinematics(mech, q).frames(mech, [mech.frame_index(fr)])[0, 0]
-    rec["model_fk_error_m"] = float(np.linalg.norm(T_model[:3, 3] - leg.T_0_E[:3, 3]))
+    rec["model_fk_error_m"] = _model_fk_error(mech, joints, side, leg, kind, TG)
     rec["end_effector_m"] = leg.T_0_E[:3, 3].tolist()
     rec["contact_point_m"] = leg.p_contact.tolist()
     n = plane.normal
@@ -181,15 +203,22 @@ def _leg_record(mech: Mechanism, joints: list[int], side: Side, leg: LegSolution
 
 
 def _step_record(mech: Mechanism, joints: Mapping[str, list[int]], k: int, step: BipedStep,
-                 info: dict, res: StepResult, t_end: float) -> dict[str, Any]:
+                 info: dict, res: StepResult, t_end: float, all_solutions: bool = False
+                 ) -> dict[str, Any]:
     kind = "foot" if step.mode == "walk" else "blade"
+    legs = {s: _leg_record(mech, joints[s], s, res.legs[s], kind, step.leg_plane(s),
+                           step.T_0_G, res.tasks[s], len(res.alternatives[s]),
+                           step.mode, info["leg_planes"].get(s))
+            for s in SIDES}
+    for s in SIDES:
+        if s in res.beta_end:
+            legs[s]["task"]["beta_end"] = res.beta_end[s]
+        if all_solutions:
+            legs[s]["solutions"] = _all_solutions(mech, joints[s], s, res.alternatives[s],
+                                                  kind, step.T_0_G)
     return {
         "index": k, "name": step.label, "mode": step.mode, "t_s": t_end, "status": res.status,
-        "kind": kind, "plane": info["plane"], "body": info["body"],
-        "legs": {s: _leg_record(mech, joints[s], s, res.legs[s], kind, step.leg_plane(s),
-                                step.T_0_G, res.tasks[s], len(res.alternatives[s]),
-                                step.mode, info["leg_planes"].get(s))
-                 for s in SIDES},
+        "kind": kind, "plane": info["plane"], "body": info["body"], "legs": legs,
     }
 
 
@@ -211,7 +240,8 @@ def run(scenario: Scenario, **_options: Any) -> Report:
     steps = [p[0] for p in pairs]
     results, frames = solve_sequence(model, steps)
     t_ends = _step_end_times(steps)
-    records = [_step_record(mech, joints, k, steps[k], pairs[k][1], results[k], t_ends[k])
+    records = [_step_record(mech, joints, k, steps[k], pairs[k][1], results[k], t_ends[k],
+                            spec.solutions == "all")
                for k in range(len(steps))]
 
     n_ok = sum(r["status"] == STATUS_OK for r in records)
@@ -382,6 +412,10 @@ def _distinct(planes: list[InclinedPlane]) -> list[InclinedPlane]:
     return out
 
 
+def _body(f: BipedFrame, steps: list[BipedStep]) -> np.ndarray:
+    return steps[f.step].T_0_G if f.T_0_G is None else f.T_0_G
+
+
 def _plane_pose(p: InclinedPlane) -> np.ndarray:
     return T_from(p.rotation("right"), np.asarray(p.origin, float))
 
@@ -390,7 +424,7 @@ def _record(scenario: Scenario, mech: Mechanism, model: BipedModel, steps: list[
             records: list[dict[str, Any]], frames: list[BipedFrame]) -> BipedRecord:
     geometry, joints = model.geometry, model.joints
     qf = _frame_q(frames)
-    polys = [biped_polylines(geometry, steps[f.step].T_0_G, qf["right"][i], qf["left"][i],
+    polys = [biped_polylines(geometry, _body(f, steps), qf["right"][i], qf["left"][i],
                              kind=f.kind, plane=steps[f.step].leg_plane("right"),
                              plane_half_size=PLANE_HALF)
              for i, f in enumerate(frames)]
@@ -420,7 +454,7 @@ def _record(scenario: Scenario, mech: Mechanism, model: BipedModel, steps: list[
     rec.q = q
     rec.times = np.array([f.t for f in frames], float)
     rec.polylines = polys
-    rec.T_0_G = np.stack([steps[f.step].T_0_G for f in frames])
+    rec.T_0_G = np.stack([_body(f, steps) for f in frames])
     two = any(len(_distinct([st.leg_plane(s) for s in SIDES])) > 1 for st in steps)
     rec.T_plane = np.stack([[_plane_pose(steps[f.step].leg_plane(s))
                              for s in (SIDES if two else SIDES[:1])] for f in frames])

@@ -424,3 +424,131 @@ def test_custom_biped_scenarios_hold_their_expects(path, tmp_path):
 
 def test_there_is_a_custom_biped_scenario():
     assert CUSTOM
+
+
+# ---------------------------------------------------------------- continuous motions, all solutions
+
+
+ROLL_TO_TILT = """  plane: {lam_x: 5, lam_y: -8, gam_x: 3, origin: [0, 0, 0]}
+  body: {position: [0, 10, 560], theta_x: -2, theta_y: 3, theta_z: -6}
+  sequence:
+    - {name: upright, mode: skate, legs: {right: {beta: 0, beta_z: 4}, left: {beta: 0}}}
+    - name: tilt
+      mode: roll
+      frames: 5
+      time_law: smooth
+      legs: {right: {beta_end: 12, beta_z: 4}, left: {beta_end: -9}}
+    - name: back
+      mode: roll
+      legs: {right: {beta_end: 0, beta_z: 4}, left: {beta_end: 0}}
+"""
+
+
+def test_roll_to_a_target_tilt_equals_the_rolling_closed_form(other, tmp_path):
+    path, mech, _ = other
+    rep = run(_scenario(tmp_path, path, ROLL_TO_TILT))
+    assert rep.ok, rep.summary["status"]
+    theta6 = {}
+    for k, tilt in ((1, {"right": 12.0, "left": -9.0}), (2, {"right": 0.0, "left": 0.0})):
+        for side in SIDES:
+            leg = rep.summary["steps"][k]["legs"][side]
+            assert leg["beta_deg"] == pytest.approx(tilt[side], abs=1e-10)
+            assert abs(leg["contact_plane_distance_m"]) < 1e-12
+            assert leg["normal_angle"] == pytest.approx(np.deg2rad(abs(tilt[side])), abs=1e-9)
+            assert leg["model_fk_error_m"] < 1e-9
+            theta6[k, side] = leg["q_deg_list"][5]
+    # the same rolls posed as §2.4 (theta6 given, tilt unknown: a root search) end there too
+    text = ROLL_TO_TILT
+    for k, old in ((1, "{right: {beta_end: 12, beta_z: 4}, left: {beta_end: -9}}"),
+                   (2, "{right: {beta_end: 0, beta_z: 4}, left: {beta_end: 0}}")):
+        text = text.replace(old, f"{{right: {{theta6: {theta6[k, 'right']!r}, beta_z: 4}}, "
+                                 f"left: {{theta6: {theta6[k, 'left']!r}}}}}")
+    rep2 = run(_scenario(tmp_path, path, text))
+    assert rep2.ok
+    for k in (1, 2):
+        for side in SIDES:
+            a = rep.summary["steps"][k]["legs"][side]
+            b = rep2.summary["steps"][k]["legs"][side]
+            assert b["beta"] == pytest.approx(a["beta"], abs=1e-9)
+            np.testing.assert_allclose(b["q_rad_list"], a["q_rad_list"], atol=1e-8)
+            np.testing.assert_allclose(b["contact_point_m"], a["contact_point_m"], atol=1e-9)
+    assert rep.summary["n_frames"] == 7
+    # the animated frames roll monotonically from 0 to 12 deg (right)
+    st = rep.data.state
+    b = [x["beta_right_deg"] for x in st[1:6]]
+    assert np.all(np.diff(b) > 0) and b[-1] == pytest.approx(12.0, abs=1e-9)
+
+
+MOVE = """  plane: {lam_x: 0, lam_y: 6, gam_x: 0, origin: [0, 0, 0]}
+  body: {position: [0, 0, 590]}
+  sequence:
+    - {name: start, mode: walk, legs: {right: {beta: 0}, left: {beta: 0}}}
+    - name: move
+      mode: walk
+      frames: 8
+      time_law: smooth
+      duration: 2.0
+      body: {position: [20, 40, 570], theta_x: 3, theta_y: -2, theta_z: 10}
+      legs:
+        right: {beta: 5, beta_z: 8, below_hip: [10, 60]}
+        left: {beta: -4, below_hip: [0, -30]}
+"""
+
+
+def _angle(R):
+    return float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
+
+
+def test_continuous_walk_follows_lines_and_slerp_with_a_smooth_time_law(other, tmp_path):
+    path, mech, _ = other
+    rep = run(_scenario(tmp_path, path, MOVE))
+    assert rep.ok, rep.summary["status"]
+    rec = rep.data
+    assert len(rec.times) == 9 and rep.summary["n_frames"] == 9
+    f = np.arange(1, 9) / 8.0
+    h = 10 * f**3 - 15 * f**4 + 6 * f**5  # the smooth time law, typed in here
+    np.testing.assert_allclose(rec.times[1:], 2.0 * f, atol=1e-12)
+    TG = rec.T_0_G
+    np.testing.assert_allclose(TG[1:, :3, 3], TG[0, :3, 3] + h[:, None] * (TG[-1, :3, 3]
+                                                                          - TG[0, :3, 3]),
+                               atol=1e-12)
+    total = _angle(TG[0, :3, :3].T @ TG[-1, :3, :3])
+    for i in range(1, 9):
+        assert _angle(TG[0, :3, :3].T @ TG[i, :3, :3]) == pytest.approx(h[i - 1] * total,
+                                                                        abs=1e-9)
+    for side in SIDES:
+        idx = _leg_idx(mech, side)
+        # every frame's foot frame by the general model's forward kinematics
+        T = np.stack([_model_contact(mech, side, rec.q[i, idx], TG[i], "foot")
+                      for i in range(9)])
+        p0, p1 = T[0, :3, 3], T[-1, :3, 3]
+        np.testing.assert_allclose(T[1:, :3, 3], p0 + h[:, None] * (p1 - p0), atol=1e-9)
+        tot = _angle(T[0, :3, :3].T @ T[-1, :3, :3])
+        assert tot > 0.05
+        for i in range(1, 9):
+            assert _angle(T[0, :3, :3].T @ T[i, :3, :3]) == pytest.approx(h[i - 1] * tot,
+                                                                          abs=1e-9)
+        # the ends are the steps' solutions
+        np.testing.assert_allclose(rec.q[0, idx], rep.summary["steps"][0]["legs"][side]
+                                   ["q_rad_list"], atol=1e-12)
+        np.testing.assert_allclose(rec.q[-1, idx], rep.summary["steps"][1]["legs"][side]
+                                   ["q_rad_list"], atol=1e-12)
+
+
+def test_solutions_all_lists_every_verified_solution(tmp_path):
+    text = (ROOT / "scenarios" / "hwang2023_fig7_a.yaml").read_text().replace(
+        "mechanism: ../mechanisms/", f"mechanism: {ROOT / 'mechanisms'}/").replace(
+        "biped:\n", "biped:\n  solutions: all\n")
+    p = tmp_path / "s.yaml"
+    p.write_text(text)
+    rep = run(load_scenario(p))
+    assert rep.ok
+    for side in SIDES:
+        leg = rep.summary["steps"][0]["legs"][side]
+        sols = leg["solutions"]
+        assert len(sols) == leg["n_solutions"] == 2
+        assert {s["branch"] for s in sols} == {"knee back", "knee forward"}
+        assert all(s["model_fk_error_m"] < 1e-9 and s["position_error_m"] < 1e-9
+                   for s in sols)
+        assert sols[0]["q_rad_list"] == leg["q_rad_list"]
+        assert abs(sols[0]["q_rad_list"][3] - sols[1]["q_rad_list"][3]) > 0.1

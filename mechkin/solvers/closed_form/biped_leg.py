@@ -80,6 +80,7 @@ __all__ = [
     "LegSolution",
     "LegTask",
     "biped_polylines",
+    "blade_contact",
     "body_transform",
     "contact_below_hip",
     "ee_rotation_from_psi",
@@ -917,7 +918,7 @@ def _solve_leg(plane: InclinedPlane, mode: str, side: Side, task: LegTask, TG: n
         sols = solve_known_pose(geometry, side, T, TG, kind)
         sols = [replace(s, beta=float(task.beta or 0.0)) if s.ok else s for s in sols]
     if kind == "blade":
-        sols = [_with_rim(geometry, plane, side, s) if s.ok else s for s in sols]
+        sols = [blade_contact(geometry, plane, side, s) if s.ok else s for s in sols]
     return sols
 
 
@@ -962,9 +963,10 @@ def solve_leg_case(plane: InclinedPlane, mode: Literal["walk", "skate", "roll"],
     return best, tuple(sols)
 
 
-def _with_rim(geometry: BipedGeometry, plane: InclinedPlane, side: Side,
-              sol: LegSolution) -> LegSolution:
-    """Fill the blade tilt (if unknown) and the wheel-rim contact point C = E + r_w (Z'' - n)."""
+def blade_contact(geometry: BipedGeometry, plane: InclinedPlane, side: Side,
+                  sol: LegSolution) -> LegSolution:
+    """Fill the blade tilt (if unknown) and the wheel-rim contact point C = E + r_w (Z'' - n)
+    of a blade solution on ``plane`` (Eq. 36)."""
     R = sol.T_0_E[:3, :3]
     up = -R[:, 2]  # blade axis Z'' pointing away from the plane (Fig. 5)
     n = plane.normal
