@@ -264,8 +264,8 @@ def run(scenario: Scenario, **_options: Any) -> Report:
                      "estimated": list(geometry.estimated),
                      "source": (ESTIMATED_NOTE if model.estimated
                                 else f"read from the mechanism file {Path(str(mech.source)).name}"),
-                     "joint_limits_rad": {mech.joint_names[j]: [float(mech.lower[j]),
-                                                                float(mech.upper[j])]
+                     "joint_limits_rad": {mech.joint_names[j]: [_num(mech.lower[j]),
+                                                                _num(mech.upper[j])]
                                           for s in SIDES for j in joints[s]}},
         "steps": records,
     }

@@ -180,6 +180,14 @@ def test_failed_expect_exits_1(tmp_path: Path):
     ("  sequence:\n    - {mode: walk, frames: 0}\n", "biped.sequence[0].frames", "greater"),
     ("  mode: walk\n  legs:\n    right: {position: [0, 0, 0], below_hip: [0, 0]}\n",
      "biped.legs.right", "either position or below_hip"),
+    ("  mode: walk\n  legs:\n    right: {beta_end: 3}\n", "biped", "beta_end is the tilt"),
+    ("  mode: roll\n  legs:\n    right: {theta6: 3, beta_end: 0}\n    left: {theta6: 0}\n",
+     "biped", "not both"),
+    ("  mode: walk\n  legs:\n    right: {plane: {lam_z: 3}}\n", "biped.legs.right.plane.lam_z",
+     "unknown key"),
+    ("  mode: walk\n  solutions: some\n", "biped.solutions", "one"),
+    ("  sequence:\n    - {mode: walk, time_law: cubic}\n", "biped.sequence[0].time_law",
+     "linear"),
 ])
 def test_bad_biped_section_is_a_config_error_with_file_line_and_key(tmp_path, body, where, msg):
     p = _write(tmp_path, body)
