@@ -14,7 +14,11 @@ Per leg (hwang2023 Table 1, §2.2-§2.4):
 * ``beta`` - walk: beta_X of the foot (default 0); skate: beta_Y of the blade (default 0, unless
   ``theta6`` is given: §2.3 with beta_Y unknown); roll: beta_Ya of the start state.
 * ``theta6`` - skate: the ankle angle with beta_Y unknown (§2.3); roll: the ankle angle the blade
-  rolls to (§2.4), required.
+  rolls to (§2.4); a roll needs it or ``beta_end``.
+* ``beta_end`` - roll: the blade tilt beta_Y the blade rolls to (0: upright); E follows from
+  Eq. (37) and the pose is solved by §2.2.
+* ``plane`` - this leg's own inclined plane (same keys as the section's ``plane``); default the
+  step's (or the section's) plane, so one foot can stand on a slope and the other on the level.
 * ``branch`` - the expected branch (``knee back`` or ``knee forward``); the run picks it and fails
   the leg when that branch has no solution. Default: the first (knee back), or in a sequence the
   one nearest the previous step.
@@ -48,9 +52,13 @@ class PlaneSpec(Spec):
 
 
 class BodySpec(Spec):
-    """The body pose A_0G (hwang2023 Eq. 1a): position of G and the turn theta_z about z."""
+    """The body pose A_0G: position of G and its orientation ``Rz(theta_z) Ry(theta_y)
+    Rx(theta_x)`` (turns about the world x, then y, then z axes; hwang2023 Eq. 1a has theta_z
+    only, the closed forms accept any rigid A_0G)."""
 
     position: Vec3
+    theta_x: Num = 0.0
+    theta_y: Num = 0.0
     theta_z: Num = 0.0
 
 
@@ -62,7 +70,9 @@ class LegTaskSpec(Spec):
     beta_z: Num = 0.0
     beta: Num | None = None
     theta6: Num | None = None
+    beta_end: Num | None = None
     branch: Branch | None = None
+    plane: PlaneSpec | None = None
 
     @model_validator(mode="after")
     def _check(self) -> LegTaskSpec:
@@ -85,8 +95,11 @@ def _check_mode(mode: str, legs: LegsSpec) -> None:
         if mode == "skate" and t.theta6 is not None and t.beta is not None:
             raise ValueError(f"legs.{side}: give either beta (beta_Y known, §2.2) or theta6 "
                              "(beta_Y unknown, §2.3), not both")
-        if mode == "roll" and t.theta6 is None:
-            raise ValueError(f"legs.{side}: a roll needs theta6 (the ankle angle to roll to)")
+        if mode == "roll" and (t.theta6 is None) == (t.beta_end is None):
+            raise ValueError(f"legs.{side}: a roll needs theta6 (the ankle angle to roll to) "
+                             "or beta_end (the blade tilt beta_Y to roll to), not both")
+        if mode != "roll" and t.beta_end is not None:
+            raise ValueError(f"legs.{side}: beta_end is the tilt a roll ends at, not for {mode}")
 
 
 class StepSpec(Spec):
@@ -99,6 +112,7 @@ class StepSpec(Spec):
     body: BodySpec | None = None
     duration: PosNum = 1.0
     frames: Annotated[int, Field(strict=True, ge=1, le=1000)] = 1
+    time_law: Literal["linear", "smooth"] = "linear"
 
     @model_validator(mode="after")
     def _check(self) -> StepSpec:
@@ -109,8 +123,14 @@ class StepSpec(Spec):
 class BipedSpec(Spec):
     """``biped:`` section: one case (``mode`` + ``legs``) or a ``sequence`` of steps.
 
-    ``frames`` of a roll step animates the roll in the MCAP log: the ankle angle goes from the
-    previous step's value to ``theta6`` in that many rolls without slipping (§2.4).
+    ``frames`` of a step (after a solved step) animates it in that many frames: a roll goes
+    from the previous step's ankle angle (or blade tilt) to ``theta6`` (or ``beta_end``) in
+    rolls without slipping (§2.4); a walk or skate step moves the body and each contact frame
+    from where the previous step left them to the step's pose (positions along straight lines,
+    orientations by slerp), every frame solved by §2.2. ``time_law``: ``linear`` or ``smooth``
+    (10 s^3 - 15 s^4 + 6 s^5: zero speed and acceleration at both ends).
+    ``solutions: all`` lists every closed-form solution of each leg (each checked by the
+    mechanism file's forward kinematics) in the summary.
     """
 
     plane: PlaneSpec = Field(default_factory=PlaneSpec)
@@ -119,6 +139,7 @@ class BipedSpec(Spec):
     legs: LegsSpec | None = None
     name: Annotated[str, Field(min_length=1)] | None = None
     sequence: Annotated[list[StepSpec], Field(min_length=1, max_length=100)] | None = None
+    solutions: Literal["one", "all"] = "one"
 
     @model_validator(mode="after")
     def _check(self) -> BipedSpec:
@@ -148,10 +169,11 @@ def plane_si(p: PlaneSpec, units: Units) -> dict[str, Any]:
             "origin": tuple(float(v) * L for v in p.origin)}
 
 
-def body_si(b: BodySpec, units: Units) -> tuple[np.ndarray, float]:
-    """Body position [m] and theta_z [rad]."""
+def body_si(b: BodySpec, units: Units) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """Body position [m] and (theta_x, theta_y, theta_z) [rad]."""
+    a = angle_factor(units.angle)
     return (np.asarray(b.position, float) * length_factor(units.length),
-            b.theta_z * angle_factor(units.angle))
+            (b.theta_x * a, b.theta_y * a, b.theta_z * a))
 
 
 def leg_si(t: LegTaskSpec, units: Units) -> dict[str, Any]:
@@ -163,7 +185,9 @@ def leg_si(t: LegTaskSpec, units: Units) -> dict[str, Any]:
         "beta_z": t.beta_z * a,
         "beta": None if t.beta is None else t.beta * a,
         "theta6": None if t.theta6 is None else t.theta6 * a,
+        "beta_end": None if t.beta_end is None else t.beta_end * a,
         "branch": t.branch,
+        "plane": None if t.plane is None else plane_si(t.plane, units),
     }
 
 

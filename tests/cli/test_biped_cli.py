@@ -180,6 +180,14 @@ def test_failed_expect_exits_1(tmp_path: Path):
     ("  sequence:\n    - {mode: walk, frames: 0}\n", "biped.sequence[0].frames", "greater"),
     ("  mode: walk\n  legs:\n    right: {position: [0, 0, 0], below_hip: [0, 0]}\n",
      "biped.legs.right", "either position or below_hip"),
+    ("  mode: walk\n  legs:\n    right: {beta_end: 3}\n", "biped", "beta_end is the tilt"),
+    ("  mode: roll\n  legs:\n    right: {theta6: 3, beta_end: 0}\n    left: {theta6: 0}\n",
+     "biped", "not both"),
+    ("  mode: walk\n  legs:\n    right: {plane: {lam_z: 3}}\n", "biped.legs.right.plane.lam_z",
+     "unknown key"),
+    ("  mode: walk\n  solutions: some\n", "biped.solutions", "one"),
+    ("  sequence:\n    - {mode: walk, time_law: cubic}\n", "biped.sequence[0].time_law",
+     "linear"),
 ])
 def test_bad_biped_section_is_a_config_error_with_file_line_and_key(tmp_path, body, where, msg):
     p = _write(tmp_path, body)
@@ -192,11 +200,38 @@ def test_bad_biped_section_is_a_config_error_with_file_line_and_key(tmp_path, bo
 
 
 def test_mechanism_that_differs_from_the_closed_form_is_refused(tmp_path: Path):
+    # issue 12: other lengths are read from the file, but the legs must stay mirror images
     mech = tmp_path / "m.yaml"
     mech.write_text(MECH.read_text().replace("origin: {xyz: [0, 0, 175.0]}",
-                                             "origin: {xyz: [0, 0, 176.0]}"))
+                                             "origin: {xyz: [0, 0, 176.0]}", 1))
     p = tmp_path / "s.yaml"
     p.write_text(CASE.format(mech=mech, z=677.205, body="  mode: walk\n"))
     with pytest.raises(ConfigError, match="differs from the hwang2023 closed-form leg"):
         run_biped(scenario=load_scenario(p), out_dir=tmp_path / "o")
     assert not (tmp_path / "o").exists()
+
+
+def test_other_lengths_are_read_from_the_mechanism_file(tmp_path: Path):
+    # issue 12: the bundled biped with l3 = 200 mm and l4 = 190 mm (refused before: "differs from
+    # the hwang2023 closed-form leg by 0.0438 m")
+    mech = tmp_path / "m.yaml"
+    mech.write_text(MECH.read_text().replace("[0, 0, 175.0]", "[0, 0, 200.0]")
+                    .replace("[0, 0, 165.0]", "[0, 0, 190.0]"))
+    p = tmp_path / "s.yaml"
+    p.write_text(CASE.format(mech=mech, z=720.0, body="  mode: walk\n"))
+    summary, code = run_biped(scenario=load_scenario(p), out_dir=tmp_path / "o", plots=False)
+    assert code == 0, summary["status"]
+    g = summary["geometry"]
+    assert g["lengths_m"][2:4] == pytest.approx([0.200, 0.190], abs=1e-12)
+    assert g["estimated"] == [] and "read from the mechanism file" in g["source"]
+    for side in ("right", "left"):
+        leg = summary["steps"][0]["legs"][side]
+        assert leg["model_fk_error_m"] < 1e-9 and abs(leg["contact_plane_distance_m"]) < 1e-12
+
+
+def test_bundled_biped_says_its_geometry_is_estimated(tmp_path: Path):
+    summary, code = run_biped(scenario=load_scenario(SCENARIOS[0]), out_dir=tmp_path / "o",
+                              plots=False)
+    assert code == 0
+    assert "lengths" in summary["geometry"]["estimated"]
+    assert summary["geometry"]["source"].startswith("HWANG2023_ESTIMATED")

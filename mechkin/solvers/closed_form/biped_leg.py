@@ -68,6 +68,7 @@ __all__ = [
     "HWANG2023_ESTIMATED",
     "Q_MAX",
     "Q_MIN",
+    "STATUS_AT_LIMIT",
     "STATUS_NOT_CONVERGED",
     "STATUS_OK",
     "STATUS_SINGULAR",
@@ -79,6 +80,7 @@ __all__ = [
     "LegSolution",
     "LegTask",
     "biped_polylines",
+    "blade_contact",
     "body_transform",
     "contact_below_hip",
     "ee_rotation_from_psi",
@@ -91,6 +93,7 @@ __all__ = [
     "solve_known_pose",
     "solve_known_pose_batch",
     "solve_known_position",
+    "solve_leg_case",
     "solve_rolling",
 ]
 
@@ -100,6 +103,7 @@ STATUS_OK = Status.OK.value
 STATUS_NOT_CONVERGED = Status.NOT_CONVERGED.value
 STATUS_SINGULAR = Status.SINGULAR.value
 STATUS_UNREACHABLE = Status.UNREACHABLE.value
+STATUS_AT_LIMIT = Status.AT_LIMIT.value
 
 Q_MAX = np.deg2rad([90.0, 90.0, 90.0, 150.0, 90.0, 90.0])
 """hwang2023 §2.2: joint ranges theta1..6 are +-Q_MAX [rad]."""
@@ -313,7 +317,8 @@ class LegSolution:
     found or used it (NaN if unknown); ``T_0_E`` (4, 4) the end-effector pose by forward
     kinematics; ``p_contact`` (3,) the contact point (E for feet, the wheel-rim point for
     blades); ``position_error`` [m] and ``orientation_error`` [rad] compare the forward
-    kinematics of q with the target; ``branch`` names the choice (e.g. ``"knee back"``).
+    kinematics of q with the target; ``branch`` names the choice (e.g. ``"knee back"``);
+    ``q_outside`` (6,) a solution outside the joint ranges (status ``"at a limit"``).
     """
 
     q: np.ndarray
@@ -325,6 +330,7 @@ class LegSolution:
     T_0_E: np.ndarray = field(default_factory=lambda: np.full((4, 4), np.nan))
     p_contact: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     method: str = ""
+    q_outside: np.ndarray | None = None
 
     @property
     def ok(self) -> bool:
@@ -882,43 +888,85 @@ def solve_biped_case(plane: InclinedPlane, mode: Literal["walk", "skate", "roll"
     """
     TG = np.asarray(T_0_G, dtype=np.float64)
     kind: ContactKind = "foot" if mode == "walk" else "blade"
-    if mode not in ("walk", "skate", "roll"):
-        raise ValueError(f"expected mode 'walk', 'skate' or 'roll', got {mode!r}")
     legs: dict[str, LegSolution] = {}
     alts: dict[str, tuple[LegSolution, ...]] = {}
     pairs: tuple[tuple[Side, LegTask], ...] = (("right", right), ("left", left))
     for side, task in pairs:
-        p = np.asarray(task.position, dtype=np.float64)
-        Delta = plane.contact_base(side, task.beta_z)
-        if mode == "roll" or (mode == "skate" and task.beta is None):
-            if task.theta6 is None:
-                raise ValueError(f"{side}: expected theta6 for mode {mode!r}")
-            if mode == "roll":
-                sols = solve_rolling(geometry, side, p, task.beta or 0.0, Delta,
-                                     plane.normal, task.theta6, TG)
-            else:
-                sols = solve_known_position(geometry, side, p, Delta,
-                                            task.theta6, TG)
-        else:
-            Psi = plane.contact_rotation(side, kind, task.beta_z, task.beta or 0.0)
-            T = T_from(ee_rotation_from_psi(Psi, side), p)
-            sols = solve_known_pose(geometry, side, T, TG, kind)
-            sols = [replace(s, beta=float(task.beta or 0.0)) if s.ok else s for s in sols]
-        if kind == "blade":
-            sols = [_with_rim(geometry, plane, side, s) if s.ok else s for s in sols]
         prev = None if previous is None else previous.get(side)
-        best = sols[0]
-        if prev is not None and len(sols) > 1 and sols[0].ok:
-            pv = np.asarray(prev, dtype=np.float64)
-            best = min(sols, key=lambda r: float(np.linalg.norm(_wrap(r.q - pv))))
-        legs[side] = best
-        alts[side] = tuple(sols)
+        legs[side], alts[side] = solve_leg_case(plane, mode, side, task, T_0_G=TG,
+                                                geometry=geometry, previous=prev)
     return BipedSolution(mode, plane, TG, legs, alts, kind)
 
 
-def _with_rim(geometry: BipedGeometry, plane: InclinedPlane, side: Side,
-              sol: LegSolution) -> LegSolution:
-    """Fill the blade tilt (if unknown) and the wheel-rim contact point C = E + r_w (Z'' - n)."""
+def _solve_leg(plane: InclinedPlane, mode: str, side: Side, task: LegTask, TG: np.ndarray,
+               geometry: BipedGeometry) -> list[LegSolution]:
+    kind: ContactKind = "foot" if mode == "walk" else "blade"
+    p = np.asarray(task.position, dtype=np.float64)
+    Delta = plane.contact_base(side, task.beta_z)
+    if mode == "roll" or (mode == "skate" and task.beta is None):
+        if task.theta6 is None:
+            raise ValueError(f"{side}: expected theta6 for mode {mode!r}")
+        if mode == "roll":
+            sols = solve_rolling(geometry, side, p, task.beta or 0.0, Delta,
+                                 plane.normal, task.theta6, TG)
+        else:
+            sols = solve_known_position(geometry, side, p, Delta,
+                                        task.theta6, TG)
+    else:
+        Psi = plane.contact_rotation(side, kind, task.beta_z, task.beta or 0.0)
+        T = T_from(ee_rotation_from_psi(Psi, side), p)
+        sols = solve_known_pose(geometry, side, T, TG, kind)
+        sols = [replace(s, beta=float(task.beta or 0.0)) if s.ok else s for s in sols]
+    if kind == "blade":
+        sols = [blade_contact(geometry, plane, side, s) if s.ok else s for s in sols]
+    return sols
+
+
+def solve_leg_case(plane: InclinedPlane, mode: Literal["walk", "skate", "roll"], side: Side,
+                   task: LegTask, *, T_0_G: ArrayLike,
+                   geometry: BipedGeometry = HWANG2023_ESTIMATED,
+                   previous: ArrayLike | None = None, branch: str | None = None
+                   ) -> tuple[LegSolution, tuple[LegSolution, ...]]:
+    """One leg of :func:`solve_biped_case` on its own plane: (chosen, every solution found).
+
+    When no solution (of ``branch``, if given) lies within the joint ranges but one exists
+    outside them, a record with status ``"at a limit"`` (:attr:`Status.AT_LIMIT`) whose
+    ``q_outside`` holds that solution (the nearest to ``previous``, else the first) is added
+    (or replaces the failed record), so the caller can say which joint is out of range.
+    """
+    TG = np.asarray(T_0_G, dtype=np.float64)
+    if mode not in ("walk", "skate", "roll"):
+        raise ValueError(f"expected mode 'walk', 'skate' or 'roll', got {mode!r}")
+    side = _side(side)
+    sols = _solve_leg(plane, mode, side, task, TG, geometry)
+
+    def wanted(r: LegSolution) -> bool:
+        return r.ok and (branch is None or r.branch == branch)
+
+    limited = not (np.all(np.isneginf(geometry.q_min)) and np.all(np.isposinf(geometry.q_max)))
+    if limited and not any(wanted(r) for r in sols):
+        free = replace(geometry, q_min=(-math.inf,) * 6, q_max=(math.inf,) * 6)
+        outside = [r for r in _solve_leg(plane, mode, side, task, TG, free) if wanted(r)]
+        if outside:
+            best = outside[0]
+            if previous is not None and len(outside) > 1:
+                pv = np.asarray(previous, dtype=np.float64)
+                best = min(outside, key=lambda r: float(np.linalg.norm(_wrap(r.q - pv))))
+            rec = LegSolution(np.full(6, np.nan), STATUS_AT_LIMIT, math.inf, math.inf,
+                              best.branch, method=best.method, q_outside=best.q.copy())
+            sols = [rec] if not any(r.ok for r in sols) else [*sols, rec]
+    best = sols[0]
+    if previous is not None and len(sols) > 1 and sols[0].ok:
+        pv = np.asarray(previous, dtype=np.float64)
+        best = min((r for r in sols if r.ok),
+                   key=lambda r: float(np.linalg.norm(_wrap(r.q - pv))))
+    return best, tuple(sols)
+
+
+def blade_contact(geometry: BipedGeometry, plane: InclinedPlane, side: Side,
+                  sol: LegSolution) -> LegSolution:
+    """Fill the blade tilt (if unknown) and the wheel-rim contact point C = E + r_w (Z'' - n)
+    of a blade solution on ``plane`` (Eq. 36)."""
     R = sol.T_0_E[:3, :3]
     up = -R[:, 2]  # blade axis Z'' pointing away from the plane (Fig. 5)
     n = plane.normal
