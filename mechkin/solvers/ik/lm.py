@@ -101,7 +101,8 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
     stall = STALL_WINDOW if opts.restarts > 0 else 0
     qc, f, iters, done, gnorm, hist = serial_jit.lm_serial(
         qv[:, sel], kern.chain.first_frame(T_P), w, kern.chain, kern.bound_lo[sel],
-        kern.bound_hi[sel], kern.cont_v[sel], kern.lower_v[sel], f_abs=f_abs,
+        kern.bound_hi[sel], kern.cont_v[sel], kern.lower_v[sel], kern.upper_v[sel],
+        f_abs=f_abs,
         max_iter=max_iter, stall=stall, mu=LM_MU, history=history)
     qv[:, sel] = qc
     q = np.empty((m, kern.n))

@@ -66,7 +66,9 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     -------
     IkResult
         With errors verified by forward kinematics at the returned joints. A failed solve is
-        retried ``options.restarts`` times from seeded random q_v within the limits.
+        retried ``options.restarts`` times from seeded random q_v within the limits. A
+        revolute joint whose limits span more than a full turn is returned within its limits
+        at the whole turn nearest ``q_v0`` (home without a guess).
 
     References
     ----------
@@ -83,6 +85,8 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         if seeded is not None:
             qv0 = seeded[0, 0]
     qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
+    # joints with limits over a full turn come back at the turn nearest the guess (or home)
+    ref_v = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
     rng: np.random.Generator | None = None
     best: dict | None = None
     tot_it = tot_ev = 0
@@ -145,6 +149,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         q = np.empty(kern.n)
         q[kern.iv], q[kern.iw] = qv, qw
         q = finite(q, mech.home)
+        q[kern.iv] = kern.nearest_turn(q[kern.iv], ref_v)
         st, pe, oe, at = status_of(kern, q, T_P, w, closed, conv, opts, float(gn))
         f_fin = float(f) if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
         if not np.isfinite(hist).all():
@@ -159,7 +164,6 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     assert best is not None
     return IkResult(**best, iterations=tot_it, evaluations=tot_ev,
                     time_s=time.perf_counter() - t0)
-
 
 
 def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
@@ -206,7 +210,8 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     Returns
     -------
     IkBatchResult
-        Errors verified by forward kinematics at the returned joints.
+        Errors verified by forward kinematics at the returned joints. Revolute joints whose
+        limits span more than a full turn come back at the whole turn nearest ``q_v0``.
 
     References
     ----------
@@ -259,6 +264,9 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         q[sel], f[sel] = r2["q"][better], r2["f"][better]
         conv[sel], closed[sel] = r2["converged"][better], r2["closed"][better]
         ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
+    # joints with limits over a full turn come back at the turn nearest the start (or home)
+    q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], np.broadcast_to(
+        mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float), (m, nv)))
     T_E = kern.pose_check(q)
     pe, oe = pose_errors(T_E, T_P)
     status = np.empty(m, dtype=object)
