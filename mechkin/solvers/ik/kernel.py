@@ -193,6 +193,22 @@ class IkKernel:
         return x
 
 
+def kernel_for(mech: Mechanism, frame: int | None = None) -> IkKernel:
+    """The one :class:`IkKernel` of ``mech`` and ``frame`` in this process (built on first use).
+
+    The kernel, and with it the seed codebook (:mod:`mechkin.solvers.ik.seeds`, built lazily on
+    the first seedless solve or restart), is kept in the mechanism object's own ``__dict__``
+    (a Mechanism is immutable): it lives as long as the mechanism, and every solve of that
+    mechanism without ``kernel=`` reuses it instead of rebuilding the codebook (FK of 8192
+    configurations and a KD-tree, 0.1-0.6 s)."""
+    cache = mech.__dict__.setdefault("_ik_kernels", {})
+    key = mech.end_effector if frame is None else int(frame)
+    kern = cache.get(key)
+    if kern is None:
+        kern = cache[key] = IkKernel(mech, frame)
+    return kern
+
+
 def _lstsq_steps(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """A^+ b for stacks A (m, k, p) with full column rank, b (m, k, r) (kim1995 §5.1:
     [A]^+ = [A^T A]^{-1} A^T; a square A is solved directly)."""
@@ -280,7 +296,7 @@ def objective(mech: Mechanism, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     -------
     f : float; x : (6,) residual (Eq. (8)); q : (n,) all joints.
     """
-    kern = kernel or IkKernel(mech, frame)
+    kern = kernel or kernel_for(mech, frame)
     ev = evaluate(kern, np.atleast_2d(q_v), np.atleast_2d(q_w0).reshape(1, -1),
                   np.asarray(T_P, dtype=float)[None], jac=False)
     x = ev.x[0]
@@ -291,7 +307,7 @@ def reduced_jacobian(mech: Mechanism, q_v: np.ndarray, q_w0: np.ndarray, T_P: np
                      frame: int | None = None, kernel: IkKernel | None = None,
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x (6,), dx/dq_v (6, n_v) (kim1995 Eq. (10)) and q (n,) after the loop closure."""
-    kern = kernel or IkKernel(mech, frame)
+    kern = kernel or kernel_for(mech, frame)
     ev = evaluate(kern, np.atleast_2d(q_v), np.atleast_2d(q_w0).reshape(1, -1),
                   np.asarray(T_P, dtype=float)[None])
     assert ev.J is not None

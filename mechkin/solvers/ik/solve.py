@@ -24,7 +24,7 @@ import numpy as np
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.cg_golden import cg_golden
 from mechkin.solvers.ik.lm import lm_batch
-from mechkin.solvers.ik.kernel import IkKernel, pose_errors
+from mechkin.solvers.ik.kernel import IkKernel, kernel_for, pose_errors
 from mechkin.solvers.ik.results import (
     IkBatchResult,
     IkOptions,
@@ -75,7 +75,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     kim1995_complex_chain_ik §5.2 (cg-golden) and Eq. (7)-(10).
     """
     opts = options or IkOptions()
-    kern = kernel or IkKernel(mech, frame)
+    kern = kernel or kernel_for(mech, frame)
     T_P = np.asarray(T_P, dtype=np.float64)
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     t0 = time.perf_counter()
@@ -173,7 +173,7 @@ def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *
                       ) -> list[IkResult]:
     """Solve precision points in order, each warm-started from the previous solution
     (kim1995 §5.2 Step 2). ``weights`` (6,) for all or (k, 6) per point."""
-    kern = IkKernel(mech, frame)
+    kern = kernel_for(mech, frame)
     Ts = np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4)
     W = np.ones((len(Ts), 6)) if weights is None else np.broadcast_to(
         np.asarray(weights, dtype=np.float64), (len(Ts), 6))
@@ -218,7 +218,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     kim1995_complex_chain_ik Eq. (7)-(10); the step is Levenberg-Marquardt, not §5.2.
     """
     opts = options or IkOptions()
-    kern = IkKernel(mech, frame)
+    kern = kernel_for(mech, frame)
     t0 = time.perf_counter()
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
@@ -259,10 +259,10 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
                  else rng.uniform(lo, hi, size=(bad.size, nv)))
         r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
         iters[bad] += r2["iters"]
-        better = r2["f"] < f[bad]
-        sel = bad[better]
-        q[sel], f[sel] = r2["q"][better], r2["f"][better]
-        conv[sel], closed[sel] = r2["converged"][better], r2["closed"][better]
+        lower = r2["f"] < f[bad]
+        sel = bad[lower]
+        q[sel], f[sel] = r2["q"][lower], r2["f"][lower]
+        conv[sel], closed[sel] = r2["converged"][lower], r2["closed"][lower]
         ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
     # joints with limits over a full turn come back at the turn nearest the start (or home)
     q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], np.broadcast_to(
