@@ -66,7 +66,8 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     -------
     IkResult
         With errors verified by forward kinematics at the returned joints. A failed solve is
-        retried ``options.restarts`` times from seeded random q_v within the limits. A
+        retried from ``options.restarts`` starts: the nearest codebook poses (open chains),
+        then seeded random q_v within the limits (closed chains: a seeded jitter). A
         revolute joint whose limits span more than a full turn is returned within its limits
         at the whole turn nearest ``q_v0`` (home without a guess).
 
@@ -204,8 +205,9 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     q_w0 : array, shape (m, n_w) or (n_w,), optional
     weights : array, shape (m, 6) or (6,), optional
     options : IkOptions, optional
-        ``method`` is ignored (always lm); ``restarts`` re-solve the failed targets together
-        from seeded random starts.
+        ``method`` is ignored (always lm); ``restarts`` re-solve the failed targets together,
+        from the nearest codebook poses not tried yet (also when ``q_v0`` is given), then from
+        seeded random starts.
 
     Returns
     -------
@@ -252,9 +254,11 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         bad = np.flatnonzero(~ok)
         if bad.size == 0:
             break
-        # the next-nearest codebook poses first, then seeded random starts
-        start = (seed_starts(kern, T_P[bad], w[bad], ranks=(k + 1,))
-                 if q_v0 is None and k < SEED_RESTARTS else None)
+        # the nearest codebook poses not tried yet first (also when a start was given),
+        # then seeded random starts
+        rank = k + 1 if q_v0 is None else k
+        start = (seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))
+                 if rank < SEED_RESTARTS else None)
         start = (start[:, 0] if start is not None
                  else rng.uniform(lo, hi, size=(bad.size, nv)))
         r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
