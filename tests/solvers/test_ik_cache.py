@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from mechkin.model import load_mechanism
+from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.solvers.ik import IkOptions, kernel_for, solve_ik, solve_ik_batch
 from mechkin.solvers.ik.lm import lm_batch
@@ -42,8 +43,6 @@ def test_restart_rows_stop_at_the_first_converged_row(root, lm_backend, closed):
     iv, iw = mech.independent, mech.dependent
     if closed:
         q_true = mech.home[iv] + 0.05
-        from mechkin.model.closure import solve_closure
-
         res = solve_closure(mech, q_true[None], mech.home[iw][None])
         assert res.ok[0]
         T = _pose(mech, res.q[0])

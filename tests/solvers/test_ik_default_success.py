@@ -5,6 +5,8 @@ default ``ik:`` section, each target warm-started from the previous answer (sequ
 at once from the start pose (``batch: true``). The compiled back end is used when numba is
 installed, numpy otherwise."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -79,8 +81,6 @@ def test_batch_from_the_start_pose_defaults_succeed(root, name):
 def test_the_warm_start_alone_is_not_enough(root):
     """Why the defaults restart: without restarts about half the warm-started solves fail."""
     mech, opts, T = _problem(root, "puma560")
-    from dataclasses import replace
-
     bare = replace(opts, restarts=0)
     r = solve_ik_batch(mech, T, q_v0=mech.home[mech.independent], options=bare)
     assert _verified(mech, r.q, T).mean() < 0.9

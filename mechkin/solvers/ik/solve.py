@@ -23,8 +23,8 @@ import numpy as np
 
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.cg_golden import cg_golden
-from mechkin.solvers.ik.lm import lm_batch
 from mechkin.solvers.ik.kernel import IkKernel, kernel_for, pose_errors
+from mechkin.solvers.ik.lm import lm_batch
 from mechkin.solvers.ik.results import (
     IkBatchResult,
     IkOptions,
