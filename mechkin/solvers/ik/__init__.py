@@ -50,6 +50,7 @@ from mechkin.solvers.ik.kernel import (
     IkKernel,
     evaluate,
     gradient,
+    kernel_for,
     objective,
     pose_errors,
     reduced_jacobian,
@@ -70,10 +71,10 @@ from mechkin.solvers.ik.seeds import SEED_CODEBOOK, SEED_RESTARTS
 from mechkin.solvers.ik.solve import solve_ik, solve_ik_batch, solve_ik_sequence
 
 __all__ = [
-    "ACTIVE_BAND", "GOLDEN", "GRAD_TOL", "LM_MU", "MAX_ITER_CG", "MAX_ITER_CLOSURE",
-    "MAX_ITER_LM", "PASSIVE_BAND", "SEED_CODEBOOK", "SEED_RESTARTS", "STALL_WINDOW",
-    "TOL_DQ_CLOSURE", "TOL_ORI_RAD", "TOL_PHI", "TOL_POS_M", "IkBatchResult", "IkKernel",
-    "IkOptions", "IkResult", "IkStatus", "Method", "compiled_lm_available", "evaluate",
-    "gradient", "objective", "pose_errors", "reduced_jacobian", "solve_ik", "solve_ik_batch",
+    "ACTIVE_BAND", "GOLDEN", "GRAD_TOL", "LM_MU", "MAX_ITER_CG", "MAX_ITER_CLOSURE", "MAX_ITER_LM",
+    "PASSIVE_BAND", "SEED_CODEBOOK", "SEED_RESTARTS", "STALL_WINDOW", "TOL_DQ_CLOSURE",
+    "TOL_ORI_RAD", "TOL_PHI", "TOL_POS_M", "IkBatchResult", "IkKernel", "IkOptions", "IkResult",
+    "IkStatus", "Method", "compiled_lm_available", "evaluate", "gradient", "kernel_for",
+    "objective", "pose_errors", "reduced_jacobian", "solve_ik", "solve_ik_batch",
     "solve_ik_sequence", "verify",
 ]

@@ -55,6 +55,14 @@ MAX_ITER_CLOSURE = 30
 TOL_DQ_CLOSURE = 1e-10  # ||dq_w|| of the last Newton step (kim1995 §5.1 epsilon_w)
 
 
+def wrap_into(q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Angles q moved by the fewest whole turns into [lo, hi] (needs hi - lo >= 2 pi); values
+    already inside are returned unchanged."""
+    two_pi = 2 * np.pi
+    q = np.where(q < lo, q + two_pi * np.ceil((lo - q) / two_pi), q)
+    return np.where(q > hi, q - two_pi * np.ceil((q - hi) / two_pi), q)
+
+
 # ---- kinematics kernel -------------------------------------------------------------------------
 
 
@@ -130,12 +138,26 @@ class IkKernel:
         return self.end_effector(self.kinematics(q))
 
     def project(self, q_v: np.ndarray) -> np.ndarray:
-        """Project independent joints (..., n_v) onto the limits (continuous joints wrapped)."""
+        """Project independent joints (..., n_v) onto the limits.
+
+        A revolute joint whose limits span a full turn or more (``cont_v``) is never clamped:
+        a value within its limits is kept as it is, one outside is moved by the fewest whole
+        turns that bring it inside (so an iterate never jumps by 2 pi for no reason)."""
         q = np.clip(q_v, self.bound_lo, self.bound_hi)
         if self.cont_v.any():
-            lo = self.lower_v
-            q = np.where(self.cont_v, lo + np.mod(q - lo, 2 * np.pi), q)
+            q = np.where(self.cont_v, wrap_into(q, self.lower_v, self.upper_v), q)
         return q
+
+    def nearest_turn(self, q_v: np.ndarray, ref: np.ndarray) -> np.ndarray:
+        """The same independent joints (..., n_v) with each ``cont_v`` joint moved by whole
+        turns to the representative within its limits nearest ``ref`` (the guess): the
+        answer to a target that the guess already reaches is the guess itself."""
+        if not self.cont_v.any():
+            return q_v
+        two_pi = 2 * np.pi
+        t = q_v + two_pi * np.round((ref - q_v) / two_pi)
+        t = wrap_into(t, self.lower_v, self.upper_v)
+        return np.where(self.cont_v, t, q_v)
 
     def seed_starts(self, T_P: np.ndarray, w: np.ndarray, ranks=(0,),
                     size: int | None = None) -> np.ndarray | None:
@@ -169,6 +191,22 @@ class IkKernel:
             e0 = np.sqrt(np.maximum(1.0 - np.sum(x[:, 3:] ** 2, axis=1), 0.0))
             x[:, 3:] = rotation_vector(np.concatenate([e0[:, None], x[:, 3:]], axis=1))
         return x
+
+
+def kernel_for(mech: Mechanism, frame: int | None = None) -> IkKernel:
+    """The one :class:`IkKernel` of ``mech`` and ``frame`` in this process (built on first use).
+
+    The kernel, and with it the seed codebook (:mod:`mechkin.solvers.ik.seeds`, built lazily on
+    the first seedless solve or restart), is kept in the mechanism object's own ``__dict__``
+    (a Mechanism is immutable): it lives as long as the mechanism, and every solve of that
+    mechanism without ``kernel=`` reuses it instead of rebuilding the codebook (FK of 8192
+    configurations and a KD-tree, 0.1-0.6 s)."""
+    cache = mech.__dict__.setdefault("_ik_kernels", {})
+    key = mech.end_effector if frame is None else int(frame)
+    kern = cache.get(key)
+    if kern is None:
+        kern = cache[key] = IkKernel(mech, frame)
+    return kern
 
 
 def _lstsq_steps(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -258,7 +296,7 @@ def objective(mech: Mechanism, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     -------
     f : float; x : (6,) residual (Eq. (8)); q : (n,) all joints.
     """
-    kern = kernel or IkKernel(mech, frame)
+    kern = kernel or kernel_for(mech, frame)
     ev = evaluate(kern, np.atleast_2d(q_v), np.atleast_2d(q_w0).reshape(1, -1),
                   np.asarray(T_P, dtype=float)[None], jac=False)
     x = ev.x[0]
@@ -269,7 +307,7 @@ def reduced_jacobian(mech: Mechanism, q_v: np.ndarray, q_w0: np.ndarray, T_P: np
                      frame: int | None = None, kernel: IkKernel | None = None,
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x (6,), dx/dq_v (6, n_v) (kim1995 Eq. (10)) and q (n,) after the loop closure."""
-    kern = kernel or IkKernel(mech, frame)
+    kern = kernel or kernel_for(mech, frame)
     ev = evaluate(kern, np.atleast_2d(q_v), np.atleast_2d(q_w0).reshape(1, -1),
                   np.asarray(T_P, dtype=float)[None])
     assert ev.J is not None

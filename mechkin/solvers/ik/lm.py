@@ -86,7 +86,8 @@ class _ClosedRows:
 
 
 def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
-                      w: np.ndarray, opts: IkOptions, history: bool):
+                      w: np.ndarray, opts: IkOptions, history: bool,
+                      stop_on_first: bool = False):
     """:func:`lm_batch` of an open chain by the compiled kernel
     (:mod:`mechkin.solvers.ik.serial_jit`)."""
     from mechkin.solvers.ik import serial_jit
@@ -101,8 +102,9 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
     stall = STALL_WINDOW if opts.restarts > 0 else 0
     qc, f, iters, done, gnorm, hist = serial_jit.lm_serial(
         qv[:, sel], kern.chain.first_frame(T_P), w, kern.chain, kern.bound_lo[sel],
-        kern.bound_hi[sel], kern.cont_v[sel], kern.lower_v[sel], f_abs=f_abs,
-        max_iter=max_iter, stall=stall, mu=LM_MU, history=history)
+        kern.bound_hi[sel], kern.cont_v[sel], kern.lower_v[sel], kern.upper_v[sel],
+        f_abs=f_abs,
+        max_iter=max_iter, stall=stall, mu=LM_MU, history=history, stop_first=stop_on_first)
     qv[:, sel] = qc
     q = np.empty((m, kern.n))
     q[:, kern.iv] = qv
@@ -184,13 +186,13 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     closed_chain = bool(kern.n_cuts) and kern.iw.size > 0
     if accel.compiled_lm_available():
         if not closed_chain:
-            return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history)
+            return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history, stop_on_first)
         from mechkin.solvers.ik import tree_jit
 
         return tree_jit.lm_closed_rows(
             kern, q_v0, q_w0, T_P, w, tol_phi=opts.tol_phi, tol_dq=TOL_DQ_CLOSURE,
             max_iter_closure=MAX_ITER_CLOSURE, max_iter=max_iter, mu=LM_MU, history=history,
-            passive_band=PASSIVE_BAND,
+            passive_band=PASSIVE_BAND, stop_first=stop_on_first,
             f_abs=0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2)
     rows = _ClosedRows(kern, opts.tol_phi) if closed_chain else _OpenRows(kern)
     passive_bounded = closed_chain and kern.passive_bounded

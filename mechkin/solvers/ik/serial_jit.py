@@ -218,10 +218,17 @@ def lm_decide(f, fn, ok, lam, step, f_abs):
 
 
 @_njit
-def project(q, lo, hi, cont, lower):
+def project(q, lo, hi, cont, lower, upper):
+    """Clamp q onto [lo, hi]; a continuous joint (``cont``, limits [lower, upper] spanning a
+    full turn) inside its limits is kept, outside moved by the fewest whole turns into them
+    (as :func:`mechkin.solvers.ik.kernel.wrap_into`)."""
+    two_pi = 2.0 * np.pi
     for j in range(q.size):
         if cont[j]:
-            q[j] = lower[j] + np.mod(q[j] - lower[j], 2.0 * np.pi)
+            if q[j] < lower[j]:
+                q[j] += two_pi * np.ceil((lower[j] - q[j]) / two_pi)
+            if q[j] > upper[j]:
+                q[j] -= two_pi * np.ceil((q[j] - upper[j]) / two_pi)
         elif q[j] < lo[j]:
             q[j] = lo[j]
         elif q[j] > hi[j]:
@@ -229,8 +236,10 @@ def project(q, lo, hi, cont, lower):
 
 
 @_njit
-def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, stall, mu,
-       q, f, iters, done, gnorm, hist):
+def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, max_iter, stall,
+       mu, stop_first, q, f, iters, done, gnorm, hist):
+    """Rows one after another; with ``stop_first`` (several starts for one target) the rows
+    after the first that converges (E < f_abs) are not run: their E is inf, 0 iterations."""
     m, k = q0.shape
     F = np.empty((k + 1, 4, 4))
     x = np.empty(6)
@@ -248,7 +257,7 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, sta
         qr = q[r]
         for a in range(k):
             qr[a] = q0[r, a]
-        project(qr, lo, hi, cont, lower)
+        project(qr, lo, hi, cont, lower, upper)
         evaluate(qr, F0[r], Pc, Ps, Pd, P0, rev, F, x, J)
         fr = half_wsq(w[r], x)
         if keep_hist:
@@ -262,7 +271,7 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, sta
             gn = lm_step(J, x, w[r], qr, lo, hi, lam, mu, g, H, A, step, blk)
             for a in range(k):
                 qn[a] = qr[a] - step[a]
-            project(qn, lo, hi, cont, lower)
+            project(qn, lo, hi, cont, lower, upper)
             evaluate(qn, F0[r], Pc, Ps, Pd, P0, rev, F, xn, Jn)
             fn = half_wsq(w[r], xn)
             it += 1
@@ -285,16 +294,28 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, f_abs, max_iter, sta
         iters[r] = it
         done[r] = fin
         gnorm[r] = gn
+        if stop_first and fr < f_abs:
+            for rr in range(r + 1, m):
+                for a in range(k):
+                    q[rr, a] = q0[rr, a]
+                project(q[rr], lo, hi, cont, lower, upper)
+                f[rr] = np.inf
+                iters[rr] = 0
+                done[rr] = False
+                gnorm[rr] = 0.0
+            break
 
 
 def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarray,
-              hi: np.ndarray, cont: np.ndarray, lower: np.ndarray, *, f_abs: float,
-              max_iter: int, stall: int, mu: float, history: bool):
+              hi: np.ndarray, cont: np.ndarray, lower: np.ndarray, upper: np.ndarray, *,
+              f_abs: float, max_iter: int, stall: int, mu: float, history: bool,
+              stop_first: bool = False):
     """Run the compiled lm on every row; returns q (m, k), f, iters, done, gnorm, hist.
 
     ``chain`` is a :class:`mechkin.model.serial.SerialChain`; q0 (m, k) are its joints; F0
     (m, 4, 4) its first frame in each precision point; w (m, 6) the weights; lo, hi, cont,
-    lower (k,) the bounds, continuous flags and lower limits of the chain's joints.
+    lower, upper (k,) the bounds, continuous flags and the limits of the chain's joints.
+    ``stop_first``: the rows are starts for one target; stop at the first that converges.
     """
     m, k = q0.shape
     q = np.empty((m, k))
@@ -310,15 +331,15 @@ def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarr
         cc = chain.__dict__["_jit_consts"] = (
             chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(), chain.Pd[:, 0].copy(),
             chain.P0[:, 0].copy(), chain.rev.copy())
-    consts = (*cc, *(np.ascontiguousarray(a) for a in (lo, hi, cont, lower)), float(f_abs),
-              int(max_iter), int(stall), float(mu))
+    consts = (*cc, *(np.ascontiguousarray(a) for a in (lo, hi, cont, lower, upper)),
+              float(f_abs), int(max_iter), int(stall), float(mu), bool(stop_first))
     outs = (q, f, iters, done, gnorm, hist)
 
     def run(sl: slice) -> None:
         lm(*(a[sl] for a in args), *consts,
            *(o[sl] if o.shape[0] else o for o in outs))
 
-    workers = min(os.cpu_count() or 1, m // PARALLEL_ROWS)
+    workers = 1 if stop_first else min(os.cpu_count() or 1, m // PARALLEL_ROWS)
     if workers <= 1:
         run(slice(None))
     else:

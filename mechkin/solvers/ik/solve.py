@@ -23,7 +23,7 @@ import numpy as np
 
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.cg_golden import cg_golden
-from mechkin.solvers.ik.kernel import IkKernel, pose_errors
+from mechkin.solvers.ik.kernel import IkKernel, kernel_for, pose_errors
 from mechkin.solvers.ik.lm import lm_batch
 from mechkin.solvers.ik.results import (
     IkBatchResult,
@@ -66,14 +66,17 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     -------
     IkResult
         With errors verified by forward kinematics at the returned joints. A failed solve is
-        retried ``options.restarts`` times from seeded random q_v within the limits.
+        retried from ``options.restarts`` starts: the nearest codebook poses (open chains),
+        then seeded random q_v within the limits (closed chains: a seeded jitter). A
+        revolute joint whose limits span more than a full turn is returned within its limits
+        at the whole turn nearest ``q_v0`` (home without a guess).
 
     References
     ----------
     kim1995_complex_chain_ik §5.2 (cg-golden) and Eq. (7)-(10).
     """
     opts = options or IkOptions()
-    kern = kernel or IkKernel(mech, frame)
+    kern = kernel or kernel_for(mech, frame)
     T_P = np.asarray(T_P, dtype=np.float64)
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     t0 = time.perf_counter()
@@ -83,6 +86,8 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         if seeded is not None:
             qv0 = seeded[0, 0]
     qw0 = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
+    # joints with limits over a full turn come back at the turn nearest the guess (or home)
+    ref_v = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
     rng: np.random.Generator | None = None
     best: dict | None = None
     tot_it = tot_ev = 0
@@ -145,6 +150,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         q = np.empty(kern.n)
         q[kern.iv], q[kern.iw] = qv, qw
         q = finite(q, mech.home)
+        q[kern.iv] = kern.nearest_turn(q[kern.iv], ref_v)
         st, pe, oe, at = status_of(kern, q, T_P, w, closed, conv, opts, float(gn))
         f_fin = float(f) if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
         if not np.isfinite(hist).all():
@@ -161,7 +167,6 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
                     time_s=time.perf_counter() - t0)
 
 
-
 def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
                       q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
                       weights: np.ndarray | list[np.ndarray] | None = None,
@@ -169,7 +174,7 @@ def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *
                       ) -> list[IkResult]:
     """Solve precision points in order, each warm-started from the previous solution
     (kim1995 §5.2 Step 2). ``weights`` (6,) for all or (k, 6) per point."""
-    kern = IkKernel(mech, frame)
+    kern = kernel_for(mech, frame)
     Ts = np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4)
     W = np.ones((len(Ts), 6)) if weights is None else np.broadcast_to(
         np.asarray(weights, dtype=np.float64), (len(Ts), 6))
@@ -200,20 +205,22 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     q_w0 : array, shape (m, n_w) or (n_w,), optional
     weights : array, shape (m, 6) or (6,), optional
     options : IkOptions, optional
-        ``method`` is ignored (always lm); ``restarts`` re-solve the failed targets together
-        from seeded random starts.
+        ``method`` is ignored (always lm); ``restarts`` re-solve the failed targets together,
+        from the nearest codebook poses not tried yet (also when ``q_v0`` is given), then from
+        seeded random starts.
 
     Returns
     -------
     IkBatchResult
-        Errors verified by forward kinematics at the returned joints.
+        Errors verified by forward kinematics at the returned joints. Revolute joints whose
+        limits span more than a full turn come back at the whole turn nearest ``q_v0``.
 
     References
     ----------
     kim1995_complex_chain_ik Eq. (7)-(10); the step is Levenberg-Marquardt, not §5.2.
     """
     opts = options or IkOptions()
-    kern = IkKernel(mech, frame)
+    kern = kernel_for(mech, frame)
     t0 = time.perf_counter()
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
@@ -247,18 +254,23 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         bad = np.flatnonzero(~ok)
         if bad.size == 0:
             break
-        # the next-nearest codebook poses first, then seeded random starts
-        start = (seed_starts(kern, T_P[bad], w[bad], ranks=(k + 1,))
-                 if q_v0 is None and k < SEED_RESTARTS else None)
+        # the nearest codebook poses not tried yet first (also when a start was given),
+        # then seeded random starts
+        rank = k + 1 if q_v0 is None else k
+        start = (seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))
+                 if rank < SEED_RESTARTS else None)
         start = (start[:, 0] if start is not None
                  else rng.uniform(lo, hi, size=(bad.size, nv)))
         r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
         iters[bad] += r2["iters"]
-        better = r2["f"] < f[bad]
-        sel = bad[better]
-        q[sel], f[sel] = r2["q"][better], r2["f"][better]
-        conv[sel], closed[sel] = r2["converged"][better], r2["closed"][better]
+        lower = r2["f"] < f[bad]
+        sel = bad[lower]
+        q[sel], f[sel] = r2["q"][lower], r2["f"][lower]
+        conv[sel], closed[sel] = r2["converged"][lower], r2["closed"][lower]
         ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
+    # joints with limits over a full turn come back at the turn nearest the start (or home)
+    q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], np.broadcast_to(
+        mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float), (m, nv)))
     T_E = kern.pose_check(q)
     pe, oe = pose_errors(T_E, T_P)
     status = np.empty(m, dtype=object)

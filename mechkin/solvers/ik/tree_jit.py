@@ -427,10 +427,12 @@ def workspace(n, n_links, neq, nv, nw):
 
 
 @_njit
-def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, lower, n_links,
-              tol_phi, tol_dq, max_iter_closure, f_abs, max_iter, mu, lo_w, hi_w, band_w,
-              passive, qv_out, qw_out, f, iters, done, gnorm, closed, hist):
-    """Levenberg-Marquardt on the reduced Jacobian, row by row (see the module docstring)."""
+def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, lower, upper,
+              n_links, tol_phi, tol_dq, max_iter_closure, f_abs, max_iter, mu, lo_w, hi_w,
+              band_w, passive, stop_first, qv_out, qw_out, f, iters, done, gnorm, closed, hist):
+    """Levenberg-Marquardt on the reduced Jacobian, row by row (see the module docstring).
+    With ``stop_first`` (several starts for one target) the rows after the first that
+    converges (E < f_abs) are not run: E inf, 0 iterations, not closed."""
     m, nv = qv0.shape
     nw = iw.size
     n = nv + nw
@@ -455,7 +457,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
     for r in range(m):
         for i in range(nv):
             qv[i] = qv0[r, i]
-        project(qv, lo, hi, cont, lower)
+        project(qv, lo, hi, cont, lower, upper)
         for i in range(nv):
             q[iv[i]] = qv[i]
         for i in range(nw):
@@ -478,7 +480,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
                 passive_limited_step(H, g, lam, mu, step, q, iw, S, lo_w, hi_w)
             for a in range(nv):
                 qn[a] = qv[a] - step[a]
-            project(qn, lo, hi, cont, lower)
+            project(qn, lo, hi, cont, lower, upper)
             # first-order predictor of the dependent joints: q_w - S (q_v,new - q_v)
             for i in range(nv):
                 qn_full[iv[i]] = qn[i]
@@ -516,6 +518,19 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
         iters[r] = it
         done[r] = fin
         gnorm[r] = gn
+        if stop_first and fr < f_abs:
+            for rr in range(r + 1, m):
+                for i in range(nv):
+                    qv_out[rr, i] = qv0[rr, i]
+                project(qv_out[rr], lo, hi, cont, lower, upper)
+                for i in range(nw):
+                    qw_out[rr, i] = qw0[rr, i]
+                f[rr] = np.inf
+                iters[rr] = 0
+                done[rr] = False
+                gnorm[rr] = 0.0
+                closed[rr] = False
+            break
 
 
 @_njit
@@ -578,7 +593,8 @@ def tree_constants(mech, frame: int):
 
 def lm_closed_rows(kern, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, w: np.ndarray, *,
                    tol_phi: float, tol_dq: float, max_iter_closure: int, f_abs: float,
-                   max_iter: int, mu: float, history: bool, passive_band: float):
+                   max_iter: int, mu: float, history: bool, passive_band: float,
+                   stop_first: bool = False):
     """Run the compiled closed-chain lm on every row; returns a dict like
     :func:`mechkin.solvers.ik.lm.lm_batch`."""
     mech = kern.mech
@@ -598,11 +614,12 @@ def lm_closed_rows(kern, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, w:
               np.ascontiguousarray(w, dtype=np.float64), kern.iv.astype(np.int64),
               kern.iw.astype(np.int64), K, fe_link, fe_off, sigE,
               *(np.ascontiguousarray(a) for a in (kern.bound_lo, kern.bound_hi, kern.cont_v,
-                                                 kern.lower_v)),
+                                                 kern.lower_v, kern.upper_v)),
               mech.n_links, float(tol_phi), float(tol_dq), int(max_iter_closure), float(f_abs),
               int(max_iter), float(mu), np.ascontiguousarray(kern.lo_w),
               np.ascontiguousarray(kern.hi_w), np.ascontiguousarray(passive_band * kern.range_w),
-              kern.passive_bounded, qv, qw, f, iters, done, gnorm, closed, hist)
+              kern.passive_bounded, bool(stop_first), qv, qw, f, iters, done, gnorm, closed,
+              hist)
     q = np.empty((m, kern.n))
     q[:, kern.iv] = qv
     q[:, kern.iw] = qw
