@@ -52,7 +52,7 @@ def _verified(mech, q, T):
     return ok
 
 
-@pytest.mark.parametrize("name", ["puma560", "panda"])
+@pytest.mark.parametrize("name", ["puma560", "panda", "ur5"])
 def test_sequential_warm_started_defaults_succeed(root, name):
     mech, opts, T = _problem(root, name)
     qv, qw = mech.home[mech.independent].copy(), mech.home[mech.dependent].copy()
@@ -68,7 +68,7 @@ def test_sequential_warm_started_defaults_succeed(root, name):
     assert np.all(np.array(status_ok) <= ok)  # status ok implies verified
 
 
-@pytest.mark.parametrize("name", ["puma560", "panda"])
+@pytest.mark.parametrize("name", ["puma560", "panda", "ur5"])
 def test_batch_from_the_start_pose_defaults_succeed(root, name):
     mech, opts, T = _problem(root, name)
     r = solve_ik_batch(mech, T, q_v0=mech.home[mech.independent],
