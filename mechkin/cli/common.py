@@ -127,11 +127,27 @@ def terminate_cleanly() -> Iterator[None]:
 
 
 def _stop_children() -> None:
+    """Stop worker processes with the parent: the forkserver first (SIGKILL, so it cannot print
+    a half-served request), then every worker (SIGTERM, then SIGKILL if still alive)."""
     import multiprocessing
+    import os
+    import signal as sig
 
-    for p in multiprocessing.active_children():
+    if "multiprocessing.forkserver" in sys.modules:
+        fs = getattr(sys.modules["multiprocessing.forkserver"], "_forkserver", None)
+        pid = getattr(fs, "_forkserver_pid", None)
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, sig.SIGKILL)
+    kids = multiprocessing.active_children()
+    for p in kids:
         with contextlib.suppress(Exception):
             p.terminate()
+    for p in kids:
+        with contextlib.suppress(Exception):
+            p.join(timeout=2.0)
+            if p.is_alive():
+                p.kill()
 
 
 def handle_errors(fn: F) -> F:

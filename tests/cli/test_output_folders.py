@@ -122,3 +122,72 @@ def test_signal_at_random_moments_leaves_previous_or_complete_outputs(tmp_path, 
         s = json.loads(now["summary.json"])
         assert s["status"] == "ok" and set(s["files"]) == set(old)
         old = now
+
+
+def _can_mount_tmpfs(where: Path) -> bool:
+    where.mkdir(parents=True, exist_ok=True)
+    try:
+        r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64m", "tmpfs", str(where)],
+                           capture_output=True, timeout=20)
+    except (OSError, subprocess.SubprocessError):
+        return False
+    return r.returncode == 0
+
+
+def test_out_on_a_mount_point_works(tmp_path):
+    """--out is itself a mount point (a tmpfs, like a container volume): staging happens inside
+    it, so the renames never cross file systems."""
+    mnt = tmp_path / "mnt"
+    if not _can_mount_tmpfs(mnt):
+        pytest.skip("cannot mount a tmpfs here (needs root or CAP_SYS_ADMIN)")
+    try:
+        r = _mechkin(tmp_path, "fk", str(FK), "--out", str(mnt), "--no-plots")
+        assert r.returncode == 0, r.stderr
+        assert _visible(mnt) == ["fk.csv", "fk.mcap", "summary.json"]
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True, timeout=20)
+
+
+def _children_of(pid: int) -> list[int]:
+    out = []
+    for p in Path("/proc").iterdir():
+        if p.name.isdigit():
+            try:
+                stat = (p / "stat").read_text()
+            except OSError:
+                continue
+            ppid = int(stat.rsplit(")", 1)[1].split()[1])
+            if ppid == pid:
+                out.append(int(p.name))
+    return out
+
+
+def test_sigterm_stops_a_two_worker_sweep(tmp_path):
+    """SIGTERM to the main process of a --workers 2 design sweep: the workers are stopped with
+    it, no staging folder is left, nothing is written."""
+    out = tmp_path / "o"
+    sc = ROOT / "scenarios" / "lee_design_sweep_r.yaml"
+    proc = subprocess.Popen([sys.executable, "-m", "mechkin", "workspace", str(sc), "--out",
+                             str(out), "--workers", "2", "--no-plots"], cwd=tmp_path,
+                            env=_env(tmp_path), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    kids: list[int] = []
+    t0 = time.time()
+    while time.time() - t0 < 90 and proc.poll() is None:
+        kids = _children_of(proc.pid)
+        if len(kids) >= 2:
+            break
+        time.sleep(0.2)
+    if proc.poll() is not None:
+        pytest.skip("the sweep finished before its workers could be seen")
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode in (143, -signal.SIGTERM), (proc.returncode, err)
+    assert "Traceback" not in err
+    time.sleep(1.0)
+    alive = [k for k in kids if Path(f"/proc/{k}").exists()
+             and "Z" not in Path(f"/proc/{k}/stat").read_text().rsplit(")", 1)[1].split()[0]]
+    assert alive == [], f"worker processes left: {alive}"
+    assert _leftovers(tmp_path) == []
+    assert not out.exists() or _visible(out) == []
