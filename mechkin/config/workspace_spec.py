@@ -13,6 +13,7 @@ Registered with :func:`mechkin.config.scenario.register_task_section` on import.
     Sweep the independent joints on a grid (``method: grid``, every joint given ``n`` points)
     or uniformly at random (``method: monte_carlo`` with ``samples`` and ``seed``) within their
     limits (or the ``range`` given per joint), and map the reachable positions of a frame.
+    Closed chains are closed sample by sample from a solved neighbour (``seed_from``).
 
 ``kind: task_space`` (any mechanism)
     Sweep task-space poses of a frame through the batched inverse kinematics
@@ -219,7 +220,10 @@ class WorkspaceSpec(Spec):
     ``gamma_range``, ``method`` (``closed_form`` or ``svd`` singular values).
     joint_sweep keys: ``method`` (``grid`` or ``monte_carlo``), ``joints``, ``samples``,
     ``seed``, ``frame`` (default: the end effector), ``voxel`` (edge of the cubes counted for
-    the volume), ``slices``, ``manipulability``, ``chunk``.
+    the volume), ``slices``, ``manipulability``, ``chunk``, ``seed_from`` (``neighbour``: each
+    sample's loop closure starts from a solved neighbour, keeping one assembly mode; ``home``:
+    from the home configuration) and ``mode_jump`` (threshold of the mode-change report,
+    dependent-joint jump / independent-joint step).
     task_space keys: ``method``, ``positions`` (x, y, z), ``orientation``, ``samples``,
     ``seed``, ``frame``, ``weights`` (6, diagonal of W), ``restarts``, ``max_iter``, ``chunk``
     (poses per job).
@@ -245,6 +249,8 @@ class WorkspaceSpec(Spec):
     voxel: PosNum | None = None
     slices: SlicesSpec | None = None
     manipulability: bool = True
+    seed_from: Literal["neighbour", "home"] = "neighbour"
+    mode_jump: PosNum = 2.0
     chunk: Annotated[int, Field(strict=True, ge=1, le=1_000_000)] = 2000
     # task_space
     positions: dict[Literal["x", "y", "z"], PositionAxisSpec] | None = None
@@ -260,12 +266,12 @@ class WorkspaceSpec(Spec):
     @model_validator(mode="after")
     def _check(self) -> WorkspaceSpec:
         lee_keys = ("parameters", "alpha", "beta", "isotropy_maps", "gamma_range", "design")
-        sweep_keys = ("joints", "samples", "frame", "voxel", "slices")
+        sweep_keys = ("joints", "samples", "frame", "voxel", "slices", "seed_from", "mode_jump")
         task_keys = ("positions", "orientation", "weights", "restarts", "max_iter")
         given = self.model_fields_set
         if self.kind == "task_space":
-            wrong = [k for k in (*lee_keys, "joints", "voxel", "slices", "manipulability")
-                     if k in given]
+            wrong = [k for k in (*lee_keys, "joints", "voxel", "slices", "manipulability",
+                                 "seed_from", "mode_jump") if k in given]
             if wrong:
                 raise ValueError(f"{', '.join(wrong)}: not used by kind task_space")
             if self.method not in ("grid", "monte_carlo"):

@@ -16,7 +16,8 @@
   y, z), status, reachable, errors, iterations, independent joints, dexterity) and
   ``task_space.png``.
 * ``joint_sweep``: ``points.csv`` (one row per sample: independent joints, position, status,
-  within_limits, reachable, dexterity) and ``workspace_slices.png``.
+  within_limits, reachable, seed_sample (the solved neighbour its loop closure started from,
+  -1: home), mode_change, reseeded, dexterity) and ``workspace_slices.png``.
 
 Imports: records, io.atomic, io.report, io.workspace_plots (lazily, for the PNGs).
 """
@@ -218,6 +219,9 @@ def _write_joint_sweep(od: OutputDir, out: WorkspaceOutput, *, plots: bool, csv:
         cols.update(x_m=rec.position[:, 0], y_m=rec.position[:, 1], z_m=rec.position[:, 2],
                     status=rec.status, within_limits=rec.within_limits,
                     reachable=rec.reachable)
+        if rec.seed is not None:
+            cols.update(seed_sample=rec.seed, mode_change=rec.mode_change,
+                        reseeded=rec.reseeded)
         if rec.isotropy is not None:
             cols.update(manipulability=rec.manipulability, isotropy=rec.isotropy,
                         isotropy_position=rec.isotropy_position)

@@ -206,6 +206,13 @@ class JointSweepRecord:
         Loop closure converged; every joint within limits; both and finite.
     manipulability, isotropy, isotropy_position : ndarray, shape (m,) or None
         Dexterity of the reduced frame Jacobian (None when not asked); 0 where not reachable.
+    seed : ndarray of int, shape (m,), optional
+        The sample whose solution started this sample's loop closure (-1: home).
+    mode_change : ndarray of bool, shape (m,), optional
+        The dependent joints jumped away from the branch of the seed sample (a change of
+        assembly mode; see :func:`mechkin.solvers.joint_sweep.joint_sweep`).
+    reseeded : ndarray of bool, shape (m,), optional
+        The closure failed from the seed sample and was solved from home instead.
     """
 
     q_v: np.ndarray
@@ -218,6 +225,9 @@ class JointSweepRecord:
     manipulability: np.ndarray | None = None
     isotropy: np.ndarray | None = None
     isotropy_position: np.ndarray | None = None
+    seed: np.ndarray | None = None
+    mode_change: np.ndarray | None = None
+    reseeded: np.ndarray | None = None
 
 
 @dataclass

@@ -9,8 +9,9 @@ Kinds of section (:mod:`mechkin.config.workspace_spec`):
   the maps are computed once per value (:func:`mechkin.solvers.sweeps.lee_design_sweep`)
   with a comparison table.
 * ``joint_sweep``: the independent joints on a grid or at random (seeded); for a closed chain
-  the loop closure (kim1995 §5.1) is solved for every sample
-  (:func:`mechkin.solvers.joint_sweep.joint_sweep`): reachable positions of a frame, bounding
+  the loop closure (kim1995 §5.1) is solved for every sample, continued from a solved
+  neighbour so the sweep keeps one assembly mode (:func:`mechkin.solvers.joint_sweep.joint_sweep`;
+  mode changes and closure failures are counted): reachable positions of a frame, bounding
   box, voxel and convex-hull volumes, statistics of Yoshikawa's manipulability and of the
   isotropy of the reduced frame Jacobian.
 * ``task_space``: a grid (or seeded random set) of task-space poses through the batched ik
@@ -437,7 +438,10 @@ def _run_joint_sweep(sc: Scenario) -> Report:
     L = length_factor(sc.spec.units.length)
     t0 = time.perf_counter()
     closed = mech.is_closed and len(mech.dependent) > 0
-    rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability)
+    grid_shape = tuple(spec.joints[n].n for n in swept) if spec.method == "grid" else None
+    rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
+                      grid_shape=grid_shape, seed_from=spec.seed_from,
+                      mode_jump=spec.mode_jump)
     reach = rec.reachable
     elapsed = time.perf_counter() - t0
     bbox, volume = point_cloud_volume(rec.position[reach],
@@ -458,10 +462,23 @@ def _run_joint_sweep(sc: Scenario) -> Report:
         "reachable_fraction": float(reach.mean()) if m else 0.0,
         "n_not_converged": int((~rec.converged).sum()),
         "n_outside_limits": int((rec.converged & ~rec.within_limits).sum()),
+        "continuation": {
+            "seed_from": spec.seed_from if closed else None,
+            "mode_jump": spec.mode_jump,
+            "n_roots": int((rec.seed < 0).sum()) if closed else 0,
+            "n_mode_changes": int(rec.mode_change.sum()),
+            "n_closure_failures": int((~rec.converged).sum()),
+            "n_reseeded_from_home": int(rec.reseeded.sum()),
+        },
         "bounding_box": bbox,
         "volume": volume,
         "definition": {
             "reachable": "loop closure converged (closed chains) and every joint within limits",
+            "continuation": "closed chains: each sample's loop closure starts from a solved "
+                            "neighbour (grid step / nearest neighbour, first-order predictor), "
+                            "else from home; mode_change: the dependent joints left that "
+                            "predictor by more than mode_jump x the step of the independent "
+                            "joints (max norms, SI), i.e. another assembly mode",
             "manipulability": "Yoshikawa w = product of the singular values of the frame "
                               "Jacobian (rows omega, v; SI) w.r.t. the independent joints "
                               "(closed chains: J_v + J_w dq_w/dq_v)",
