@@ -17,6 +17,7 @@ kim1995_complex_chain_ik §5.1, Eq. (10); Yoshikawa (1985), IJRR 4(2).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -123,7 +124,8 @@ def _sensitivity_and_mode(mech: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
                 manipulability: bool = True, grid_shape: tuple[int, ...] | None = None,
-                seed_from: str = "neighbour", mode_jump: float = 2.0) -> JointSweepRecord:
+                seed_from: str = "neighbour", mode_jump: float = 2.0,
+                progress: Callable[[int, int], None] | None = None) -> JointSweepRecord:
     r"""Positions, reachability and dexterity of ``frame`` at the samples ``q_v``.
 
     For a closed chain the loop closure of every sample starts from a solved neighbour
@@ -160,6 +162,8 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     seed_from : {"neighbour", "home"}
     mode_jump : float
         Threshold of the jump test (dimensionless ratio).
+    progress : callable, optional
+        ``progress(done, total)`` after every block (closure blocks, then evaluation blocks).
 
     Returns
     -------
@@ -184,7 +188,12 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     q_w0 = mech.home[mech.dependent]
     conv_val = ClosureStatus.CONVERGED.value
     dep = mech.dependent
-    if closed and seed_from == "neighbour":
+    two_phase = closed and seed_from == "neighbour"
+    total = 2 * m if two_phase else m
+    done_n = 0
+    if progress is not None:
+        progress(0, total)
+    if two_phase:
         parent, level = continuation_tree(qv, grid_shape, mech.home[mech.independent])
         order = np.argsort(level, kind="stable")
         bounds = np.flatnonzero(np.diff(level[order])) + 1
@@ -229,9 +238,12 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
                     ps = pred_step[chk]
                     jump = (ps > 0) & (err > mode_jump * ps)
                     mode_change[ic] = (mode[ic] != mode[pc]) | jump
+                done_n += idx.size
+                if progress is not None:
+                    progress(done_n, total)
     for a in range(0, m, chunk):
         b = min(m, a + chunk)
-        if closed and seed_from != "neighbour":
+        if closed and not two_phase:
             res = solve_closure(mech, qv[a:b], q_w0)
             q[a:b] = res.q
             status[a:b] = [s.value for s in res.status]
@@ -244,12 +256,15 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
             J = frame_jacobian(mech, kin, frame)
             Jr = J[:, :, mech.independent]
             if closed:
-                sens = S[a:b] if seed_from == "neighbour" else dependent_sensitivity(mech, q[a:b])
+                sens = S[a:b] if two_phase else dependent_sensitivity(mech, q[a:b])
                 Jr = Jr + J[:, :, mech.dependent] @ sens
             dex = dexterity(Jr)
             w_full[a:b] = dex["manipulability"]
             iso_full[a:b] = dex["isotropy"]
             iso_pos[a:b] = dex["isotropy_position"]
+        done_n += b - a
+        if progress is not None:
+            progress(done_n, total)
     converged = status == conv_val
     within = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
     finite = np.all(np.isfinite(pos), axis=1) & np.all(np.isfinite(q), axis=1)

@@ -338,14 +338,38 @@ def task_space_random(box: Sequence[tuple[float, float]], samples: int, seed: in
     return T
 
 
+def _mechanism_spec(mechanism: Any) -> Any:
+    """The validated contents (:class:`mechkin.config.schema.MechanismSpec`) of a mechanism
+    file path, or the spec itself: what a job carries, so a worker needs no shared files."""
+    if isinstance(mechanism, (str, Path)):
+        from mechkin.config.mechanism_file import read_mechanism_spec
+
+        return read_mechanism_spec(mechanism)[0]
+    return mechanism
+
+
+_BUILT: dict[str, Any] = {}
+
+
+def _job_mechanism(spec: Any) -> Any:
+    """Build the mechanism of a job's spec (once per worker process and spec)."""
+    from mechkin.model.build import build_mechanism
+
+    key = spec.model_dump_json()
+    if key not in _BUILT:
+        if len(_BUILT) > 8:
+            _BUILT.clear()
+        _BUILT[key] = build_mechanism(spec)
+    return _BUILT[key]
+
+
 def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     """One chunk of task-space poses: batched lm, then the Jacobian at the solutions."""
-    from mechkin.model import load_mechanism
     from mechkin.model.closure import dependent_sensitivity
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian
     from mechkin.solvers.ik_optimize import IkOptions, solve_ik_batch
 
-    mech = load_mechanism(job["mechanism"])
+    mech = _job_mechanism(job["mechanism"])
     f = job["frame"]
     opts = IkOptions(restarts=job["restarts"], seed=job["seed"], max_iter=job["max_iter"],
                      tol_pos=job["tol_pos"], tol_ori=job["tol_ori"])
@@ -386,8 +410,10 @@ def task_space_sweep(
 
     Parameters
     ----------
-    mechanism : path
-        Mechanism file (each job loads it; a path pickles where a Mechanism may not).
+    mechanism : path or MechanismSpec
+        Mechanism file or its validated contents. Jobs carry the contents (the
+        :class:`~mechkin.config.schema.MechanismSpec`), never the path, so workers on another
+        machine (a Dask cluster) need no copy of the file.
     T_P : array, shape (m, 4, 4)
         Target poses of ``frame`` in the base frame (SI).
     frame : int, optional
@@ -406,15 +432,14 @@ def task_space_sweep(
     -------
     TaskSpaceRecord
     """
-    from mechkin.model import load_mechanism
-
-    mech = load_mechanism(mechanism)
+    spec = _mechanism_spec(mechanism)
+    mech = _job_mechanism(spec)
     f = int(mech.end_effector) if frame is None else int(frame)
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     jobs = [
-        {"mechanism": str(mechanism), "frame": f, "T_P": T_P[a : a + chunk], "weights": w,
+        {"mechanism": spec, "frame": f, "T_P": T_P[a : a + chunk], "weights": w,
          "restarts": int(restarts), "seed": int(seed), "max_iter": max_iter,
          "tol_pos": float(tol_pos), "tol_ori": float(tol_ori)}
         for a in range(0, m, max(1, int(chunk)))

@@ -380,6 +380,7 @@ def lee_workspace(
     center: tuple[float, float, float] = (0.0, 0.0, 1.0),
     stroke: tuple[float, float] = (0.5, 2.0),
     method: str = "closed_form",
+    progress: Callable[[int, int], None] | None = None,
 ) -> LeeWorkspaceRecord:
     """Compute the maps of one lee scenario from plain parameters (SI: lengths, rad).
 
@@ -405,6 +406,8 @@ def lee_workspace(
         Base radius, centre of rotation P, and (l_min, l_max).
     method : {"closed_form", "svd"}
         Singular-value method.
+    progress : callable, optional
+        ``progress(done, total)`` over the maps (one per gamma set, one for the gamma range).
 
     Returns
     -------
@@ -431,7 +434,10 @@ def lee_workspace(
         },
     }
     isotropy: dict[str, OrientationMaps] = {}
-    for name, gammas in (gamma_sets or {}).items():
+    n_maps = len(gamma_sets or {}) + (gamma_sweep is not None)
+    if progress is not None:
+        progress(0, n_maps)
+    for k_map, (name, gammas) in enumerate((gamma_sets or {}).items()):
         maps = orientation_maps(evaluate, alpha, beta, gammas, threshold=threshold)
         isotropy[name] = maps
         at_origin = evaluate(np.column_stack([0 * maps.gamma, 0 * maps.gamma, maps.gamma])).sigma
@@ -456,6 +462,8 @@ def lee_workspace(
             "volume_fraction": volume_fraction(maps.in_workspace),
             "per_gamma": per_gamma,
         }
+        if progress is not None:
+            progress(k_map + 1, n_maps)
     gr: GammaRange | None = None
     if gamma_sweep is not None:
         gr = gamma_range(
@@ -490,4 +498,6 @@ def lee_workspace(
                 "max": _deg(gr.gamma_max[d].max()),
             }
         summary["gamma_range"] = entry
+        if progress is not None:
+            progress(n_maps, n_maps)
     return LeeWorkspaceRecord(geom, isotropy, gr, summary)

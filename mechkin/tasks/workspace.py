@@ -18,8 +18,9 @@ Kinds of section (:mod:`mechkin.config.workspace_spec`):
   (:func:`mechkin.solvers.sweeps.task_space_sweep`): reachability and dexterity.
 
 Design values and task-space chunks run as jobs on ``workers`` local processes or on a Dask
-cluster (``scheduler`` / ``executor: {kind: dask, address}``). A progress bar is drawn on
-stderr when asked (``progress=True``; None: when stderr is a terminal).
+cluster (``scheduler`` / ``executor: {kind: dask, address}``); joint sweeps and single lee
+maps run in this process and refuse a scheduler. A progress bar (jobs, map sets or samples)
+is drawn on stderr when asked (``progress=True``; None: when stderr is a terminal).
 
 Imports: config, model, solvers, spatial, records, tasks.common (never io/ or cli/).
 """
@@ -70,10 +71,10 @@ def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = 
     if kind == "lee_spherical":
         if scenario.section.design is not None:
             return _run_lee_design(scenario, ex)
-        return _run_lee(scenario)
+        return _run_lee(scenario, ex)
     if kind == "task_space":
         return _run_task_space(scenario, ex)
-    return _run_joint_sweep(scenario)
+    return _run_joint_sweep(scenario, ex)
 
 
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
@@ -83,6 +84,12 @@ def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
     address = scheduler
     if address is None and spec.executor is not None and spec.executor.kind == "dask":
         address = spec.executor.address
+    jobs = spec.kind == "task_space" or (spec.kind == "lee_spherical" and spec.design is not None)
+    if address is not None and not jobs:
+        where = "--scheduler" if scheduler is not None else sc.doc.where(("workspace", "executor"))
+        what = "joint_sweep" if spec.kind == "joint_sweep" else "single lee_spherical map"
+        raise ConfigError(f"{where}: a {what} runs in this process; only design sweeps and "
+                          "task_space sweeps run on a Dask scheduler")
     if address is not None:
         try:
             import distributed  # noqa: F401
@@ -204,14 +211,15 @@ def _lee_params(sc: Scenario, design: dict[str, Any]) -> dict[str, Any]:
     return params
 
 
-def _run_lee(sc: Scenario) -> Report:
+def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
     from mechkin.solvers.workspace import lee_workspace
 
     design = lee_design(sc)
     params = _lee_params(sc, design)
     t0 = time.perf_counter()
     try:
-        rec = lee_workspace(**params)
+        with _progress_bar(ex, f"{sc.name}: maps") as cb:
+            rec = lee_workspace(**params, progress=cb)
     except ValueError as exc:  # a grid the solver refuses (should not pass the schema)
         raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
     summary: dict[str, Any] = {
@@ -423,7 +431,7 @@ def _sweep_values(sc: Scenario, mech: Any) -> tuple[np.ndarray, list[str]]:
     return qv, swept
 
 
-def _run_joint_sweep(sc: Scenario) -> Report:
+def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     from mechkin.model import load_mechanism
     from mechkin.solvers.joint_sweep import joint_sweep, point_cloud_volume
     from mechkin.solvers.workspace import sigma_statistics
@@ -439,9 +447,10 @@ def _run_joint_sweep(sc: Scenario) -> Report:
     t0 = time.perf_counter()
     closed = mech.is_closed and len(mech.dependent) > 0
     grid_shape = tuple(spec.joints[n].n for n in swept) if spec.method == "grid" else None
-    rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
-                      grid_shape=grid_shape, seed_from=spec.seed_from,
-                      mode_jump=spec.mode_jump)
+    with _progress_bar(ex, f"{sc.name}: samples") as cb:
+        rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
+                          grid_shape=grid_shape, seed_from=spec.seed_from,
+                          mode_jump=spec.mode_jump, progress=cb)
     reach = rec.reachable
     elapsed = time.perf_counter() - t0
     bbox, volume = point_cloud_volume(rec.position[reach],
