@@ -227,6 +227,9 @@ class WorkspaceSpec(Spec):
     task_space keys: ``method``, ``positions`` (x, y, z), ``orientation``, ``samples``,
     ``seed``, ``frame``, ``weights`` (6, diagonal of W), ``restarts``, ``max_iter``, ``chunk``
     (poses per job).
+    joint_sweep and task_space: ``characteristic_length`` (file length unit) dividing the
+    translational rows of the Jacobian for ``isotropy_normalized`` (default: the length that
+    best conditions the sampled workspace, reported in summary.json).
     Every kind: ``workers``, ``executor``; lee_spherical also ``design``.
     """
 
@@ -249,6 +252,7 @@ class WorkspaceSpec(Spec):
     voxel: PosNum | None = None
     slices: SlicesSpec | None = None
     manipulability: bool = True
+    characteristic_length: PosNum | None = None
     seed_from: Literal["neighbour", "home"] = "neighbour"
     mode_jump: PosNum = 2.0
     chunk: Annotated[int, Field(strict=True, ge=1, le=1_000_000)] = 2000
@@ -266,6 +270,9 @@ class WorkspaceSpec(Spec):
     @model_validator(mode="after")
     def _check(self) -> WorkspaceSpec:
         lee_keys = ("parameters", "alpha", "beta", "isotropy_maps", "gamma_range", "design")
+        if self.kind == "lee_spherical" and "characteristic_length" in self.model_fields_set:
+            raise ValueError("characteristic_length: not used by kind lee_spherical (sigma_KI "
+                             "of Euler-angle rates needs no length scale)")
         sweep_keys = ("joints", "samples", "frame", "voxel", "slices", "seed_from", "mode_jump")
         task_keys = ("positions", "orientation", "weights", "restarts", "max_iter")
         given = self.model_fields_set

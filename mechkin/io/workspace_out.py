@@ -13,7 +13,8 @@
   ``design_gamma_range.png``, ``design_comparison.csv`` and per value the CSV grids above
   under ``PARAM_VALUE/`` (e.g. ``r_0.25/sigma_ki_text.csv``).
 * ``task_space``: ``task_points.csv`` (one row per target pose: position, quaternion (w, x,
-  y, z), status, reachable, errors, iterations, independent joints, dexterity) and
+  y, z), status, reachable, errors, iterations, independent joints, dexterity incl.
+  ``isotropy_normalized``) and
   ``task_space.png``.
 * ``joint_sweep``: ``points.csv`` (one row per sample: independent joints, position, status,
   within_limits, reachable, seed_sample (the solved neighbour its loop closure started from,
@@ -199,6 +200,8 @@ def _write_task_space(od: OutputDir, out: WorkspaceOutput, *, plots: bool, csv: 
             cols[name] = rec.q_v[:, k]
         cols.update(isotropy=rec.isotropy, isotropy_position=rec.isotropy_position,
                     condition_number=rec.condition_number, manipulability=rec.manipulability)
+        if rec.isotropy_normalized is not None:
+            cols["isotropy_normalized"] = rec.isotropy_normalized
         od.write_csv("task_points.csv", cols)
     if plots and rec.reachable.size:
         from mechkin.io.workspace_plots import plot_task_space
@@ -225,6 +228,8 @@ def _write_joint_sweep(od: OutputDir, out: WorkspaceOutput, *, plots: bool, csv:
         if rec.isotropy is not None:
             cols.update(manipulability=rec.manipulability, isotropy=rec.isotropy,
                         isotropy_position=rec.isotropy_position)
+            if rec.isotropy_normalized is not None:
+                cols["isotropy_normalized"] = rec.isotropy_normalized
         od.write_csv("points.csv", cols)
     P = rec.position[rec.reachable]
     if plots and P.shape[0]:

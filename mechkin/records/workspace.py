@@ -173,6 +173,11 @@ class TaskSpaceRecord:
     isotropy, isotropy_position, condition_number, manipulability : ndarray, shape (m,)
         Dexterity at the solutions (see :mod:`mechkin.solvers.sweeps`); 0 (condition number: 0
         too) where not reachable.
+    isotropy_normalized : ndarray, shape (m,) or None
+        The dimensionally honest isotropy (translational rows / ``characteristic_length``);
+        0 where not reachable.
+    characteristic_length : float or None
+        [m].
     """
 
     T_P: np.ndarray
@@ -186,6 +191,8 @@ class TaskSpaceRecord:
     isotropy_position: np.ndarray
     condition_number: np.ndarray
     manipulability: np.ndarray
+    isotropy_normalized: np.ndarray | None = None
+    characteristic_length: float | None = None
 
 
 @dataclass(frozen=True)
@@ -206,6 +213,12 @@ class JointSweepRecord:
         Loop closure converged; every joint within limits; both and finite.
     manipulability, isotropy, isotropy_position : ndarray, shape (m,) or None
         Dexterity of the reduced frame Jacobian (None when not asked); 0 where not reachable.
+    isotropy_normalized : ndarray, shape (m,) or None
+        sigma_min/sigma_max of the Jacobian with translational rows divided by
+        ``characteristic_length`` (and prismatic columns multiplied by it): the dimensionally
+        honest index (:mod:`mechkin.solvers.dexterity`).
+    characteristic_length : float or None
+        [m].
     seed : ndarray of int, shape (m,), optional
         The sample whose solution started this sample's loop closure (-1: home).
     mode_change : ndarray of bool, shape (m,), optional
@@ -225,6 +238,8 @@ class JointSweepRecord:
     manipulability: np.ndarray | None = None
     isotropy: np.ndarray | None = None
     isotropy_position: np.ndarray | None = None
+    isotropy_normalized: np.ndarray | None = None
+    characteristic_length: float | None = None
     seed: np.ndarray | None = None
     mode_change: np.ndarray | None = None
     reseeded: np.ndarray | None = None

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from mechkin.records.workspace import JointSweepRecord
-from mechkin.solvers.dexterity import dexterity
+from mechkin.solvers.dexterity import characteristic_length, dexterity, normalized_isotropy
 
 __all__ = ["continuation_tree", "joint_sweep", "point_cloud_volume"]
 
@@ -125,7 +125,8 @@ def _sensitivity_and_mode(mech: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndar
 def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
                 manipulability: bool = True, grid_shape: tuple[int, ...] | None = None,
                 seed_from: str = "neighbour", mode_jump: float = 2.0,
-                progress: Callable[[int, int], None] | None = None) -> JointSweepRecord:
+                progress: Callable[[int, int], None] | None = None,
+                length: float | None = None) -> JointSweepRecord:
     r"""Positions, reachability and dexterity of ``frame`` at the samples ``q_v``.
 
     For a closed chain the loop closure of every sample starts from a solved neighbour
@@ -164,6 +165,11 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         Threshold of the jump test (dimensionless ratio).
     progress : callable, optional
         ``progress(done, total)`` after every block (closure blocks, then evaluation blocks).
+    length : float, optional
+        Characteristic length [m] of the normalized isotropy
+        (:func:`mechkin.solvers.dexterity.normalized_isotropy`); None: the one that best
+        conditions the reachable samples (:func:`mechkin.solvers.dexterity.characteristic_length`).
+        The Jacobians of all samples are kept for it (48 n_v bytes per sample).
 
     Returns
     -------
@@ -182,6 +188,7 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     w_full = np.zeros(m)
     iso_full = np.zeros(m)
     iso_pos = np.zeros(m)
+    J_all = np.zeros((m, 6, len(mech.independent))) if manipulability else None
     parent = np.full(m, -1, dtype=np.int64)
     mode_change = np.zeros(m, dtype=bool)
     reseeded = np.zeros(m, dtype=bool)
@@ -258,6 +265,7 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
             if closed:
                 sens = S[a:b] if two_phase else dependent_sensitivity(mech, q[a:b])
                 Jr = Jr + J[:, :, mech.dependent] @ sens
+            J_all[a:b] = Jr
             dex = dexterity(Jr)
             w_full[a:b] = dex["manipulability"]
             iso_full[a:b] = dex["isotropy"]
@@ -275,7 +283,12 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         arr[~reach] = 0.0  # not a pose of the mechanism: reported 0, marked by reachable = 0
     dex_out: dict[str, Any] = {}
     if manipulability:
-        dex_out = {"manipulability": w_full, "isotropy": iso_full, "isotropy_position": iso_pos}
+        prismatic = mech.s[mech.independent] == 1
+        L = float(length) if length is not None else characteristic_length(J_all[reach],
+                                                                              prismatic)
+        iso_n = np.where(reach, normalized_isotropy(J_all, L, prismatic), 0.0)
+        dex_out = {"manipulability": w_full, "isotropy": iso_full, "isotropy_position": iso_pos,
+                   "isotropy_normalized": iso_n, "characteristic_length": L}
     return JointSweepRecord(q_v=qv, q=q, position=pos, status=status, converged=converged,
                             within_limits=within, reachable=reach, seed=parent,
                             mode_change=mode_change, reseeded=reseeded, **dex_out)

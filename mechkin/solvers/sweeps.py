@@ -45,7 +45,12 @@ from typing import Any, TypeVar
 import numpy as np
 
 from mechkin.records.workspace import DesignSweepRecord, LeeWorkspaceRecord, TaskSpaceRecord
-from mechkin.solvers.dexterity import COND_CAP, dexterity
+from mechkin.solvers.dexterity import (
+    COND_CAP,
+    characteristic_length,
+    dexterity,
+    normalized_isotropy,
+)
 from mechkin.solvers.workspace import lee_workspace, sigma_statistics
 
 __all__ = [
@@ -386,7 +391,8 @@ def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     out.update(q_v=q[:, mech.independent], status=np.array([s.value for s in res.status]),
                reachable=ok, position_error=np.nan_to_num(res.position_error, nan=0.0),
                orientation_error=np.nan_to_num(res.orientation_error, nan=0.0),
-               iterations=np.asarray(res.iterations, dtype=np.int64))
+               iterations=np.asarray(res.iterations, dtype=np.int64), J=Jr,
+               prismatic=np.asarray(mech.s[mech.independent] == 1))
     return out
 
 
@@ -405,6 +411,7 @@ def task_space_sweep(
     workers: int | None = None,
     address: str | None = None,
     progress: ProgressCallback | None = None,
+    length: float | None = None,
 ) -> TaskSpaceRecord:
     """Reachability and dexterity of task-space poses through the batched inverse kinematics.
 
@@ -427,6 +434,9 @@ def task_space_sweep(
         Poses per job.
     workers, address, progress
         See :func:`run_jobs`.
+    length : float, optional
+        Characteristic length [m] of ``isotropy_normalized``; None: the one that best
+        conditions the reached poses (:func:`mechkin.solvers.dexterity.characteristic_length`).
 
     Returns
     -------
@@ -453,10 +463,14 @@ def task_space_sweep(
         return TaskSpaceRecord(T_P, np.zeros((0, nv)), np.zeros(0, dtype=str),
                                np.zeros(0, dtype=bool), z, z, np.zeros(0, dtype=np.int64), z, z,
                                z, z)
+    prismatic = parts[0]["prismatic"]
+    ok = cat["reachable"]
+    L = float(length) if length is not None else characteristic_length(cat["J"][ok], prismatic)
+    iso_n = np.where(ok, normalized_isotropy(cat["J"], L, prismatic), 0.0)
     return TaskSpaceRecord(T_P, cat["q_v"], cat["status"], cat["reachable"],
                            cat["position_error"], cat["orientation_error"], cat["iterations"],
                            cat["isotropy"], cat["isotropy_position"], cat["condition_number"],
-                           cat["manipulability"])
+                           cat["manipulability"], iso_n, L)
 
 
 def task_space_summary(rec: TaskSpaceRecord) -> dict[str, Any]:
@@ -473,6 +487,8 @@ def task_space_summary(rec: TaskSpaceRecord) -> dict[str, Any]:
         "isotropy_position": sigma_statistics(rec.isotropy_position, ok),
         "condition_number": sigma_statistics(rec.condition_number, ok),
         "manipulability": sigma_statistics(rec.manipulability, ok),
+        "isotropy_normalized": sigma_statistics(rec.isotropy_normalized, ok)
+        if rec.isotropy_normalized is not None else {"count": 0},
         "iterations": sigma_statistics(rec.iterations.astype(float)),
     }
     if ok.any():

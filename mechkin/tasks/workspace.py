@@ -325,6 +325,25 @@ def _sweep_frame(sc: Scenario, mech: Any) -> int:
                       "give frame")
 
 
+NORMALIZED_DEFINITION = (
+    "sigma_min / sigma_max of the Jacobian with its translational rows divided by the "
+    "characteristic length L (prismatic columns multiplied by L): dimensionless, so invariant "
+    "under a change of length unit (the raw isotropy is not); unlike lee's sigma_KI, which "
+    "uses Euler-angle rates of a purely rotational mechanism, it uses the angular velocity")
+
+
+def _char_length(sc: Scenario) -> float | None:
+    L = sc.section.characteristic_length
+    return None if L is None else float(L) * length_factor(sc.spec.units.length)
+
+
+def _char_length_entry(sc: Scenario, value: float | None) -> dict[str, Any]:
+    given = sc.section.characteristic_length is not None
+    return {"value_m": value, "source": "scenario" if given else
+            "minimised: the L maximising the mean normalized isotropy (global conditioning "
+            "index) over the reachable samples"}
+
+
 def _joint_columns(mech: Any) -> list[str]:
     return [f"{n}_{'m' if mech.s[mech.independent[i]] == 1 else 'rad'}"
             for i, n in enumerate(mech.independent_names)]
@@ -346,7 +365,7 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
         rec = task_space_sweep(sc.mechanism_path, T_P, frame=f, weights=spec.weights,
                                restarts=spec.restarts, seed=spec.seed, max_iter=spec.max_iter,
                                chunk=spec.chunk, workers=ex["workers"], address=ex["address"],
-                               progress=cb)
+                               progress=cb, length=_char_length(sc))
     summary: dict[str, Any] = {
         **_head(sc, "task_space"),
         "mechanism": mech.name,
@@ -365,7 +384,9 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
             "isotropy_position": "the same for the position rows",
             "condition_number": "sigma_max / sigma_min (1/isotropy), capped at 1e16",
             "manipulability": "Yoshikawa w = product of the singular values of that Jacobian",
+            "isotropy_normalized": NORMALIZED_DEFINITION,
         },
+        "characteristic_length": _char_length_entry(sc, rec.characteristic_length),
         "execution": {"executor": "dask" if ex["address"] else "process", "jobs": n_jobs,
                       "chunk": spec.chunk},
         "compute_time_s": time.perf_counter() - t0,
@@ -450,7 +471,7 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     with _progress_bar(ex, f"{sc.name}: samples") as cb:
         rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
                           grid_shape=grid_shape, seed_from=spec.seed_from,
-                          mode_jump=spec.mode_jump, progress=cb)
+                          mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc))
     reach = rec.reachable
     elapsed = time.perf_counter() - t0
     bbox, volume = point_cloud_volume(rec.position[reach],
@@ -493,6 +514,7 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
                               "(closed chains: J_v + J_w dq_w/dq_v)",
             "isotropy": "sigma_min / sigma_max of that Jacobian (position rows only for "
                         "isotropy_position); 0 at singular poses",
+            "isotropy_normalized": NORMALIZED_DEFINITION,
             "volume": "voxel_m3: occupied cubes of edge voxel_edge_m; convex_hull_m3: hull of "
                       "the reachable points (an upper bound for non-convex workspaces)",
         },
@@ -502,6 +524,8 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
         summary["manipulability"] = sigma_statistics(rec.manipulability[reach])
         summary["isotropy"] = sigma_statistics(rec.isotropy[reach])
         summary["isotropy_position"] = sigma_statistics(rec.isotropy_position[reach])
+        summary["isotropy_normalized"] = sigma_statistics(rec.isotropy_normalized[reach])
+        summary["characteristic_length"] = _char_length_entry(sc, rec.characteristic_length)
     sl = spec.slices
     slices = None if sl is None else {
         "axis": sl.axis, "at": [v * L for v in sl.at] if sl.at else None,

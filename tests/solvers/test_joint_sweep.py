@@ -143,3 +143,85 @@ def test_seed_from_only_for_joint_sweep(tmp_path):
                  "  isotropy_maps: {a: [20]}\n  seed_from: home\n")
     with pytest.raises(ConfigError, match="seed_from"):
         load_scenario(p)
+
+
+# ---- the dimensionally honest dexterity index ------------------------------------------------
+
+PUMA = ROOT / "mechanisms" / "puma560.yaml"
+
+
+def _puma_copy(tmp_path, name, factor, unit):
+    import yaml
+
+    d = yaml.safe_load(PUMA.read_text())
+    d["units"]["length"] = unit
+    for j in d["joints"]:
+        for k in ("a", "d"):
+            j["dh"][k] = j["dh"][k] * factor
+    for ln in d["links"]:
+        ln.pop("inertial", None)
+        for fr in ln.get("frames", []):
+            fr["xyz"] = [v * factor for v in fr["xyz"]]
+    p = tmp_path / name
+    p.write_text(yaml.safe_dump(d, sort_keys=False))
+    return p
+
+
+def _puma_sweep(path, q_v, length=None):
+    mech = load_mechanism(path)
+    return joint_sweep(mech, q_v, mech.end_effector, length=length)
+
+
+def test_normalized_isotropy_is_invariant_under_the_length_unit(tmp_path):
+    rng = np.random.default_rng(7)
+    mech = load_mechanism(PUMA)
+    q_v = rng.uniform(mech.lower * 0.9, mech.upper * 0.9, size=(300, 6))
+    m_file = _puma_sweep(PUMA, q_v)
+    # the same arm written in mm: identical SI model, identical index and length
+    mm_file = _puma_sweep(_puma_copy(tmp_path, "puma_mm.yaml", 1000.0, "mm"), q_v)
+    assert_allclose(mm_file.isotropy_normalized, m_file.isotropy_normalized, atol=1e-12)
+    assert mm_file.characteristic_length == pytest.approx(m_file.characteristic_length, rel=1e-9)
+    # the arm's lengths read in another unit (numbers of mm taken as m: every length x 1000):
+    # the raw SI isotropy changes, the normalized one does not, and L scales by 1000
+    big = _puma_sweep(_puma_copy(tmp_path, "puma_x1000.yaml", 1000.0, "m"), q_v)
+    assert np.max(np.abs(big.isotropy - m_file.isotropy)) > 0.05
+    assert big.characteristic_length / m_file.characteristic_length == pytest.approx(1000.0,
+                                                                                      rel=1e-5)
+    assert_allclose(big.isotropy_normalized, m_file.isotropy_normalized, atol=1e-5)
+    # a given L behaves the same way, exactly
+    g1 = _puma_sweep(PUMA, q_v, length=0.3)
+    g2 = _puma_sweep(_puma_copy(tmp_path, "puma_x1000b.yaml", 1000.0, "m"), q_v, length=300.0)
+    assert_allclose(g2.isotropy_normalized, g1.isotropy_normalized, atol=1e-10)
+
+
+def test_characteristic_length_maximises_the_mean_normalized_isotropy():
+    from mechkin.model.kinematics import forward_kinematics, frame_jacobian
+    from mechkin.solvers.dexterity import characteristic_length, normalized_isotropy
+
+    rng = np.random.default_rng(2)
+    mech = load_mechanism(PUMA)
+    q = rng.uniform(mech.lower * 0.9, mech.upper * 0.9, size=(200, 6))
+    J = frame_jacobian(mech, forward_kinematics(mech, q), mech.end_effector)
+    L = characteristic_length(J)
+    best = normalized_isotropy(J, L).mean()
+    for f in (0.5, 0.9, 1.1, 2.0):
+        assert normalized_isotropy(J, f * L).mean() <= best + 1e-12
+    assert 0.05 < L < 2.0  # a length of the order of the PUMA's links (0.43 m)
+
+
+def test_normalized_jacobian_of_a_prismatic_joint_is_dimensionless():
+    from mechkin.solvers.dexterity import normalized_isotropy, normalized_jacobian
+
+    # one revolute joint about z at distance r (v = omega x r) and one prismatic joint along x
+    r = 0.2
+    J = np.zeros((1, 6, 2))
+    J[0, 2, 0], J[0, 4, 0] = 1.0, r
+    J[0, 3, 1] = 1.0
+    Jn = normalized_jacobian(J, r, np.array([False, True]))
+    assert_allclose(Jn[0, :, 0], [0, 0, 1, 0, 1, 0])
+    assert_allclose(Jn[0, :, 1], [0, 0, 0, r / r, 0, 0])
+    # scaling every length by s (r -> s r, L -> s L) leaves the index unchanged
+    J2 = J.copy()
+    J2[0, 4, 0] = 1000 * r
+    assert_allclose(normalized_isotropy(J2, 1000 * r, np.array([False, True])),
+                    normalized_isotropy(J, r, np.array([False, True])), atol=1e-14)
