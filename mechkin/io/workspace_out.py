@@ -8,6 +8,7 @@
   within_stroke, in_workspace``); with a gamma range ``gamma_range.png`` and
   ``gamma_range.csv`` (``alpha_deg, beta_deg, n_gamma_in, n_runs, gamma_min_deg,
   gamma_max_deg``, only rows where gamma_min is defined; their count is in summary.json).
+  With a pose list ``sigma_ki_poses.csv`` (one row per listed pose, the same columns).
   Lengths are in units of the base radius ``R`` (written ``_m``).
 * ``design``: ``design_sigma_ki_NAME.png`` (a row per value, a column per gamma),
   ``design_gamma_range.png``, ``design_comparison.csv`` and per value the CSV grids above
@@ -115,6 +116,15 @@ def _write_lee_files(od: OutputDir, record: LeeWorkspaceRecord, *, plots: bool, 
             cols["within_stroke"] = maps.within_limits.ravel()
             cols["in_workspace"] = maps.in_workspace.ravel()
             od.write_csv(f"{prefix}sigma_ki_{name}.csv", cols)
+    pl = record.poses
+    if pl is not None and csv:
+        cols = {"pose": np.arange(pl.poses.shape[0]), "alpha_deg": _deg(pl.poses[:, 0]),
+                "beta_deg": _deg(pl.poses[:, 1]), "gamma_deg": _deg(pl.poses[:, 2])}
+        for i in range(pl.actuators.shape[-1]):
+            cols[f"l{i + 1}_m"] = pl.actuators[:, i]
+        cols.update(sigma_ki=pl.sigma, within_stroke=pl.within_limits,
+                    in_workspace=pl.in_workspace)
+        od.write_csv(f"{prefix}sigma_ki_poses.csv", cols)
     gr = record.gamma_range
     if gr is not None:
         if plots:

@@ -29,6 +29,7 @@ __all__ = [
     "DesignSweepRecord",
     "GammaRange",
     "JointSweepRecord",
+    "LeePoseList",
     "LeeWorkspaceRecord",
     "OrientationMaps",
     "TaskSpaceRecord",
@@ -107,6 +108,27 @@ class GammaRange:
 
 
 @dataclass(frozen=True)
+class LeePoseList:
+    """sigma_KI at an explicit list of ``m`` orientations of lee's mechanism.
+
+    Attributes
+    ----------
+    poses : ndarray, shape (m, 3)
+        (alpha, beta, gamma) [rad].
+    sigma : ndarray, shape (m,)
+    within_limits, in_workspace : ndarray of bool, shape (m,)
+    actuators : ndarray, shape (m, 3)
+        Leg lengths.
+    """
+
+    poses: np.ndarray
+    sigma: np.ndarray
+    within_limits: np.ndarray
+    in_workspace: np.ndarray
+    actuators: np.ndarray
+
+
+@dataclass(frozen=True)
 class LeeWorkspaceRecord:
     """Everything one lee workspace scenario computes (arrays + JSON-ready summary).
 
@@ -123,12 +145,15 @@ class LeeWorkspaceRecord:
     summary : dict
         Area/volume fractions and sigma_KI statistics per gamma set, gamma-range statistics,
         grid descriptions; degrees in keys ending ``_deg``.
+    poses : LeePoseList or None
+        The explicit pose list, when given.
     """
 
     geometry: Any
     isotropy: dict[str, OrientationMaps]
     gamma_range: GammaRange | None
     summary: dict[str, Any]
+    poses: LeePoseList | None = None
 
 
 @dataclass(frozen=True)

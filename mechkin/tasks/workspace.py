@@ -211,11 +211,59 @@ def _lee_params(sc: Scenario, design: dict[str, Any]) -> dict[str, Any]:
     return params
 
 
+def _listed_poses(sc: Scenario, columns: tuple[str, ...], optional: tuple[str, ...] = ()
+                  ) -> np.ndarray | None:
+    """The section's ``poses`` (inline rows) or ``poses_csv`` (columns ``columns`` and, all
+    or none, ``optional``) as an array (m, k) in the file's units; None when neither is given."""
+    import csv
+
+    spec = sc.section
+    if spec.poses is not None:
+        return np.asarray(spec.poses, dtype=np.float64)
+    if spec.poses_csv is None:
+        return None
+    path = (sc.doc.path.parent / spec.poses_csv).resolve()
+    if not path.is_file():
+        raise ConfigError(f"{sc.doc.where(('workspace', 'poses_csv'))}: file not found: "
+                          f"{spec.poses_csv} (resolved to {path})")
+    with path.open(newline="") as fh:
+        rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
+    if len(rows) < 2:
+        raise ConfigError(f"{path}:1: expected a header row and at least one pose")
+    head = [h.strip() for h in rows[0]]
+    missing = [c for c in columns if c not in head]
+    if missing:
+        extra = f" [{', '.join(optional)}]" if optional else ""
+        raise ConfigError(f"{path}:1: missing column(s) {', '.join(missing)} (expected "
+                          f"{', '.join(columns)}{extra})")
+    given_opt = [c for c in optional if c in head]
+    if given_opt and len(given_opt) != len(optional):
+        raise ConfigError(f"{path}:1: give all of {', '.join(optional)} or none")
+    cols = [head.index(c) for c in (*columns, *given_opt)]
+    out = np.empty((len(rows) - 1, len(cols)))
+    for i, r in enumerate(rows[1:], start=2):
+        try:
+            out[i - 2] = [float(r[c]) for c in cols]
+        except (ValueError, IndexError):
+            raise ConfigError(f"{path}:{i}: expected numbers in {', '.join(head[c] for c in cols)}"
+                              ) from None
+    if not np.all(np.isfinite(out)):
+        raise ConfigError(f"{path}:1: non-finite numbers in the poses")
+    if given_opt and np.any(np.sum(out[:, len(columns):] ** 2, axis=1) < 1e-18):
+        raise ConfigError(f"{path}:1: expected non-zero quaternions (qw, qx, qy, qz)")
+    if out.shape[0] > MAX_SWEEP_SAMPLES:
+        raise ConfigError(f"{path}:1: {out.shape[0]} poses, more than {MAX_SWEEP_SAMPLES}")
+    return out
+
+
 def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
     from mechkin.solvers.workspace import lee_workspace
 
     design = lee_design(sc)
     params = _lee_params(sc, design)
+    listed = _listed_poses(sc, ("alpha", "beta", "gamma"))
+    if listed is not None:
+        params["poses"] = listed * angle_factor(sc.spec.units.angle)
     t0 = time.perf_counter()
     try:
         with _progress_bar(ex, f"{sc.name}: maps") as cb:
@@ -290,6 +338,16 @@ def _task_poses(sc: Scenario) -> np.ndarray:
         R0 = matrix_from_quat(np.asarray(o.quaternion, dtype=float))
     elif o is not None and o.random:
         R0 = None
+    listed = _listed_poses(sc, ("x", "y", "z"), ("qw", "qx", "qy", "qz"))
+    if listed is not None:
+        T = np.tile(np.eye(4), (listed.shape[0], 1, 1))
+        T[:, :3, 3] = listed[:, :3] * L
+        if listed.shape[1] == 7:
+            T[:, :3, :3] = matrix_from_quat(listed[:, 3:7])
+        else:
+            assert R0 is not None
+            T[:, :3, :3] = R0
+        return T
     axes = [spec.positions[k] for k in "xyz"]
     if spec.method == "grid":
         vals = []
@@ -369,7 +427,7 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
     summary: dict[str, Any] = {
         **_head(sc, "task_space"),
         "mechanism": mech.name,
-        "method": spec.method,
+        "method": spec.method or "poses",
         "seed": spec.seed,
         "frame": mech.frame_names[f],
         "restarts": spec.restarts,
@@ -392,7 +450,8 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
         "compute_time_s": time.perf_counter() - t0,
     }
     title = (f"{mech.name}: task-space sweep of {mech.frame_names[f]} "
-             f"({int(rec.reachable.sum())}/{rec.reachable.size} poses reached, {spec.method})")
+             f"({int(rec.reachable.sum())}/{rec.reachable.size} poses reached, "
+             f"{spec.method or 'listed poses'})")
     return _report(sc, summary, WorkspaceOutput("task_space", rec, title=title,
                                                 joint_columns=_joint_columns(mech)))
 

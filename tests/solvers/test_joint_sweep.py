@@ -225,3 +225,80 @@ def test_normalized_jacobian_of_a_prismatic_joint_is_dimensionless():
     J2[0, 4, 0] = 1000 * r
     assert_allclose(normalized_isotropy(J2, 1000 * r, np.array([False, True])),
                     normalized_isotropy(J, r, np.array([False, True])), atol=1e-14)
+
+
+# ---- explicit pose lists ---------------------------------------------------------------------
+
+
+def _scenario(tmp_path, name, body):
+    from mechkin.config.scenario import load_scenario
+
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(body)
+    return load_scenario(p)
+
+
+def test_lee_pose_list_inline_and_csv(tmp_path):
+    from mechkin.solvers.closed_form.lee_spherical import isotropy_index
+    from mechkin.tasks.workspace import run
+
+    poses = [[0.0, 0.0, 20.0], [10.0, -20.0, 30.0], [-30.0, 60.0, 30.0], [80.0, 80.0, 170.0]]
+    head = ("task: workspace\nunits: {angle: deg}\nworkspace:\n  kind: lee_spherical\n"
+            "  parameters: {r: 0.5}\n")
+    inline = run(_scenario(tmp_path, "a", f"name: a\n{head}  poses: {poses}\n"))
+    (tmp_path / "p.csv").write_text("alpha,beta,gamma\n" + "\n".join(
+        ",".join(str(v) for v in p) for p in poses) + "\n")
+    from_csv = run(_scenario(tmp_path, "b", f"name: b\n{head}  poses_csv: p.csv\n"))
+    pl = inline.data.record.poses
+    assert_allclose(from_csv.data.record.poses.sigma, pl.sigma, atol=0)
+    ref = isotropy_index(LeeGeometry(r=0.5), np.deg2rad(poses))
+    assert_allclose(pl.sigma, ref, atol=1e-12)
+    assert pl.sigma[0] == pytest.approx(0.483690, abs=5e-7)  # PAPER_NOTES closed form, 20 deg
+    s = inline.summary["poses"]
+    assert s["count"] == 4 and s["in_workspace_fraction"] == pytest.approx(pl.in_workspace.mean())
+    out = tmp_path / "o"
+    inline.write(out, plots=False)
+    t = read_csv(out / "sigma_ki_poses.csv")
+    assert_allclose(t["sigma_ki"], pl.sigma) and len(t["alpha_deg"]) == 4
+
+
+def test_task_space_pose_list(tmp_path):
+    from mechkin.config.scenario import load_scenario
+    from mechkin.errors import ConfigError
+    from mechkin.spatial.rotations import quat_from_matrix
+    from mechkin.tasks.workspace import run
+
+    mech = load_mechanism(PUMA)
+    rng = np.random.default_rng(5)
+    q = rng.uniform(mech.lower * 0.5, mech.upper * 0.5, size=(4, mech.n))
+    T = forward_kinematics(mech, q).frames(mech, [mech.end_effector])[:, 0]
+    rows = [[*(1000 * T[k, :3, 3]).tolist(), *quat_from_matrix(T[k, :3, :3]).tolist()]
+            for k in range(4)]
+    rows.append([5000.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # out of reach
+    head = (f"task: workspace\nmechanism: {PUMA}\nunits: {{length: mm, angle: deg}}\n"
+            "workspace:\n  kind: task_space\n  restarts: 4\n")
+    rep = run(_scenario(tmp_path, "ts", f"name: ts\n{head}  poses: {rows}\n"))
+    rec = rep.data.record
+    assert rec.reachable.tolist() == [True] * 4 + [False]
+    assert_allclose(rec.T_P[:4], T, atol=1e-9)
+    assert rep.summary["method"] == "poses" and rep.summary["n_poses"] == 5
+    (tmp_path / "t.csv").write_text("x,y,z,qw,qx,qy,qz\n" + "\n".join(
+        ",".join(repr(v) for v in r) for r in rows) + "\n")
+    rep2 = run(_scenario(tmp_path, "ts2", f"name: ts2\n{head}  poses_csv: t.csv\n"))
+    assert_allclose(rep2.data.record.T_P, rec.T_P, atol=1e-12)
+    assert rep2.data.record.reachable.tolist() == rec.reachable.tolist()
+    # bad input: one line with the file and key
+    with pytest.raises(ConfigError, match=r"poses: expected every pose"):
+        load_scenario(_write(tmp_path, "b1", f"name: b1\n{head}  poses: [[1, 2, 3], [1, 2, 3, 4]]\n"))
+    (tmp_path / "bad.csv").write_text("x,y\n1,2\n")
+    with pytest.raises(ConfigError, match=r"bad.csv:1: missing column"):
+        run(_scenario(tmp_path, "b2", f"name: b2\n{head}  poses_csv: bad.csv\n"))
+    with pytest.raises(ConfigError, match=r"method: not used with poses"):
+        load_scenario(_write(tmp_path, "b3", f"name: b3\n{head}  method: grid\n"
+                                             f"  poses: {rows}\n"))
+
+
+def _write(tmp_path, name, body):
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(body)
+    return p
