@@ -259,7 +259,8 @@ def test_lee_pose_list_inline_and_csv(tmp_path):
     out = tmp_path / "o"
     inline.write(out, plots=False)
     t = read_csv(out / "sigma_ki_poses.csv")
-    assert_allclose(t["sigma_ki"], pl.sigma) and len(t["alpha_deg"]) == 4
+    assert len(t["alpha_deg"]) == 4
+    assert_allclose(t["sigma_ki"], pl.sigma)
 
 
 def test_task_space_pose_list(tmp_path):
