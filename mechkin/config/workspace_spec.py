@@ -13,6 +13,7 @@ Registered with :func:`mechkin.config.scenario.register_task_section` on import.
     Sweep the independent joints on a grid (``method: grid``, every joint given ``n`` points)
     or uniformly at random (``method: monte_carlo`` with ``samples`` and ``seed``) within their
     limits (or the ``range`` given per joint), and map the reachable positions of a frame.
+    Closed chains are closed sample by sample from a solved neighbour (``seed_from``).
 
 ``kind: task_space`` (any mechanism)
     Sweep task-space poses of a frame through the batched inverse kinematics
@@ -219,10 +220,21 @@ class WorkspaceSpec(Spec):
     ``gamma_range``, ``method`` (``closed_form`` or ``svd`` singular values).
     joint_sweep keys: ``method`` (``grid`` or ``monte_carlo``), ``joints``, ``samples``,
     ``seed``, ``frame`` (default: the end effector), ``voxel`` (edge of the cubes counted for
-    the volume), ``slices``, ``manipulability``, ``chunk``.
+    the volume), ``slices``, ``manipulability``, ``chunk``, ``seed_from`` (``neighbour``: each
+    sample's loop closure starts from a solved neighbour, keeping one assembly mode; ``home``:
+    from the home configuration) and ``mode_jump`` (threshold of the mode-change report,
+    dependent-joint jump / independent-joint step).
     task_space keys: ``method``, ``positions`` (x, y, z), ``orientation``, ``samples``,
     ``seed``, ``frame``, ``weights`` (6, diagonal of W), ``restarts``, ``max_iter``, ``chunk``
     (poses per job).
+    lee_spherical and task_space: ``poses`` (an explicit list instead of or besides the grids:
+    lee ``[alpha, beta, gamma]`` in the angle unit; task_space ``[x, y, z]`` in the length unit
+    with the section's ``orientation``, or ``[x, y, z, qw, qx, qy, qz]``) or ``poses_csv`` (a
+    CSV file relative to the scenario with columns ``alpha, beta, gamma`` resp. ``x, y, z`` and
+    optionally ``qw, qx, qy, qz``, same units).
+    joint_sweep and task_space: ``characteristic_length`` (file length unit) dividing the
+    translational rows of the Jacobian for ``isotropy_normalized`` (default: the length that
+    best conditions the sampled workspace, reported in summary.json).
     Every kind: ``workers``, ``executor``; lee_spherical also ``design``.
     """
 
@@ -245,6 +257,9 @@ class WorkspaceSpec(Spec):
     voxel: PosNum | None = None
     slices: SlicesSpec | None = None
     manipulability: bool = True
+    characteristic_length: PosNum | None = None
+    seed_from: Literal["neighbour", "home"] = "neighbour"
+    mode_jump: PosNum = 2.0
     chunk: Annotated[int, Field(strict=True, ge=1, le=1_000_000)] = 2000
     # task_space
     positions: dict[Literal["x", "y", "z"], PositionAxisSpec] | None = None
@@ -252,6 +267,10 @@ class WorkspaceSpec(Spec):
     weights: Annotated[list[NonNegNum], Field(min_length=6, max_length=6)] | None = None
     restarts: Annotated[int, Field(strict=True, ge=0, le=1000)] = 8
     max_iter: Annotated[int, Field(strict=True, ge=1, le=100_000)] | None = None
+    # explicit pose lists (lee_spherical and task_space)
+    poses: Annotated[list[Annotated[list[Num], Field(min_length=3, max_length=7)]],
+                     Field(min_length=1, max_length=1_000_000)] | None = None
+    poses_csv: Annotated[str, Field(min_length=1)] | None = None
     # design sweeps and execution
     design: DesignSpec | None = None
     workers: Annotated[int, Field(strict=True, ge=1, le=1024)] | None = None
@@ -260,12 +279,40 @@ class WorkspaceSpec(Spec):
     @model_validator(mode="after")
     def _check(self) -> WorkspaceSpec:
         lee_keys = ("parameters", "alpha", "beta", "isotropy_maps", "gamma_range", "design")
-        sweep_keys = ("joints", "samples", "frame", "voxel", "slices")
+        if self.kind == "lee_spherical" and "characteristic_length" in self.model_fields_set:
+            raise ValueError("characteristic_length: not used by kind lee_spherical (sigma_KI "
+                             "of Euler-angle rates needs no length scale)")
+        sweep_keys = ("joints", "samples", "frame", "voxel", "slices", "seed_from", "mode_jump")
         task_keys = ("positions", "orientation", "weights", "restarts", "max_iter")
         given = self.model_fields_set
+        if self.poses is not None and self.poses_csv is not None:
+            raise ValueError("give poses or poses_csv, not both")
+        listed = self.poses is not None or self.poses_csv is not None
+        if listed and self.kind == "joint_sweep":
+            raise ValueError("poses, poses_csv: only for kinds lee_spherical and task_space")
+        if self.poses is not None:
+            widths = {len(p) for p in self.poses}
+            allowed = {3} if self.kind == "lee_spherical" else {3, 7}
+            if len(widths) != 1 or not widths <= allowed:
+                what = ("[alpha, beta, gamma]" if self.kind == "lee_spherical" else
+                        "[x, y, z] or [x, y, z, qw, qx, qy, qz]")
+                raise ValueError(f"poses: expected every pose as {what}, got lengths "
+                                 f"{sorted(widths)}")
+            if widths == {7} and any(sum(v * v for v in p[3:]) < 1e-18 for p in self.poses):
+                raise ValueError("poses: expected non-zero quaternions (qw, qx, qy, qz)")
+        if self.kind == "task_space" and listed:
+            wrong = [k for k in (*lee_keys, "joints", "voxel", "slices", "manipulability",
+                                 "seed_from", "mode_jump", "positions", "samples") if k in given]
+            if wrong:
+                raise ValueError(f"{', '.join(wrong)}: not used by kind task_space with poses")
+            if self.method is not None:
+                raise ValueError("method: not used with poses (the list is the sweep)")
+            if self.orientation is not None and self.orientation.random:
+                raise ValueError("orientation.random: only for method monte_carlo")
+            return self
         if self.kind == "task_space":
-            wrong = [k for k in (*lee_keys, "joints", "voxel", "slices", "manipulability")
-                     if k in given]
+            wrong = [k for k in (*lee_keys, "joints", "voxel", "slices", "manipulability",
+                                 "seed_from", "mode_jump") if k in given]
             if wrong:
                 raise ValueError(f"{', '.join(wrong)}: not used by kind task_space")
             if self.method not in ("grid", "monte_carlo"):
@@ -297,8 +344,11 @@ class WorkspaceSpec(Spec):
             if self.method not in (None, "closed_form", "svd"):
                 raise ValueError(f"method: expected closed_form or svd for kind lee_spherical, "
                                  f"got {self.method}")
-            if not self.isotropy_maps and self.gamma_range is None:
-                raise ValueError("kind lee_spherical needs isotropy_maps and/or gamma_range")
+            if not self.isotropy_maps and self.gamma_range is None and not listed:
+                raise ValueError("kind lee_spherical needs isotropy_maps, gamma_range and/or "
+                                 "poses (or poses_csv)")
+            if listed and self.design is not None:
+                raise ValueError("poses: not used by design sweeps")
         else:
             wrong = [k for k in lee_keys if k in given]
             if wrong:

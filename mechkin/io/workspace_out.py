@@ -8,15 +8,18 @@
   within_stroke, in_workspace``); with a gamma range ``gamma_range.png`` and
   ``gamma_range.csv`` (``alpha_deg, beta_deg, n_gamma_in, n_runs, gamma_min_deg,
   gamma_max_deg``, only rows where gamma_min is defined; their count is in summary.json).
+  With a pose list ``sigma_ki_poses.csv`` (one row per listed pose, the same columns).
   Lengths are in units of the base radius ``R`` (written ``_m``).
 * ``design``: ``design_sigma_ki_NAME.png`` (a row per value, a column per gamma),
   ``design_gamma_range.png``, ``design_comparison.csv`` and per value the CSV grids above
   under ``PARAM_VALUE/`` (e.g. ``r_0.25/sigma_ki_text.csv``).
 * ``task_space``: ``task_points.csv`` (one row per target pose: position, quaternion (w, x,
-  y, z), status, reachable, errors, iterations, independent joints, dexterity) and
+  y, z), status, reachable, errors, iterations, independent joints, dexterity incl.
+  ``isotropy_normalized``) and
   ``task_space.png``.
 * ``joint_sweep``: ``points.csv`` (one row per sample: independent joints, position, status,
-  within_limits, reachable, dexterity) and ``workspace_slices.png``.
+  within_limits, reachable, seed_sample (the solved neighbour its loop closure started from,
+  -1: home), mode_change, reseeded, dexterity) and ``workspace_slices.png``.
 
 Imports: records, io.atomic, io.report, io.workspace_plots (lazily, for the PNGs).
 """
@@ -113,6 +116,15 @@ def _write_lee_files(od: OutputDir, record: LeeWorkspaceRecord, *, plots: bool, 
             cols["within_stroke"] = maps.within_limits.ravel()
             cols["in_workspace"] = maps.in_workspace.ravel()
             od.write_csv(f"{prefix}sigma_ki_{name}.csv", cols)
+    pl = record.poses
+    if pl is not None and csv:
+        cols = {"pose": np.arange(pl.poses.shape[0]), "alpha_deg": _deg(pl.poses[:, 0]),
+                "beta_deg": _deg(pl.poses[:, 1]), "gamma_deg": _deg(pl.poses[:, 2])}
+        for i in range(pl.actuators.shape[-1]):
+            cols[f"l{i + 1}_m"] = pl.actuators[:, i]
+        cols.update(sigma_ki=pl.sigma, within_stroke=pl.within_limits,
+                    in_workspace=pl.in_workspace)
+        od.write_csv(f"{prefix}sigma_ki_poses.csv", cols)
     gr = record.gamma_range
     if gr is not None:
         if plots:
@@ -198,6 +210,8 @@ def _write_task_space(od: OutputDir, out: WorkspaceOutput, *, plots: bool, csv: 
             cols[name] = rec.q_v[:, k]
         cols.update(isotropy=rec.isotropy, isotropy_position=rec.isotropy_position,
                     condition_number=rec.condition_number, manipulability=rec.manipulability)
+        if rec.isotropy_normalized is not None:
+            cols["isotropy_normalized"] = rec.isotropy_normalized
         od.write_csv("task_points.csv", cols)
     if plots and rec.reachable.size:
         from mechkin.io.workspace_plots import plot_task_space
@@ -218,9 +232,14 @@ def _write_joint_sweep(od: OutputDir, out: WorkspaceOutput, *, plots: bool, csv:
         cols.update(x_m=rec.position[:, 0], y_m=rec.position[:, 1], z_m=rec.position[:, 2],
                     status=rec.status, within_limits=rec.within_limits,
                     reachable=rec.reachable)
+        if rec.seed is not None:
+            cols.update(seed_sample=rec.seed, mode_change=rec.mode_change,
+                        reseeded=rec.reseeded)
         if rec.isotropy is not None:
             cols.update(manipulability=rec.manipulability, isotropy=rec.isotropy,
                         isotropy_position=rec.isotropy_position)
+            if rec.isotropy_normalized is not None:
+                cols["isotropy_normalized"] = rec.isotropy_normalized
         od.write_csv("points.csv", cols)
     P = rec.position[rec.reachable]
     if plots and P.shape[0]:

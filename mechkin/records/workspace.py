@@ -29,6 +29,7 @@ __all__ = [
     "DesignSweepRecord",
     "GammaRange",
     "JointSweepRecord",
+    "LeePoseList",
     "LeeWorkspaceRecord",
     "OrientationMaps",
     "TaskSpaceRecord",
@@ -107,6 +108,27 @@ class GammaRange:
 
 
 @dataclass(frozen=True)
+class LeePoseList:
+    """sigma_KI at an explicit list of ``m`` orientations of lee's mechanism.
+
+    Attributes
+    ----------
+    poses : ndarray, shape (m, 3)
+        (alpha, beta, gamma) [rad].
+    sigma : ndarray, shape (m,)
+    within_limits, in_workspace : ndarray of bool, shape (m,)
+    actuators : ndarray, shape (m, 3)
+        Leg lengths.
+    """
+
+    poses: np.ndarray
+    sigma: np.ndarray
+    within_limits: np.ndarray
+    in_workspace: np.ndarray
+    actuators: np.ndarray
+
+
+@dataclass(frozen=True)
 class LeeWorkspaceRecord:
     """Everything one lee workspace scenario computes (arrays + JSON-ready summary).
 
@@ -123,12 +145,15 @@ class LeeWorkspaceRecord:
     summary : dict
         Area/volume fractions and sigma_KI statistics per gamma set, gamma-range statistics,
         grid descriptions; degrees in keys ending ``_deg``.
+    poses : LeePoseList or None
+        The explicit pose list, when given.
     """
 
     geometry: Any
     isotropy: dict[str, OrientationMaps]
     gamma_range: GammaRange | None
     summary: dict[str, Any]
+    poses: LeePoseList | None = None
 
 
 @dataclass(frozen=True)
@@ -173,6 +198,11 @@ class TaskSpaceRecord:
     isotropy, isotropy_position, condition_number, manipulability : ndarray, shape (m,)
         Dexterity at the solutions (see :mod:`mechkin.solvers.sweeps`); 0 (condition number: 0
         too) where not reachable.
+    isotropy_normalized : ndarray, shape (m,) or None
+        The dimensionally honest isotropy (translational rows / ``characteristic_length``);
+        0 where not reachable.
+    characteristic_length : float or None
+        [m].
     """
 
     T_P: np.ndarray
@@ -186,6 +216,8 @@ class TaskSpaceRecord:
     isotropy_position: np.ndarray
     condition_number: np.ndarray
     manipulability: np.ndarray
+    isotropy_normalized: np.ndarray | None = None
+    characteristic_length: float | None = None
 
 
 @dataclass(frozen=True)
@@ -206,6 +238,19 @@ class JointSweepRecord:
         Loop closure converged; every joint within limits; both and finite.
     manipulability, isotropy, isotropy_position : ndarray, shape (m,) or None
         Dexterity of the reduced frame Jacobian (None when not asked); 0 where not reachable.
+    isotropy_normalized : ndarray, shape (m,) or None
+        sigma_min/sigma_max of the Jacobian with translational rows divided by
+        ``characteristic_length`` (and prismatic columns multiplied by it): the dimensionally
+        honest index (:mod:`mechkin.solvers.dexterity`).
+    characteristic_length : float or None
+        [m].
+    seed : ndarray of int, shape (m,), optional
+        The sample whose solution started this sample's loop closure (-1: home).
+    mode_change : ndarray of bool, shape (m,), optional
+        The dependent joints jumped away from the branch of the seed sample (a change of
+        assembly mode; see :func:`mechkin.solvers.joint_sweep.joint_sweep`).
+    reseeded : ndarray of bool, shape (m,), optional
+        The closure failed from the seed sample and was solved from home instead.
     """
 
     q_v: np.ndarray
@@ -218,6 +263,11 @@ class JointSweepRecord:
     manipulability: np.ndarray | None = None
     isotropy: np.ndarray | None = None
     isotropy_position: np.ndarray | None = None
+    isotropy_normalized: np.ndarray | None = None
+    characteristic_length: float | None = None
+    seed: np.ndarray | None = None
+    mode_change: np.ndarray | None = None
+    reseeded: np.ndarray | None = None
 
 
 @dataclass

@@ -17,19 +17,133 @@ kim1995_complex_chain_ik §5.1, Eq. (10); Yoshikawa (1985), IJRR 4(2).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from mechkin.records.workspace import JointSweepRecord
-from mechkin.solvers.dexterity import dexterity
+from mechkin.solvers.dexterity import characteristic_length, dexterity, normalized_isotropy
 
-__all__ = ["joint_sweep", "point_cloud_volume"]
+__all__ = ["continuation_tree", "joint_sweep", "point_cloud_volume"]
+
+
+def continuation_tree(q_v: np.ndarray, grid_shape: tuple[int, ...] | None = None,
+                      home: np.ndarray | None = None, k: int = 8
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The order in which a sweep solves its samples: each sample's parent is a nearby sample
+    solved before it (its loop closure starts there, not at ``home``).
+
+    Parameters
+    ----------
+    q_v : array, shape (m, n_v)
+        The samples.
+    grid_shape : tuple of int, optional
+        Samples on a C-order grid of this shape (last axis fastest): the parent of multi-index
+        ``i`` is ``i - e_j`` with ``j`` the last axis where ``i_j > 0`` (one grid step away);
+        sample 0 is the root. None: scattered samples (Monte Carlo), see below.
+    home : array, shape (n_v,), optional
+        Scattered samples: each connected part of the k-nearest-neighbour graph (distances in
+        joint coordinates scaled by their spread) is rooted at its sample nearest ``home``,
+        walked breadth first, and every sample takes as parent its nearest neighbour on an
+        earlier level.
+    k : int
+        Neighbours per sample of that graph.
+
+    Returns
+    -------
+    parent : ndarray of int, shape (m,)
+        -1 for a root (solved from home).
+    level : ndarray of int, shape (m,)
+        Parents have lower levels; samples of one level are solved together.
+    """
+    qv = np.asarray(q_v, dtype=np.float64)
+    m = qv.shape[0]
+    if m == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    if grid_shape is not None:
+        idx = np.array(np.unravel_index(np.arange(m), grid_shape)).T  # (m, d)
+        level = idx.sum(axis=1)
+        pos = idx > 0
+        last = np.where(pos.any(axis=1), idx.shape[1] - 1 - np.argmax(pos[:, ::-1], axis=1), -1)
+        strides = np.array([int(np.prod(grid_shape[j + 1:])) for j in range(len(grid_shape))])
+        parent = np.where(last >= 0, np.arange(m) - strides[np.maximum(last, 0)], -1)
+        return parent.astype(np.int64), level.astype(np.int64)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import breadth_first_order, connected_components
+    from scipy.spatial import cKDTree
+
+    scale = np.ptp(qv, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    x = qv / scale
+    kk = min(k, m - 1)
+    parent = np.full(m, -1, dtype=np.int64)
+    level = np.zeros(m, dtype=np.int64)
+    if kk == 0:
+        return parent, level
+    dist, nb = cKDTree(x).query(x, k=kk + 1)
+    dist, nb = dist[:, 1:], nb[:, 1:]
+    rows = np.repeat(np.arange(m), kk)
+    g = coo_matrix((np.ones(m * kk), (rows, nb.ravel())), shape=(m, m)).tocsr()
+    n_comp, label = connected_components(g, directed=False)
+    h = (np.zeros(qv.shape[1]) if home is None else np.asarray(home, dtype=np.float64)) / scale
+    d_home = np.linalg.norm(x - h, axis=1)
+    for c in range(n_comp):
+        members = np.flatnonzero(label == c)
+        root = int(members[np.argmin(d_home[members])])
+        order, pred = breadth_first_order(g, root, directed=False, return_predecessors=True)
+        for node in order[1:]:
+            level[node] = level[pred[node]] + 1
+            parent[node] = pred[node]
+    # the nearest neighbour on an earlier level (the BFS predecessor is one of them or
+    # a reverse neighbour)
+    earlier = level[nb] < level[:, None]
+    best = np.where(earlier, dist, np.inf)
+    j = np.argmin(best, axis=1)
+    has = np.isfinite(best[np.arange(m), j])
+    parent = np.where(has, nb[np.arange(m), j], parent)
+    return parent, level
+
+
+PREDICTOR_CAP = 0.25
+"""Largest first-order predictor step [rad | m] of the dependent joints; beyond it (a parent near
+a singularity, where dq_w/dq_v blows up) the closure starts from the parent's own q_w."""
+
+
+def _sensitivity_and_mode(mech: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """dq_w/dq_v (m, n_w, n_v) and the assembly-mode label sign(det dphi/dq_w) (m,) (0 when
+    dphi/dq_w is not square)."""
+    from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+
+    _, J = closure_jacobian(mech, forward_kinematics(mech, q))
+    Jw, Jv = J[:, :, mech.dependent], J[:, :, mech.independent]
+    S = -np.linalg.pinv(Jw) @ Jv
+    sign = np.sign(np.linalg.det(Jw)) if Jw.shape[1] == Jw.shape[2] else np.zeros(q.shape[0])
+    return S, sign.astype(np.int8)
 
 
 def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
-                manipulability: bool = True) -> JointSweepRecord:
-    """Positions, reachability and dexterity of ``frame`` at the samples ``q_v``.
+                manipulability: bool = True, grid_shape: tuple[int, ...] | None = None,
+                seed_from: str = "neighbour", mode_jump: float = 2.0,
+                progress: Callable[[int, int], None] | None = None,
+                length: float | None = None) -> JointSweepRecord:
+    r"""Positions, reachability and dexterity of ``frame`` at the samples ``q_v``.
+
+    For a closed chain the loop closure of every sample starts from a solved neighbour
+    (:func:`continuation_tree`), at the first-order predictor
+    ``q_w^pred = q_w^p + (dq_w/dq_v)^p (q_v - q_v^p)`` of its parent ``p`` (kim1995 §5.1
+    Step 1; the parent's own ``q_w`` when that step exceeds :data:`PREDICTOR_CAP`). With
+    ``seed_from="home"`` every sample starts from the home configuration instead, which lets
+    neighbouring samples land in different assembly modes without a word. A sample whose
+    closure fails from its neighbour is retried from home (``reseeded``).
+
+    A sample is flagged **mode_change** when, relative to its parent, the sign of
+    ``det(dphi/dq_w)`` changes (the two lie on different sides of a singularity: different
+    assembly modes; square closure Jacobians only), or the dependent joints jump away from
+    the predictor by more than ``mode_jump`` times the predicted change,
+    ``||q_w - q_w^pred||_inf > mode_jump ||q_w^pred - q_w^p||_inf`` (on one smooth branch the
+    predictor error is O(step^2), below the O(step) predicted change; dependent-joint units on
+    both sides; not tested where the predictor was capped).
 
     Parameters
     ----------
@@ -43,6 +157,19 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     manipulability : bool
         Compute the dexterity (Yoshikawa manipulability, isotropy of the full Jacobian and of
         its position rows).
+    grid_shape : tuple of int, optional
+        The samples are a C-order grid of this shape (neighbours by grid step); None: scattered
+        samples (neighbours by a KD-tree).
+    seed_from : {"neighbour", "home"}
+    mode_jump : float
+        Threshold of the jump test (dimensionless ratio).
+    progress : callable, optional
+        ``progress(done, total)`` after every block (closure blocks, then evaluation blocks).
+    length : float, optional
+        Characteristic length [m] of the normalized isotropy
+        (:func:`mechkin.solvers.dexterity.normalized_isotropy`); None: the one that best
+        conditions the reachable samples (:func:`mechkin.solvers.dexterity.characteristic_length`).
+        The Jacobians of all samples are kept for it (48 n_v bytes per sample).
 
     Returns
     -------
@@ -61,14 +188,73 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     w_full = np.zeros(m)
     iso_full = np.zeros(m)
     iso_pos = np.zeros(m)
+    J_all = np.zeros((m, 6, len(mech.independent))) if manipulability else None
+    parent = np.full(m, -1, dtype=np.int64)
+    mode_change = np.zeros(m, dtype=bool)
+    reseeded = np.zeros(m, dtype=bool)
     q_w0 = mech.home[mech.dependent]
+    conv_val = ClosureStatus.CONVERGED.value
+    dep = mech.dependent
+    two_phase = closed and seed_from == "neighbour"
+    total = 2 * m if two_phase else m
+    done_n = 0
+    if progress is not None:
+        progress(0, total)
+    if two_phase:
+        parent, level = continuation_tree(qv, grid_shape, mech.home[mech.independent])
+        order = np.argsort(level, kind="stable")
+        bounds = np.flatnonzero(np.diff(level[order])) + 1
+        ok = np.zeros(m, dtype=bool)
+        S = np.zeros((m, len(dep), len(mech.independent)))
+        mode = np.zeros(m, dtype=np.int8)
+        for lev in np.split(order, bounds):
+            for a in range(0, lev.size, chunk):
+                idx = lev[a : a + chunk]
+                p = parent[idx]
+                use = (p >= 0) & ok[np.maximum(p, 0)]
+                guess = np.tile(q_w0, (idx.size, 1))
+                pred_step = np.zeros(idx.size)
+                if use.any():
+                    pu = p[use]
+                    dw = np.einsum("kij,kj->ki", S[pu], qv[idx[use]] - qv[pu])
+                    big = np.abs(dw).max(axis=1) > PREDICTOR_CAP
+                    dw[big] = 0.0
+                    guess[use] = q[pu][:, dep] + dw
+                    pred_step[use] = np.abs(dw).max(axis=1)  # 0 where capped: no jump test
+                res = solve_closure(mech, qv[idx], guess)
+                st = np.array([s.value for s in res.status], dtype=object)
+                qq = res.q
+                bad = (st != conv_val) & use
+                if bad.any():  # the neighbour's branch did not close: try from home
+                    r2 = solve_closure(mech, qv[idx[bad]], q_w0)
+                    good = np.array([s.value == conv_val for s in r2.status], dtype=bool)
+                    bi = np.flatnonzero(bad)[good]
+                    qq[bi] = r2.q[good]
+                    st[bi] = conv_val
+                    reseeded[idx[bi]] = True
+                q[idx] = qq
+                status[idx] = st
+                done = st == conv_val
+                ok[idx] = done
+                if done.any():
+                    S[idx[done]], mode[idx[done]] = _sensitivity_and_mode(mech, qq[done])
+                chk = use & done
+                if chk.any():
+                    pc, ic = p[chk], idx[chk]
+                    err = np.abs(qq[chk][:, dep] - guess[chk]).max(axis=1)
+                    ps = pred_step[chk]
+                    jump = (ps > 0) & (err > mode_jump * ps)
+                    mode_change[ic] = (mode[ic] != mode[pc]) | jump
+                done_n += idx.size
+                if progress is not None:
+                    progress(done_n, total)
     for a in range(0, m, chunk):
         b = min(m, a + chunk)
-        if closed:
+        if closed and not two_phase:
             res = solve_closure(mech, qv[a:b], q_w0)
             q[a:b] = res.q
             status[a:b] = [s.value for s in res.status]
-        else:
+        elif not closed:
             q[a:b] = mech.assemble(qv[a:b], np.zeros((b - a, 0)))
             status[a:b] = ClosureStatus.CONVERGED.value
         kin = forward_kinematics(mech, q[a:b])
@@ -77,12 +263,17 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
             J = frame_jacobian(mech, kin, frame)
             Jr = J[:, :, mech.independent]
             if closed:
-                Jr = Jr + J[:, :, mech.dependent] @ dependent_sensitivity(mech, q[a:b])
+                sens = S[a:b] if two_phase else dependent_sensitivity(mech, q[a:b])
+                Jr = Jr + J[:, :, mech.dependent] @ sens
+            J_all[a:b] = Jr
             dex = dexterity(Jr)
             w_full[a:b] = dex["manipulability"]
             iso_full[a:b] = dex["isotropy"]
             iso_pos[a:b] = dex["isotropy_position"]
-    converged = status == ClosureStatus.CONVERGED.value
+        done_n += b - a
+        if progress is not None:
+            progress(done_n, total)
+    converged = status == conv_val
     within = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
     finite = np.all(np.isfinite(pos), axis=1) & np.all(np.isfinite(q), axis=1)
     reach = converged & within & finite
@@ -92,9 +283,15 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         arr[~reach] = 0.0  # not a pose of the mechanism: reported 0, marked by reachable = 0
     dex_out: dict[str, Any] = {}
     if manipulability:
-        dex_out = {"manipulability": w_full, "isotropy": iso_full, "isotropy_position": iso_pos}
+        prismatic = mech.s[mech.independent] == 1
+        L = float(length) if length is not None else characteristic_length(J_all[reach],
+                                                                              prismatic)
+        iso_n = np.where(reach, normalized_isotropy(J_all, L, prismatic), 0.0)
+        dex_out = {"manipulability": w_full, "isotropy": iso_full, "isotropy_position": iso_pos,
+                   "isotropy_normalized": iso_n, "characteristic_length": L}
     return JointSweepRecord(q_v=qv, q=q, position=pos, status=status, converged=converged,
-                            within_limits=within, reachable=reach, **dex_out)
+                            within_limits=within, reachable=reach, seed=parent,
+                            mode_change=mode_change, reseeded=reseeded, **dex_out)
 
 
 def point_cloud_volume(P: np.ndarray, voxel: float | None = None

@@ -45,7 +45,12 @@ from typing import Any, TypeVar
 import numpy as np
 
 from mechkin.records.workspace import DesignSweepRecord, LeeWorkspaceRecord, TaskSpaceRecord
-from mechkin.solvers.dexterity import COND_CAP, dexterity
+from mechkin.solvers.dexterity import (
+    COND_CAP,
+    characteristic_length,
+    dexterity,
+    normalized_isotropy,
+)
 from mechkin.solvers.workspace import lee_workspace, sigma_statistics
 
 __all__ = [
@@ -338,14 +343,38 @@ def task_space_random(box: Sequence[tuple[float, float]], samples: int, seed: in
     return T
 
 
+def _mechanism_spec(mechanism: Any) -> Any:
+    """The validated contents (:class:`mechkin.config.schema.MechanismSpec`) of a mechanism
+    file path, or the spec itself: what a job carries, so a worker needs no shared files."""
+    if isinstance(mechanism, (str, Path)):
+        from mechkin.config.mechanism_file import read_mechanism_spec
+
+        return read_mechanism_spec(mechanism)[0]
+    return mechanism
+
+
+_BUILT: dict[str, Any] = {}
+
+
+def _job_mechanism(spec: Any) -> Any:
+    """Build the mechanism of a job's spec (once per worker process and spec)."""
+    from mechkin.model.build import build_mechanism
+
+    key = spec.model_dump_json()
+    if key not in _BUILT:
+        if len(_BUILT) > 8:
+            _BUILT.clear()
+        _BUILT[key] = build_mechanism(spec)
+    return _BUILT[key]
+
+
 def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     """One chunk of task-space poses: batched lm, then the Jacobian at the solutions."""
-    from mechkin.model import load_mechanism
     from mechkin.model.closure import dependent_sensitivity
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian
     from mechkin.solvers.ik import IkOptions, solve_ik_batch
 
-    mech = load_mechanism(job["mechanism"])
+    mech = _job_mechanism(job["mechanism"])
     f = job["frame"]
     opts = IkOptions(restarts=job["restarts"], seed=job["seed"], max_iter=job["max_iter"],
                      tol_pos=job["tol_pos"], tol_ori=job["tol_ori"])
@@ -362,7 +391,8 @@ def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     out.update(q_v=q[:, mech.independent], status=np.array([s.value for s in res.status]),
                reachable=ok, position_error=np.nan_to_num(res.position_error, nan=0.0),
                orientation_error=np.nan_to_num(res.orientation_error, nan=0.0),
-               iterations=np.asarray(res.iterations, dtype=np.int64))
+               iterations=np.asarray(res.iterations, dtype=np.int64), J=Jr,
+               prismatic=np.asarray(mech.s[mech.independent] == 1))
     return out
 
 
@@ -381,13 +411,16 @@ def task_space_sweep(
     workers: int | None = None,
     address: str | None = None,
     progress: ProgressCallback | None = None,
+    length: float | None = None,
 ) -> TaskSpaceRecord:
     """Reachability and dexterity of task-space poses through the batched inverse kinematics.
 
     Parameters
     ----------
-    mechanism : path
-        Mechanism file (each job loads it; a path pickles where a Mechanism may not).
+    mechanism : path or MechanismSpec
+        Mechanism file or its validated contents. Jobs carry the contents (the
+        :class:`~mechkin.config.schema.MechanismSpec`), never the path, so workers on another
+        machine (a Dask cluster) need no copy of the file.
     T_P : array, shape (m, 4, 4)
         Target poses of ``frame`` in the base frame (SI).
     frame : int, optional
@@ -401,20 +434,22 @@ def task_space_sweep(
         Poses per job.
     workers, address, progress
         See :func:`run_jobs`.
+    length : float, optional
+        Characteristic length [m] of ``isotropy_normalized``; None: the one that best
+        conditions the reached poses (:func:`mechkin.solvers.dexterity.characteristic_length`).
 
     Returns
     -------
     TaskSpaceRecord
     """
-    from mechkin.model import load_mechanism
-
-    mech = load_mechanism(mechanism)
+    spec = _mechanism_spec(mechanism)
+    mech = _job_mechanism(spec)
     f = int(mech.end_effector) if frame is None else int(frame)
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     jobs = [
-        {"mechanism": str(mechanism), "frame": f, "T_P": T_P[a : a + chunk], "weights": w,
+        {"mechanism": spec, "frame": f, "T_P": T_P[a : a + chunk], "weights": w,
          "restarts": int(restarts), "seed": int(seed), "max_iter": max_iter,
          "tol_pos": float(tol_pos), "tol_ori": float(tol_ori)}
         for a in range(0, m, max(1, int(chunk)))
@@ -428,10 +463,14 @@ def task_space_sweep(
         return TaskSpaceRecord(T_P, np.zeros((0, nv)), np.zeros(0, dtype=str),
                                np.zeros(0, dtype=bool), z, z, np.zeros(0, dtype=np.int64), z, z,
                                z, z)
+    prismatic = parts[0]["prismatic"]
+    ok = cat["reachable"]
+    L = float(length) if length is not None else characteristic_length(cat["J"][ok], prismatic)
+    iso_n = np.where(ok, normalized_isotropy(cat["J"], L, prismatic), 0.0)
     return TaskSpaceRecord(T_P, cat["q_v"], cat["status"], cat["reachable"],
                            cat["position_error"], cat["orientation_error"], cat["iterations"],
                            cat["isotropy"], cat["isotropy_position"], cat["condition_number"],
-                           cat["manipulability"])
+                           cat["manipulability"], iso_n, L)
 
 
 def task_space_summary(rec: TaskSpaceRecord) -> dict[str, Any]:
@@ -448,6 +487,8 @@ def task_space_summary(rec: TaskSpaceRecord) -> dict[str, Any]:
         "isotropy_position": sigma_statistics(rec.isotropy_position, ok),
         "condition_number": sigma_statistics(rec.condition_number, ok),
         "manipulability": sigma_statistics(rec.manipulability, ok),
+        "isotropy_normalized": sigma_statistics(rec.isotropy_normalized, ok)
+        if rec.isotropy_normalized is not None else {"count": 0},
         "iterations": sigma_statistics(rec.iterations.astype(float)),
     }
     if ok.any():

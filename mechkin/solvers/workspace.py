@@ -49,7 +49,12 @@ from typing import Any, Literal
 
 import numpy as np
 
-from mechkin.records.workspace import GammaRange, LeeWorkspaceRecord, OrientationMaps
+from mechkin.records.workspace import (
+    GammaRange,
+    LeePoseList,
+    LeeWorkspaceRecord,
+    OrientationMaps,
+)
 from mechkin.solvers.closed_form.lee_spherical import (
     DEFAULT_CHUNK,
     LeeGeometry,
@@ -380,6 +385,8 @@ def lee_workspace(
     center: tuple[float, float, float] = (0.0, 0.0, 1.0),
     stroke: tuple[float, float] = (0.5, 2.0),
     method: str = "closed_form",
+    progress: Callable[[int, int], None] | None = None,
+    poses: np.ndarray | Sequence[Sequence[float]] | None = None,
 ) -> LeeWorkspaceRecord:
     """Compute the maps of one lee scenario from plain parameters (SI: lengths, rad).
 
@@ -405,6 +412,12 @@ def lee_workspace(
         Base radius, centre of rotation P, and (l_min, l_max).
     method : {"closed_form", "svd"}
         Singular-value method.
+    progress : callable, optional
+        ``progress(done, total)`` over the maps (one per gamma set, one for the gamma range,
+        one for the pose list).
+    poses : array, shape (m, 3), optional
+        An explicit list of (alpha, beta, gamma) [rad]: sigma_KI, leg lengths and workspace
+        membership at each (summary ``poses``).
 
     Returns
     -------
@@ -431,7 +444,10 @@ def lee_workspace(
         },
     }
     isotropy: dict[str, OrientationMaps] = {}
-    for name, gammas in (gamma_sets or {}).items():
+    n_maps = len(gamma_sets or {}) + (gamma_sweep is not None) + (poses is not None)
+    if progress is not None:
+        progress(0, n_maps)
+    for k_map, (name, gammas) in enumerate((gamma_sets or {}).items()):
         maps = orientation_maps(evaluate, alpha, beta, gammas, threshold=threshold)
         isotropy[name] = maps
         at_origin = evaluate(np.column_stack([0 * maps.gamma, 0 * maps.gamma, maps.gamma])).sigma
@@ -456,6 +472,8 @@ def lee_workspace(
             "volume_fraction": volume_fraction(maps.in_workspace),
             "per_gamma": per_gamma,
         }
+        if progress is not None:
+            progress(k_map + 1, n_maps)
     gr: GammaRange | None = None
     if gamma_sweep is not None:
         gr = gamma_range(
@@ -490,4 +508,21 @@ def lee_workspace(
                 "max": _deg(gr.gamma_max[d].max()),
             }
         summary["gamma_range"] = entry
-    return LeeWorkspaceRecord(geom, isotropy, gr, summary)
+        if progress is not None:
+            progress(n_maps - (poses is not None), n_maps)
+    plist: LeePoseList | None = None
+    if poses is not None:
+        P = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+        ev = evaluate(P)
+        inw = ev.within_limits & (ev.sigma >= threshold)
+        plist = LeePoseList(P, ev.sigma, ev.within_limits, inw, ev.actuators)
+        summary["poses"] = {
+            "count": int(P.shape[0]),
+            "within_stroke_fraction": float(ev.within_limits.mean()),
+            "in_workspace_fraction": float(inw.mean()),
+            "sigma_ki": sigma_statistics(ev.sigma),
+            "sigma_ki_in_workspace": sigma_statistics(ev.sigma, inw),
+        }
+        if progress is not None:
+            progress(n_maps, n_maps)
+    return LeeWorkspaceRecord(geom, isotropy, gr, summary, plist)

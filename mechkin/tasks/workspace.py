@@ -9,16 +9,18 @@ Kinds of section (:mod:`mechkin.config.workspace_spec`):
   the maps are computed once per value (:func:`mechkin.solvers.sweeps.lee_design_sweep`)
   with a comparison table.
 * ``joint_sweep``: the independent joints on a grid or at random (seeded); for a closed chain
-  the loop closure (kim1995 §5.1) is solved for every sample
-  (:func:`mechkin.solvers.joint_sweep.joint_sweep`): reachable positions of a frame, bounding
+  the loop closure (kim1995 §5.1) is solved for every sample, continued from a solved
+  neighbour so the sweep keeps one assembly mode (:func:`mechkin.solvers.joint_sweep.joint_sweep`;
+  mode changes and closure failures are counted): reachable positions of a frame, bounding
   box, voxel and convex-hull volumes, statistics of Yoshikawa's manipulability and of the
   isotropy of the reduced frame Jacobian.
 * ``task_space``: a grid (or seeded random set) of task-space poses through the batched ik
   (:func:`mechkin.solvers.sweeps.task_space_sweep`): reachability and dexterity.
 
 Design values and task-space chunks run as jobs on ``workers`` local processes or on a Dask
-cluster (``scheduler`` / ``executor: {kind: dask, address}``). A progress bar is drawn on
-stderr when asked (``progress=True``; None: when stderr is a terminal).
+cluster (``scheduler`` / ``executor: {kind: dask, address}``); joint sweeps and single lee
+maps run in this process and refuse a scheduler. A progress bar (jobs, map sets or samples)
+is drawn on stderr when asked (``progress=True``; None: when stderr is a terminal).
 
 Imports: config, model, solvers, spatial, records, tasks.common (never io/ or cli/).
 """
@@ -69,10 +71,10 @@ def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = 
     if kind == "lee_spherical":
         if scenario.section.design is not None:
             return _run_lee_design(scenario, ex)
-        return _run_lee(scenario)
+        return _run_lee(scenario, ex)
     if kind == "task_space":
         return _run_task_space(scenario, ex)
-    return _run_joint_sweep(scenario)
+    return _run_joint_sweep(scenario, ex)
 
 
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
@@ -82,6 +84,12 @@ def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
     address = scheduler
     if address is None and spec.executor is not None and spec.executor.kind == "dask":
         address = spec.executor.address
+    jobs = spec.kind == "task_space" or (spec.kind == "lee_spherical" and spec.design is not None)
+    if address is not None and not jobs:
+        where = "--scheduler" if scheduler is not None else sc.doc.where(("workspace", "executor"))
+        what = "joint_sweep" if spec.kind == "joint_sweep" else "single lee_spherical map"
+        raise ConfigError(f"{where}: a {what} runs in this process; only design sweeps and "
+                          "task_space sweeps run on a Dask scheduler")
     if address is not None:
         try:
             import distributed  # noqa: F401
@@ -203,14 +211,63 @@ def _lee_params(sc: Scenario, design: dict[str, Any]) -> dict[str, Any]:
     return params
 
 
-def _run_lee(sc: Scenario) -> Report:
+def _listed_poses(sc: Scenario, columns: tuple[str, ...], optional: tuple[str, ...] = ()
+                  ) -> np.ndarray | None:
+    """The section's ``poses`` (inline rows) or ``poses_csv`` (columns ``columns`` and, all
+    or none, ``optional``) as an array (m, k) in the file's units; None when neither is given."""
+    import csv
+
+    spec = sc.section
+    if spec.poses is not None:
+        return np.asarray(spec.poses, dtype=np.float64)
+    if spec.poses_csv is None:
+        return None
+    path = (sc.doc.path.parent / spec.poses_csv).resolve()
+    if not path.is_file():
+        raise ConfigError(f"{sc.doc.where(('workspace', 'poses_csv'))}: file not found: "
+                          f"{spec.poses_csv} (resolved to {path})")
+    with path.open(newline="") as fh:
+        rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
+    if len(rows) < 2:
+        raise ConfigError(f"{path}:1: expected a header row and at least one pose")
+    head = [h.strip() for h in rows[0]]
+    missing = [c for c in columns if c not in head]
+    if missing:
+        extra = f" [{', '.join(optional)}]" if optional else ""
+        raise ConfigError(f"{path}:1: missing column(s) {', '.join(missing)} (expected "
+                          f"{', '.join(columns)}{extra})")
+    given_opt = [c for c in optional if c in head]
+    if given_opt and len(given_opt) != len(optional):
+        raise ConfigError(f"{path}:1: give all of {', '.join(optional)} or none")
+    cols = [head.index(c) for c in (*columns, *given_opt)]
+    out = np.empty((len(rows) - 1, len(cols)))
+    for i, r in enumerate(rows[1:], start=2):
+        try:
+            out[i - 2] = [float(r[c]) for c in cols]
+        except (ValueError, IndexError):
+            raise ConfigError(f"{path}:{i}: expected numbers in {', '.join(head[c] for c in cols)}"
+                              ) from None
+    if not np.all(np.isfinite(out)):
+        raise ConfigError(f"{path}:1: non-finite numbers in the poses")
+    if given_opt and np.any(np.sum(out[:, len(columns):] ** 2, axis=1) < 1e-18):
+        raise ConfigError(f"{path}:1: expected non-zero quaternions (qw, qx, qy, qz)")
+    if out.shape[0] > MAX_SWEEP_SAMPLES:
+        raise ConfigError(f"{path}:1: {out.shape[0]} poses, more than {MAX_SWEEP_SAMPLES}")
+    return out
+
+
+def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
     from mechkin.solvers.workspace import lee_workspace
 
     design = lee_design(sc)
     params = _lee_params(sc, design)
+    listed = _listed_poses(sc, ("alpha", "beta", "gamma"))
+    if listed is not None:
+        params["poses"] = listed * angle_factor(sc.spec.units.angle)
     t0 = time.perf_counter()
     try:
-        rec = lee_workspace(**params)
+        with _progress_bar(ex, f"{sc.name}: maps") as cb:
+            rec = lee_workspace(**params, progress=cb)
     except ValueError as exc:  # a grid the solver refuses (should not pass the schema)
         raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
     summary: dict[str, Any] = {
@@ -281,6 +338,16 @@ def _task_poses(sc: Scenario) -> np.ndarray:
         R0 = matrix_from_quat(np.asarray(o.quaternion, dtype=float))
     elif o is not None and o.random:
         R0 = None
+    listed = _listed_poses(sc, ("x", "y", "z"), ("qw", "qx", "qy", "qz"))
+    if listed is not None:
+        T = np.tile(np.eye(4), (listed.shape[0], 1, 1))
+        T[:, :3, 3] = listed[:, :3] * L
+        if listed.shape[1] == 7:
+            T[:, :3, :3] = matrix_from_quat(listed[:, 3:7])
+        else:
+            assert R0 is not None
+            T[:, :3, :3] = R0
+        return T
     axes = [spec.positions[k] for k in "xyz"]
     if spec.method == "grid":
         vals = []
@@ -316,6 +383,25 @@ def _sweep_frame(sc: Scenario, mech: Any) -> int:
                       "give frame")
 
 
+NORMALIZED_DEFINITION = (
+    "sigma_min / sigma_max of the Jacobian with its translational rows divided by the "
+    "characteristic length L (prismatic columns multiplied by L): dimensionless, so invariant "
+    "under a change of length unit (the raw isotropy is not); unlike lee's sigma_KI, which "
+    "uses Euler-angle rates of a purely rotational mechanism, it uses the angular velocity")
+
+
+def _char_length(sc: Scenario) -> float | None:
+    L = sc.section.characteristic_length
+    return None if L is None else float(L) * length_factor(sc.spec.units.length)
+
+
+def _char_length_entry(sc: Scenario, value: float | None) -> dict[str, Any]:
+    given = sc.section.characteristic_length is not None
+    return {"value_m": value, "source": "scenario" if given else
+            "minimised: the L maximising the mean normalized isotropy (global conditioning "
+            "index) over the reachable samples"}
+
+
 def _joint_columns(mech: Any) -> list[str]:
     return [f"{n}_{'m' if mech.s[mech.independent[i]] == 1 else 'rad'}"
             for i, n in enumerate(mech.independent_names)]
@@ -337,11 +423,11 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
         rec = task_space_sweep(sc.mechanism_path, T_P, frame=f, weights=spec.weights,
                                restarts=spec.restarts, seed=spec.seed, max_iter=spec.max_iter,
                                chunk=spec.chunk, workers=ex["workers"], address=ex["address"],
-                               progress=cb)
+                               progress=cb, length=_char_length(sc))
     summary: dict[str, Any] = {
         **_head(sc, "task_space"),
         "mechanism": mech.name,
-        "method": spec.method,
+        "method": spec.method or "poses",
         "seed": spec.seed,
         "frame": mech.frame_names[f],
         "restarts": spec.restarts,
@@ -356,13 +442,16 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
             "isotropy_position": "the same for the position rows",
             "condition_number": "sigma_max / sigma_min (1/isotropy), capped at 1e16",
             "manipulability": "Yoshikawa w = product of the singular values of that Jacobian",
+            "isotropy_normalized": NORMALIZED_DEFINITION,
         },
+        "characteristic_length": _char_length_entry(sc, rec.characteristic_length),
         "execution": {"executor": "dask" if ex["address"] else "process", "jobs": n_jobs,
                       "chunk": spec.chunk},
         "compute_time_s": time.perf_counter() - t0,
     }
     title = (f"{mech.name}: task-space sweep of {mech.frame_names[f]} "
-             f"({int(rec.reachable.sum())}/{rec.reachable.size} poses reached, {spec.method})")
+             f"({int(rec.reachable.sum())}/{rec.reachable.size} poses reached, "
+             f"{spec.method or 'listed poses'})")
     return _report(sc, summary, WorkspaceOutput("task_space", rec, title=title,
                                                 joint_columns=_joint_columns(mech)))
 
@@ -422,7 +511,7 @@ def _sweep_values(sc: Scenario, mech: Any) -> tuple[np.ndarray, list[str]]:
     return qv, swept
 
 
-def _run_joint_sweep(sc: Scenario) -> Report:
+def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     from mechkin.model import load_mechanism
     from mechkin.solvers.joint_sweep import joint_sweep, point_cloud_volume
     from mechkin.solvers.workspace import sigma_statistics
@@ -437,7 +526,11 @@ def _run_joint_sweep(sc: Scenario) -> Report:
     L = length_factor(sc.spec.units.length)
     t0 = time.perf_counter()
     closed = mech.is_closed and len(mech.dependent) > 0
-    rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability)
+    grid_shape = tuple(spec.joints[n].n for n in swept) if spec.method == "grid" else None
+    with _progress_bar(ex, f"{sc.name}: samples") as cb:
+        rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
+                          grid_shape=grid_shape, seed_from=spec.seed_from,
+                          mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc))
     reach = rec.reachable
     elapsed = time.perf_counter() - t0
     bbox, volume = point_cloud_volume(rec.position[reach],
@@ -458,15 +551,29 @@ def _run_joint_sweep(sc: Scenario) -> Report:
         "reachable_fraction": float(reach.mean()) if m else 0.0,
         "n_not_converged": int((~rec.converged).sum()),
         "n_outside_limits": int((rec.converged & ~rec.within_limits).sum()),
+        "continuation": {
+            "seed_from": spec.seed_from if closed else None,
+            "mode_jump": spec.mode_jump,
+            "n_roots": int((rec.seed < 0).sum()) if closed else 0,
+            "n_mode_changes": int(rec.mode_change.sum()),
+            "n_closure_failures": int((~rec.converged).sum()),
+            "n_reseeded_from_home": int(rec.reseeded.sum()),
+        },
         "bounding_box": bbox,
         "volume": volume,
         "definition": {
             "reachable": "loop closure converged (closed chains) and every joint within limits",
+            "continuation": "closed chains: each sample's loop closure starts from a solved "
+                            "neighbour (grid step / nearest neighbour, first-order predictor), "
+                            "else from home; mode_change: the dependent joints left that "
+                            "predictor by more than mode_jump x the step of the independent "
+                            "joints (max norms, SI), i.e. another assembly mode",
             "manipulability": "Yoshikawa w = product of the singular values of the frame "
                               "Jacobian (rows omega, v; SI) w.r.t. the independent joints "
                               "(closed chains: J_v + J_w dq_w/dq_v)",
             "isotropy": "sigma_min / sigma_max of that Jacobian (position rows only for "
                         "isotropy_position); 0 at singular poses",
+            "isotropy_normalized": NORMALIZED_DEFINITION,
             "volume": "voxel_m3: occupied cubes of edge voxel_edge_m; convex_hull_m3: hull of "
                       "the reachable points (an upper bound for non-convex workspaces)",
         },
@@ -476,6 +583,8 @@ def _run_joint_sweep(sc: Scenario) -> Report:
         summary["manipulability"] = sigma_statistics(rec.manipulability[reach])
         summary["isotropy"] = sigma_statistics(rec.isotropy[reach])
         summary["isotropy_position"] = sigma_statistics(rec.isotropy_position[reach])
+        summary["isotropy_normalized"] = sigma_statistics(rec.isotropy_normalized[reach])
+        summary["characteristic_length"] = _char_length_entry(sc, rec.characteristic_length)
     sl = spec.slices
     slices = None if sl is None else {
         "axis": sl.axis, "at": [v * L for v in sl.at] if sl.at else None,

@@ -363,3 +363,27 @@ def test_bad_task_space_exit_2(tmp_path, extra, pattern):
     res = _run(p, tmp_path / "o")
     assert res.exit_code == 2, res.output
     assert re.search(pattern, res.output), res.output
+
+
+@pytest.mark.parametrize("name", ["puma560_workspace.yaml", "lee_fig3_isotropy_r025.yaml"])
+def test_scheduler_refused_where_nothing_runs_on_it(tmp_path, name):
+    res = _run(_coarse_copy(tmp_path, name), tmp_path / "o", "--no-plots",
+               "--scheduler", "tcp://127.0.0.1:1")
+    assert res.exit_code == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--scheduler: " in lines[0]
+    assert "runs in this process" in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_progress_for_joint_sweeps_and_single_lee_maps(tmp_path):
+    res = _run(_coarse_copy(tmp_path, "puma560_workspace.yaml"), tmp_path / "o", "--no-plots",
+               "--json", "--progress")
+    assert res.exit_code == 0
+    s = json.loads(res.stdout)
+    assert "samples" in res.stderr and f"{s['n_samples']}/{s['n_samples']}" in res.stderr
+    res = _run(_coarse_copy(tmp_path, "lee_fig2_gamma_range_r075.yaml"), tmp_path / "o2",
+               "--no-plots", "--progress")
+    n_maps = len(yaml.safe_load((SCEN / "lee_fig2_gamma_range_r075.yaml").read_text())
+                 ["workspace"].get("isotropy_maps") or {}) + 1  # + the gamma range
+    assert res.exit_code == 0 and "maps" in res.stderr and f"{n_maps}/{n_maps}" in res.stderr

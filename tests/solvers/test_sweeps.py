@@ -151,3 +151,37 @@ def test_task_space_sweep_puma_few_poses():
     qs[:, mech.independent] = one.q_v[:6]
     J = frame_jacobian(mech, forward_kinematics(mech, qs), mech.end_effector)
     assert_allclose(dexterity(J)["manipulability"], one.manipulability[:6], rtol=1e-12)
+
+
+def test_task_space_jobs_carry_the_mechanism_not_its_path(tmp_path, monkeypatch):
+    """A worker without the scenario's file system: the jobs hold the mechanism spec, and
+    they still run after the file is gone."""
+    import shutil
+
+    import mechkin.solvers.sweeps as sw
+    from mechkin.model import load_mechanism
+    from mechkin.model.kinematics import forward_kinematics
+
+    path = tmp_path / "puma_copy.yaml"
+    shutil.copy(PUMA, path)
+    mech = load_mechanism(path)
+    q = np.zeros((2, mech.n))
+    q[1, :3] = [0.3, -0.4, 0.5]
+    T_P = forward_kinematics(mech, q).frames(mech, [mech.end_effector])[:, 0]
+    captured = []
+    real = sw.run_jobs
+
+    def spy(fn, jobs, **kw):
+        captured.extend(jobs)
+        path.unlink()  # the workers' side has no such file
+        import pickle
+
+        return real(fn, [pickle.loads(pickle.dumps(j)) for j in jobs], **kw)
+
+    monkeypatch.setattr(sw, "run_jobs", spy)
+    rec = task_space_sweep(path, T_P, restarts=2, chunk=1, workers=1)
+    assert len(captured) == 2
+    for job in captured:
+        assert not isinstance(job["mechanism"], (str, Path))
+        assert str(path) not in repr(job["mechanism"])
+    assert rec.reachable.all() and rec.position_error.max() < 1e-6
