@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from mechkin.config.scenario import Scenario
-from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, point_si
+from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, path_mask, point_si
 from mechkin.config.units import length_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
@@ -38,7 +38,6 @@ from mechkin.solvers.dynamics_from_mechanism import (
     dynamics_from_mechanism,
     planar_two_link_from_mechanism,
 )
-from mechkin.solvers.path import IKLinePath
 from mechkin.solvers.path_ik import HandLineIK, PathIKError
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 
@@ -89,14 +88,15 @@ def hand_ik(sc: Scenario, mech: Mechanism, p0: np.ndarray, p1: np.ndarray) -> Ha
             raise ConfigError(f"{doc.where(('track', 'ik', 'branch', name))}: "
                               f"{exc.args[0]}") from None
     try:
-        return HandLineIK(mech, f, p0, p1, q0, tol, branch)
+        return HandLineIK(mech, f, p0, p1, q0, tol, branch, mask=path_mask(spec.path, mech.n),
+                          tol_rot=spec.ik.orientation_tolerance)
     except PathIKError as exc:
         key = {"start": ("track", "path", "start"), "path": ("track", "path"),
                "branch": ("track", "ik", "branch", exc.joint)}[exc.key]
         raise ConfigError(f"{doc.where(key)}: {exc.message}") from None
 
 
-def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: IKLinePath,
+def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandLineIK,
            ref: ConveyorReference | None, limits: TrackLimits) -> TrackResult:
     return solve_conveyor_tracking(
         dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
@@ -135,8 +135,7 @@ def run(scenario: Scenario) -> Report:
                               f"{lo.shape[0]}")
     limits = TrackLimits(**lim)
     p0, p1 = point_si(spec.path.start, units), point_si(spec.path.end, units)
-    ik = hand_ik(scenario, mech, p0, p1)
-    path = IKLinePath(p0=p0, p1=p1, ik=ik, jacobian=ik.jacobian, n=mech.n)
+    ik = path = hand_ik(scenario, mech, p0, p1)
     ref = None
     if spec.conveyor is not None:
         ref = ConveyorReference(part_start=point_si(spec.conveyor.part_start, units),
@@ -167,7 +166,12 @@ def run(scenario: Scenario) -> Report:
         else {n: float(v) for n, v in zip(mech.joint_names, res.peak_torque, strict=True)})
     summary["path"] = {"start_m": p0.tolist(), "end_m": p1.tolist(),
                        "frame": mech.frame_names[ik.f],
-                       "length_m": float(np.linalg.norm(p1 - p0))}
+                       "length_m": float(np.linalg.norm(p1 - p0)),
+                       "orientation": "fixed" if ik.orientation_held else "free",
+                       "mask": list(ik.mask), "task_rank": ik.rank,
+                       "redundancy": ik.redundancy}
+    if res.trajectory is not None:  # the realised plan, verified by forward kinematics
+        summary["path"].update(ik.pose_errors(res.trajectory.q, res.trajectory.r))
     if ref is not None:
         r0, rd = ref.phase(path)
         summary["reference"] = {"r0": r0, "rd_1_s": rd, "t_f_s": (1.0 - r0) / rd}
