@@ -145,13 +145,17 @@ Limit = list[PosNum] | LimitPairSpec
 class LimitsSpec(Spec):
     """Joint limits (park Eq. (3)-(6)); a list is symmetric magnitudes per joint (-x <= . <= x).
 
-    ``torque`` [N m | N]; ``qd``, ``qdd``, ``jerk`` in the angle unit per s, s^2, s^3.
+    ``torque`` [N m | N]; ``qd``, ``qdd``, ``jerk`` in the angle unit per s, s^2, s^3; ``q``
+    joint positions in the angle unit (length unit for prismatic joints). The joint position
+    limits are always DP constraints: by default the mechanism's ``limits`` (strokes), ``q``
+    replaces them.
     """
 
     torque: Limit | None = None
     qd: Limit | None = None
     qdd: Limit | None = None
     jerk: Limit | None = None
+    q: Limit | None = None
 
 
 class TrackSpec(Spec):
@@ -193,12 +197,12 @@ def point_si(p: list[float], units: Units) -> np.ndarray:
 def limits_si(
     spec: LimitsSpec, units: Units, prismatic: np.ndarray
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """``name -> (lo (n,), hi (n,))`` in SI; qd/qdd/jerk of revolute joints scaled by the angle
-    unit, of prismatic joints by the length unit; torques as given (N m | N)."""
+    """``name -> (lo (n,), hi (n,))`` in SI; q/qd/qdd/jerk of revolute joints scaled by the
+    angle unit, of prismatic joints by the length unit; torques as given (N m | N)."""
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     pris = np.asarray(prismatic, dtype=bool)
     motion = np.where(pris, length_factor(units.length), angle_factor(units.angle))
-    for name in ("torque", "qd", "qdd", "jerk"):
+    for name in ("torque", "qd", "qdd", "jerk", "q"):
         lim = getattr(spec, name)
         if lim is None:
             continue

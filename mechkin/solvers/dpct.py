@@ -42,6 +42,11 @@ stated model can reproduce, see PAPER_NOTES):
 7. **Steady state** (§2, §5). ``t_a`` is the time of the first node after which the hand stays on
    the part (``|x1 - x~1| <= 1e-9`` and ``x2 = x~2``); with reading 2 the steady state has zero
    tracking error, and ``t_a`` lies on the grid ``t_f - m dx1 / x~2``.
+8. **Joint positions.** ``q = f(r)`` (Eq. (9)) depends on the stage alone, so a node
+   ``(x1[i], x2[j])`` whose ``q(x1[i])`` is outside the joint limits is infeasible for every
+   ``j``, and one such stage makes the problem infeasible before the search (the message names
+   the joint and r). The limits are checked at the nodes, like the others; their usage is the
+   distance from the middle of each joint's range as a fraction of its half width.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
 stages only.
@@ -55,6 +60,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -81,7 +87,7 @@ _REACH_SAMPLES = 2048
 #: Relative margin on the sampled reachability bound of r'.
 _REACH_MARGIN = 0.01
 
-_FAMILIES = ("torque", "qd", "qdd", "jerk")
+_FAMILIES = ("torque", "qd", "qdd", "jerk", "q")
 
 
 TrackStatus = Status  # ok or infeasible (mechkin.solvers.result)
@@ -174,14 +180,16 @@ def _limit_pair(
 class TrackLimits:
     """Joint limits of park Eq. (3)-(6); each pair is ``(lo (n,), hi (n,))`` or None (no limit).
 
-    Units: torque [N m | N], qd [rad/s | m/s], qdd [rad/s^2], jerk [rad/s^3]. Infinite bounds
-    are allowed per joint.
+    Units: torque [N m | N], qd [rad/s | m/s], qdd [rad/s^2], jerk [rad/s^3], q (joint
+    positions, the mechanism's limits or strokes) [rad | m]. Infinite bounds are allowed per
+    joint.
     """
 
     torque: tuple[np.ndarray, np.ndarray] | None = None
     qd: tuple[np.ndarray, np.ndarray] | None = None
     qdd: tuple[np.ndarray, np.ndarray] | None = None
     jerk: tuple[np.ndarray, np.ndarray] | None = None
+    q: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         for name in _FAMILIES:
@@ -495,6 +503,7 @@ def _describe(names: list[str]) -> str:
         "qdd": "joint acceleration limit",
         "jerk": "joint jerk limit",
         "start": "start no earlier than t_0 = 0",
+        "q": "joint position limit",
     }
     joints: dict[str, list[str]] = {}
     for nm in names:
@@ -630,6 +639,36 @@ def _usage(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.max(both, axis=0)
 
 
+def _usage_interval(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Largest distance from the middle of ``[lo, hi]`` per joint as a fraction of the half
+    width ``(n,)`` (1 at a bound; joint positions, whose interval need not contain 0); an
+    unbounded side counts 0."""
+    finite = np.isfinite(lo) & np.isfinite(hi)
+    mid = np.where(finite, 0.5 * (lo + hi), 0.0)
+    half = np.where(finite, 0.5 * (hi - lo), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.where(half > 0, np.abs(x - mid) / half, np.where(x == mid, 0.0, np.inf))
+    one_side = ~finite & (np.isfinite(lo) | np.isfinite(hi))  # only one bound: 0 inside
+    if np.any(one_side):
+        out = (x < lo) | (x > hi)
+        u = np.where(one_side, np.where(out, np.inf, 0.0), u)
+    return np.max(np.where(np.isnan(x), -np.inf, u), axis=0)
+
+
+def _position_block(
+    pc: PhaseCoefficients, q_lim: tuple[np.ndarray, np.ndarray]
+) -> tuple[int, list[int]] | None:
+    """First stage whose ``q(x1[i])`` leaves the joint position limits, and its joints (a node
+    state ``(x1[i], x2[j])`` is infeasible for every ``j``: q depends on r alone, Eq. (9))."""
+    lo, hi = q_lim
+    bad = (pc.q < lo - _slack(lo)) | (pc.q > hi + _slack(hi))
+    rows = np.flatnonzero(np.any(bad, axis=1))
+    if rows.size == 0:
+        return None
+    i = int(rows[0])
+    return i, [int(k) for k in np.flatnonzero(bad[i])]
+
+
 def _realise(
     pc: PhaseCoefficients,
     path: JointPath,
@@ -687,6 +726,7 @@ def solve_conveyor_tracking(
     objective: Literal["tracking", "time"] = "tracking",
     nt_fraction: float = NT_FRACTION,
     x2_max: float | None = None,
+    joint_names: Sequence[str] | None = None,
 ) -> TrackResult:
     r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
 
@@ -705,7 +745,8 @@ def solve_conveyor_tracking(
         The part on the belt (park Eq. (1)); required for tracking, optional for time (then
         ``part`` and ``tracking_error`` are reported too when given).
     limits : TrackLimits, optional
-        Torque (Eq. (3)), velocity, acceleration and jerk limits (Eq. (4)-(6)).
+        Torque (Eq. (3)), velocity, acceleration and jerk limits (Eq. (4)-(6)), joint
+        position limits ``q`` (reading 8 of the module docstring).
     N1, N2 : int
         Stages (along r) and states (along r'); park §5 uses 30x50, 50x100, 100x200.
     objective : {"tracking", "time"}
@@ -714,6 +755,8 @@ def solve_conveyor_tracking(
     x2_max : float, optional
         Top of the r' grid for ``objective="time"`` [1/s]; default: the largest r' reachable
         from rest that can still stop (torque and velocity limits).
+    joint_names : sequence of str, optional
+        Names of the joints for the message of a joint position limit.
 
     Returns
     -------
@@ -769,6 +812,27 @@ def solve_conveyor_tracking(
         grid = DPGrid(N1=N1, N2=N2, Nt=None, x2_max=float(top))
         j_end, t_end = 0, 0.0
 
+    blocked_q = _position_block(pc, lim["q"]) if "q" in lim else None
+    if blocked_q is not None:  # no state of that stage is admissible: nothing to search
+        i_b, js = blocked_q
+        lo, hi = lim["q"]
+        names = [f"q_{k + 1}" for k in js]
+        hand = np.round(path.hand(x1[i_b:i_b + 1])[0], 4).tolist()
+        jn = list(joint_names) if joint_names is not None else [f"q{k + 1}" for k in range(n)]
+        detail = "; ".join(f"{jn[k]} = {pc.q[i_b, k]:.4g} outside [{lo[k]:.4g}, {hi[k]:.4g}]"
+                           for k in js)
+        message = (f"infeasible: joint position limit (joint{'s' if len(js) > 1 else ''} "
+                   f"{', '.join(f'{k + 1} = {jn[k]}' for k in js)}) blocks the motion at r = "
+                   f"{x1[i_b]:.4g} (hand at {hand} m; {detail}, SI units): the path's inverse "
+                   "kinematics leaves the joint limits there")
+        logger.info(message)
+        return TrackResult(
+            status=TrackStatus.INFEASIBLE, message=message, objective=objective, t_a_s=None,
+            t_start_s=None, duration_s=None, peak_torque=None, limits_ok=False,
+            active_limits=(), limit_usage={}, grid=grid, cost=float("inf"),
+            solve_time_s=time.perf_counter() - t_start,
+            blocked_at_r=(float(x1[i_b]), float(x1[i_b])), blocking_limits=tuple(names))
+
     tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase)
     feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
     if not feasible:
@@ -806,10 +870,12 @@ def solve_conveyor_tracking(
         )
 
     traj = _realise(pc, path, x2, tab, objective, reference)
-    values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk}
+    values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk,
+              "q": traj.q}
     usage: dict[str, float] = {}
     for name, (lo, hi) in lim.items():
-        for k, u in enumerate(_usage(values[name], lo, hi)):
+        use = _usage_interval if name == "q" else _usage
+        for k, u in enumerate(use(values[name], lo, hi)):
             usage[f"{name}_{k + 1}"] = float(u)
     limits_ok = all(u <= 1.0 + LIMIT_RTOL for u in usage.values())
     active = tuple(k for k, u in usage.items() if u >= ACTIVE_FRACTION)

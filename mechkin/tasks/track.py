@@ -96,12 +96,18 @@ def hand_ik(sc: Scenario, mech: Mechanism, p0: np.ndarray, p1: np.ndarray) -> Ha
         raise ConfigError(f"{doc.where(key)}: {exc.message}") from None
 
 
+def _finite_or_none(a: np.ndarray) -> list[float | None]:
+    """A limit vector for summary.json: an unbounded side is null."""
+    return [float(v) if np.isfinite(v) else None for v in np.asarray(a, dtype=float)]
+
+
 def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandLineIK,
-           ref: ConveyorReference | None, limits: TrackLimits) -> TrackResult:
+           ref: ConveyorReference | None, limits: TrackLimits, joint_names: list[str]
+           ) -> TrackResult:
     return solve_conveyor_tracking(
         dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
         objective=spec.objective, nt_fraction=grid.nt_fraction,
-        x2_max=grid.x2_max if spec.objective == "time" else None,
+        x2_max=grid.x2_max if spec.objective == "time" else None, joint_names=joint_names,
     )
 
 
@@ -128,6 +134,8 @@ def run(scenario: Scenario) -> Report:
     mech = load_mechanism(scenario.mechanism_path)
     dyn = _dynamics(scenario, mech)
     lim = limits_si(spec.limits, units, np.asarray(mech.s) == 1)
+    if "q" not in lim:  # the mechanism's joint limits are DP constraints (dpct reading 8)
+        lim["q"] = (np.asarray(mech.lower, dtype=float), np.asarray(mech.upper, dtype=float))
     for name, (lo, _) in lim.items():
         if lo.shape != (mech.n,):
             raise ConfigError(f"{doc.where(('track', 'limits', name))}: expected {mech.n} "
@@ -145,13 +153,14 @@ def run(scenario: Scenario) -> Report:
         except ConfigError as exc:
             raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
 
-    res = _solve(spec, spec.grid, dyn, path, ref, limits)
+    res = _solve(spec, spec.grid, dyn, path, ref, limits, list(mech.joint_names))
     study: list[dict[str, Any]] | None = None
     study_results: list[TrackResult] = []
     if spec.grid_study is not None:
         for g in spec.grid_study:
             study_results.append(res if g == spec.grid
-                                 else _solve(spec, g, dyn, path, ref, limits))
+                                 else _solve(spec, g, dyn, path, ref, limits,
+                                             list(mech.joint_names)))
         study = [_grid_record(r) for r in study_results]
 
     summary: dict[str, Any] = {
@@ -175,7 +184,7 @@ def run(scenario: Scenario) -> Report:
     if ref is not None:
         r0, rd = ref.phase(path)
         summary["reference"] = {"r0": r0, "rd_1_s": rd, "t_f_s": (1.0 - r0) / rd}
-    summary["limits_si"] = {k: {"min": lo.tolist(), "max": hi.tolist()}
+    summary["limits_si"] = {k: {"min": _finite_or_none(lo), "max": _finite_or_none(hi)}
                             for k, (lo, hi) in lim.items()}
     if study is not None:
         summary["grid_study"] = study

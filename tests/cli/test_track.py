@@ -1,6 +1,7 @@
 """`mechkin track` end to end on park's scenarios: summaries, CSV, MCAP read back, bad input."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -220,3 +221,23 @@ def test_bad_path_mask_exits_2(tmp_path: Path, edit, pattern) -> None:
 
     assert re.search(str(p).replace(".", r"\.") + pattern, res.stderr), res.stderr
     assert not out.exists()
+
+
+def test_joint_limit_infeasibility_names_the_joint_and_r(tmp_path: Path) -> None:
+    """A PUMA 560 line towards the base whose IK drives q3 to about -190 deg (limits +-135):
+    infeasible, exit 1, naming the joint and r (was: "ok, limits ok")."""
+    p = _local(tmp_path, "puma560_track_line",
+               ("end: [0.80574977, 0.24995, 0.1956]", "end: [0.50574977, -0.15005, 0.1956]"),
+               ("part_start: [0.80574977, -0.20005, 0.1956], belt_velocity: [0, 0.1, 0]",
+                "part_start: [0.85574977, -0.15005, 0.1956], belt_velocity: [-0.1, 0, 0]"))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 1, res.output
+    assert "infeasible: joint position limit (joint 3 = q3)" in res.stderr, res.stderr
+    m = re.search(r"at r = ([0-9.]+)", res.stderr)
+    assert m is not None
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "infeasible" and summary["blocking_limits"] == ["q_3"]
+    assert summary["blocked_at_r"][0] == pytest.approx(float(m.group(1)), abs=1e-4)
+    assert 0.0 < summary["blocked_at_r"][0] < 1.0
+    assert summary["limits_si"]["q"]["min"][2] == pytest.approx(-135 * np.pi / 180)

@@ -266,3 +266,29 @@ def test_summary_and_columns_are_writer_ready() -> None:
         N2=20,
     )
     assert json.loads(json.dumps(bad.summary()))["status"] == "infeasible"
+
+
+def test_joint_position_limits_are_dp_constraints() -> None:
+    """dpct reading 8: a stage whose q(r) leaves the joint limits makes the plan infeasible,
+    named by joint and r; inside the limits their usage is reported like the others."""
+    q = PATH.q(np.linspace(0.0, 1.0, 51))
+    q2_max = float(np.median(q[:, 1]))  # q2 crosses this half way along the line
+    lo = np.array([-np.pi, -np.pi])
+    res = solve_conveyor_tracking(
+        dynamics=DYN, path=PATH, reference=REF, N1=50, N2=100,
+        limits=TrackLimits(q=(lo, np.array([np.pi, q2_max]))), joint_names=["q1", "q2"])
+    assert res.status is TrackStatus.INFEASIBLE
+    assert res.blocking_limits == ("q_2",)
+    i = int(np.flatnonzero(q[:, 1] > q2_max * (1 + 1e-9) + 1e-9)[0])
+    assert res.blocked_at_r == (pytest.approx(i / 50), pytest.approx(i / 50))
+    assert "joint position limit (joint 2 = q2)" in res.message
+    assert f"at r = {i / 50:.4g}" in res.message
+    ok = solve_conveyor_tracking(
+        dynamics=DYN, path=PATH, reference=REF, N1=50, N2=100,
+        limits=TrackLimits(q=(lo, np.array([np.pi, 1.01 * float(q[:, 1].max())]))))
+    assert ok.status is TrackStatus.OK and ok.limits_ok
+    # usage: distance from the middle of [lo, hi] over the half width
+    u2 = (q[:, 1].max() - 0.5 * (-np.pi + 1.01 * q[:, 1].max())) / (
+        0.5 * (1.01 * q[:, 1].max() + np.pi))
+    assert ok.limit_usage["q_2"] == pytest.approx(u2, rel=1e-9)
+    assert ok.t_a_s == solve("none", 50, 100).t_a_s  # a slack position limit changes nothing
