@@ -47,6 +47,20 @@ stated model can reproduce, see PAPER_NOTES):
    ``j``, and one such stage makes the problem infeasible before the search (the message names
    the joint and r). The limits are checked at the nodes, like the others; their usage is the
    distance from the middle of each joint's range as a fraction of its half width.
+9. **A part that starts ahead of the hand** (``r~(0) > 0``). The rule ``t >= 0`` of reading 4
+   is a bound on the plan's total duration, ``t_f - t(0, 0) <= t_f``, and Bellman's principle
+   does not hold for it: a node's time is not part of the state, so each node keeps only its
+   cost-optimal tail, and with it a single time. When the part starts ahead, the tails that are
+   cost-optimal (they stay close to the part's phase-plane line late in the plan) are slower
+   than the hand must be to catch the part, every stage's times then come out negative, and the
+   DP -- with no state that remembers a faster tail -- reports the start rule as blocking, even
+   without any limit. The bound is therefore relaxed into the cost with a Lagrange multiplier,
+   ``J + mu sum dt`` (Eq. (28) plus ``mu dt`` per transition), and the smallest ``mu`` whose
+   plan starts at ``t(0, 0) >= 0`` is found by bisection (``time_penalty`` in the result; the
+   reported cost is the tracking cost alone). That plan is optimal for ``J + mu T`` among the
+   grid's plans, not necessarily for ``J`` alone under ``t >= 0`` (that would need the time in
+   the state). When no ``mu`` helps, the grid cannot catch the part by ``r = 1``: its top
+   speed ``x2[N2] = x~2 N2 / N_t`` is too low (the message says so).
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
 stages only.
@@ -88,6 +102,8 @@ _REACH_SAMPLES = 2048
 _REACH_MARGIN = 0.01
 
 _FAMILIES = ("torque", "qd", "qdd", "jerk", "q")
+#: Bisection steps on log(mu) of the time penalty (reading 9).
+MU_BISECTIONS = 12
 
 
 TrackStatus = Status  # ok or infeasible (mechkin.solvers.result)
@@ -277,6 +293,8 @@ class TrackResult:
         For an infeasible problem, the r interval where the search dies.
     blocking_limits : tuple of str
         For an infeasible problem, the limit families that block.
+    time_penalty : float
+        The multiplier ``mu`` of reading 9 (0 unless the part starts ahead of the hand).
     trajectory : TrackTrajectory or None
     """
 
@@ -295,6 +313,7 @@ class TrackResult:
     solve_time_s: float
     blocked_at_r: tuple[float, float] | None = None
     blocking_limits: tuple[str, ...] = ()
+    time_penalty: float = 0.0
     trajectory: TrackTrajectory | None = field(default=None, repr=False)
 
     def summary(self) -> dict[str, object]:
@@ -320,6 +339,7 @@ class TrackResult:
             "solve_time_s": self.solve_time_s,
             "blocked_at_r": None if self.blocked_at_r is None else list(self.blocked_at_r),
             "blocking_limits": list(self.blocking_limits),
+            "time_penalty": self.time_penalty,
         }
 
 
@@ -535,10 +555,12 @@ def _run_dp(
     j_end: int,
     t_end: float,
     reference: tuple[float, float] | None,
+    mu: float = 0.0,
 ) -> _DPTables:
     """Backward recursion of park Eq. (25)-(30) with time-to-go bookkeeping (Eq. (27)).
 
     ``reference`` is ``(r0, x~2)`` for the tracking cost (Eq. (28)); None for minimum time.
+    ``mu`` adds ``mu dt`` to the tracking cost (reading 9 of the module docstring).
     """
     N1 = pc.r.shape[0] - 1
     N2 = x2.shape[0] - 1
@@ -572,7 +594,7 @@ def _run_dp(
     )
     for i in range(N1 - 1, -1, -1):
         with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
-            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference)
+            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu)
         if isinstance(out, list):
             return _DPTables(V, NP, T, (i, out))
         qdd_next = out
@@ -589,6 +611,7 @@ def _dp_stage(
     NP: np.ndarray,
     qdd_next: np.ndarray,
     reference: tuple[float, float] | None,
+    mu: float = 0.0,
 ) -> np.ndarray | list[str]:
     """One stage of park Eq. (25)-(30), all ``(j, l)`` pairs at once; fills row i of V, T, NP.
 
@@ -609,7 +632,7 @@ def _dp_stage(
         ok &= start_ok
         e1 = pc.r[i] - (r0 + rd_ref * t)  # park Eq. (17) at t(i, j)
         e2 = (x2j - rd_ref)[:, None]
-        stage_cost = dt * (e1 * e1 + e2 * e2)  # park Eq. (28)
+        stage_cost = dt * (e1 * e1 + e2 * e2 + mu)  # park Eq. (28) (+ mu dt, reading 9)
     else:
         stage_cost = dt  # minimum time
     cost = np.where(ok, stage_cost + V[i + 1][None, :], np.inf)  # park Eq. (29)
@@ -637,6 +660,38 @@ def _usage(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     both = np.fmax(up, dn)
     both = np.where(np.isnan(x), -np.inf, both)
     return np.max(both, axis=0)
+
+
+def _time_penalty_search(
+    pc: PhaseCoefficients,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    x2: np.ndarray,
+    j_end: int,
+    t_end: float,
+    reference: tuple[float, float],
+) -> tuple[_DPTables, float]:
+    """Reading 9: the smallest time penalty ``mu`` (stage cost ``+ mu dt``) whose DP starts at
+    ``t(0, 0) >= 0``: a decade scan of ``mu``, then a bisection on ``log mu``. Returns the
+    feasible tables and mu, or the tables of the largest mu tried (still blocked) and 0."""
+    r0, rd = reference
+    scale = r0 * r0 + rd * rd + 1e-12  # the tracking cost per second at the start
+    lo, last = 0.0, None
+    for k in range(-3, 9):
+        mu = scale * 10.0**k
+        tab = _run_dp(pc, limits, x2, j_end, t_end, reference, mu)
+        if tab.blocked is None and np.isfinite(tab.V[0, 0]):
+            hi, best = mu, tab
+            for _ in range(MU_BISECTIONS):
+                mid = np.sqrt(lo * hi) if lo > 0.0 else hi / 10.0
+                t_mid = _run_dp(pc, limits, x2, j_end, t_end, reference, mid)
+                if t_mid.blocked is None and np.isfinite(t_mid.V[0, 0]):
+                    hi, best = mid, t_mid
+                else:
+                    lo = mid
+            return best, hi
+        lo, last = mu, tab
+    assert last is not None
+    return last, 0.0
 
 
 def _usage_interval(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -835,6 +890,11 @@ def solve_conveyor_tracking(
 
     tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase)
     feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
+    mu = 0.0
+    blocked_by_start = tab.blocked is not None and "start" in tab.blocked[1]
+    if not feasible and blocked_by_start:  # reading 9: relax t(0, 0) >= 0 into the cost
+        tab, mu = _time_penalty_search(pc, lim, x2, j_end, t_end, ref_phase)
+        feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
     if not feasible:
         i_b, names = tab.blocked if tab.blocked is not None else (0, [])
         where = (float(x1[i_b]), float(x1[min(i_b + 1, N1)]))
@@ -848,6 +908,13 @@ def solve_conveyor_tracking(
             )
         what = _describe(names) if names else "the limits"
         message = f"infeasible: {what} blocks the motion {loc} on the {N1}x{N2} grid"
+        if "start" in names and ref_phase is not None and ref_phase[0] > 0.0:
+            message += (
+                f"; the part starts ahead of the hand (r~(0) = {ref_phase[0]:.4g}) and no "
+                f"plan on this grid reaches it by r = 1 at t_f = {t_end:.4g} s, even with a "
+                "time penalty (reading 9): the r' grid tops at "
+                f"{grid.x2_max:.4g} /s = {grid.x2_max / ref_phase[1]:.3g} x the part's r'; a "
+                "smaller nt_fraction lets the hand go faster")
         if any(nm.startswith("jerk") for nm in names):
             message += "; a finer r' grid (larger N2 / N1) represents smaller jerks"
         logger.info(message)
@@ -897,6 +964,9 @@ def solve_conveyor_tracking(
         message = f"ok: steady tracking from t_a = {t_a:.4g} s on the {N1}x{N2} grid" + (
             "" if limits_ok else " (a limit is exceeded on the realised trajectory)"
         )
+        if mu > 0.0:
+            message += (f"; the part starts ahead of the hand: a time penalty mu = {mu:.3g} "
+                        "on the cost keeps the start at t >= 0 (reading 9)")
     else:
         t_move = 0.0
         duration = float(traj.t[-1])
@@ -913,7 +983,8 @@ def solve_conveyor_tracking(
         active_limits=active,
         limit_usage=usage,
         grid=grid,
-        cost=float(tab.V[0, 0]),
+        cost=float(tab.V[0, 0]) - (mu * (t_end - float(tab.T[0, 0])) if mu > 0.0 else 0.0),
         solve_time_s=time.perf_counter() - t_start,
+        time_penalty=mu,
         trajectory=traj,
     )

@@ -292,3 +292,40 @@ def test_joint_position_limits_are_dp_constraints() -> None:
         0.5 * (1.01 * q[:, 1].max() + np.pi))
     assert ok.limit_usage["q_2"] == pytest.approx(u2, rel=1e-9)
     assert ok.t_a_s == solve("none", 50, 100).t_a_s  # a slack position limit changes nothing
+
+
+def test_part_ahead_of_the_hand_is_planned_with_a_time_penalty() -> None:
+    """dpct reading 9: the part starts ahead of the hand (r~(0) = 0.04), no limits at all.
+    Was infeasible ("start no earlier than t_0 = 0"); the relaxed start rule plans it: the
+    hand leaves rest at t = 0, never runs earlier, and ends on the part."""
+    ref = ConveyorReference(part_start=[-0.78, 1.732], belt_velocity=[0.2, 0.0])
+    res = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=ref, N1=50, N2=100)
+    assert res.status is TrackStatus.OK, res.message
+    assert res.time_penalty > 0.0 and "part starts ahead" in res.message
+    tr = res.trajectory
+    assert tr is not None and tr.t[0] == 0.0 and np.all(np.diff(tr.t) > 0.0)
+    assert res.t_start_s >= -1e-9
+    assert tr.t[-1] == pytest.approx((1.0 - 0.04) / 0.4, abs=1e-12)  # t_f of Eq. (17)
+    assert np.max(np.abs(tr.tracking_error[tr.t >= res.t_a_s - 1e-12])) <= 1e-9
+    # the reported cost is the tracking cost of Eq. (28) alone, recomputed from the nodes
+    k = plan_part(res)
+    t, r, rd = tr.t[k], tr.r[k], tr.rd[k]
+    dt = np.diff(t)
+    j = dt * ((r[:-1] - (0.04 + 0.4 * t[:-1])) ** 2 + (rd[:-1] - 0.4) ** 2)
+    assert res.cost == pytest.approx(float(np.sum(j)), rel=1e-9)
+    # the part behind the hand (park) needs no penalty
+    assert solve("none", 50, 100).time_penalty == 0.0
+
+
+def test_part_too_far_ahead_is_infeasible_and_says_why() -> None:
+    """r~(0) = 0.4: the hand must cover r = 1 in t_f = 1.5 s, an average r' of 0.667 /s, above
+    the grid's top x2[N2] = 0.4 * 100 / 80 = 0.5 /s: no plan exists on this grid."""
+    ref = ConveyorReference(part_start=[-0.6, 1.732], belt_velocity=[0.2, 0.0])
+    res = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=ref, N1=50, N2=100)
+    assert 1.0 / 1.5 > res.grid.x2_max == pytest.approx(0.5)
+    assert res.status is TrackStatus.INFEASIBLE
+    assert "the part starts ahead of the hand (r~(0) = 0.4)" in res.message
+    assert "1.25 x the part's r'" in res.message
+    ok = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=ref, N1=50, N2=100,
+                                 nt_fraction=0.5)  # top 0.8 /s > 0.667 /s
+    assert ok.status is TrackStatus.OK and ok.trajectory.t[0] == 0.0
