@@ -18,7 +18,7 @@ joints, the redundancy is ``n - m``. ``f(r)`` is the solution of
 the task reached (first term) and, for a redundant arm, the posture closest to the start
 solution ``q_s`` on the self-motion manifold (second term: the null-space posture term). It is
 found by Newton's method on G, continued along a table ``r = -0.02 .. 1.02`` from the start
-solution (each point starts from the previous one), so the branch chosen at the start is kept;
+solution (each point starts from the previous one, moved along the tangent ``f'``), so the branch chosen at the start is kept;
 points between are solved from the table interpolated at their r. ``A^+`` is the pseudo-inverse
 truncated at the task's rank at the start (zero rows such as z of a planar arm drop out).
 
@@ -195,7 +195,11 @@ class HandLineIK:
             prev = i0
             for i in rng:
                 r = self.r_tab[i]
-                q, ok, err = self._newton(tab[prev][None, :], np.array([r]), IK_MAX_ITER)
+                # Euler predictor along the tangent f' (Eq. (10)), then Newton's corrector
+                guess = tab[prev] + (r - self.r_tab[prev]) * self.dq_of(tab[prev][None, :])[0]
+                if not np.all(np.isfinite(guess)):
+                    guess = tab[prev]
+                q, ok, err = self._newton(guess[None, :], np.array([r]), IK_MAX_ITER)
                 point = np.round(self.p0 + r * self.dp, 6).tolist()
                 if not ok or np.max(np.abs(q[0] - tab[prev])) > IK_MAX_JUMP:
                     raise PathIKError(
