@@ -241,3 +241,25 @@ def test_joint_limit_infeasibility_names_the_joint_and_r(tmp_path: Path) -> None
     assert summary["blocked_at_r"][0] == pytest.approx(float(m.group(1)), abs=1e-4)
     assert 0.0 < summary["blocked_at_r"][0] < 1.0
     assert summary["limits_si"]["q"]["min"][2] == pytest.approx(-135 * np.pi / 180)
+
+
+def test_line_leaving_the_workspace_names_r_and_the_point(tmp_path: Path) -> None:
+    """A PUMA 560 line outwards past the stretched arm: a one-line error at track.path naming
+    r and the point (exit 2, nothing written)."""
+    p = _local(tmp_path, "puma560_track_line",
+               ("end: [0.80574977, 0.24995, 0.1956]", "end: [1.30574977, -0.15005, 0.1956]"),
+               ("part_start: [0.80574977, -0.20005, 0.1956], belt_velocity: [0, 0.1, 0]",
+                "part_start: [0.75574977, -0.15005, 0.1956], belt_velocity: [0.1, 0, 0]"))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 2, res.output
+    m = re.search(str(p).replace(".", r"\.") + r":\d+: track\.path: the hand line leaves the "
+                  r"reachable workspace or meets a singularity near r = ([0-9.]+) \(point "
+                  r"\[([-0-9., ]+)\] m", res.stderr)
+    assert m is not None, res.stderr
+    r = float(m.group(1))
+    point = np.array([float(v) for v in m.group(2).split(",")])
+    assert 0.0 < r < 1.0
+    assert_line = np.array([0.80574977, -0.15005, 0.1956]) + r * np.array([0.5, 0.0, 0.0])
+    np.testing.assert_allclose(point, assert_line, atol=1e-5)
+    assert not out.exists()
