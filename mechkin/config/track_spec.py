@@ -161,7 +161,8 @@ class LimitsSpec(Spec):
 class TrackSpec(Spec):
     """``track:`` section.
 
-    ``objective``: ``tracking`` (DPCT, park §4: follow the part on the belt) or ``time``
+    ``objective``: ``tracking`` (DPCT, park §4: follow the part on the belt), ``intercept``
+    (the same, reaching steady tracking as early as possible: the earliest t_a) or ``time``
     (minimum time from rest to rest along the same path, same limits). ``grid_study`` solves
     the same problem on several grids (park §5.2) and reports one record per grid; the outputs
     (CSV, plots, MCAP) are those of ``grid``. ``dynamics``: ``rnea`` (recursive Newton-Euler
@@ -169,7 +170,7 @@ class TrackSpec(Spec):
     planar 2R arm; its parameters are read from the same inertials).
     """
 
-    objective: Literal["tracking", "time"] = "tracking"
+    objective: Literal["tracking", "time", "intercept"] = "tracking"
     path: PathSpec
     ik: IkBranchSpec = Field(default_factory=IkBranchSpec)
     conveyor: ConveyorSpec | None = None
@@ -180,8 +181,9 @@ class TrackSpec(Spec):
 
     @model_validator(mode="after")
     def _check(self) -> TrackSpec:
-        if self.objective == "tracking" and self.conveyor is None:
-            raise ValueError("objective tracking needs a conveyor: {part_start, belt_velocity}")
+        if self.objective != "time" and self.conveyor is None:
+            raise ValueError(f"objective {self.objective} needs a conveyor: "
+                             "{part_start, belt_velocity}")
         if self.grid_study is not None and not self.grid_study:
             raise ValueError("grid_study: give at least one grid")
         return self

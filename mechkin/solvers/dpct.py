@@ -61,6 +61,12 @@ stated model can reproduce, see PAPER_NOTES):
    grid's plans, not necessarily for ``J`` alone under ``t >= 0`` (that would need the time in
    the state). When no ``mu`` helps, the grid cannot catch the part by ``r = 1``: its top
    speed ``x2[N2] = x~2 N2 / N_t`` is too low (the message says so).
+10. **Intercept** (``objective="intercept"``): the same grid, end node and limits as tracking,
+    but the stage cost is the time spent off the part, ``dt [not on the part at (i, j)]``
+    (on: ``|x1 - x~1(t)| <= 1e-9`` and ``x2 = x~2``, reading 7), plus the initial wait
+    ``t(0, 0)`` at stage 0, so ``J*(0, 0) = t_a``: the earliest steady tracking the grid and
+    the limits allow. ``1e-6`` times the tracking cost of Eq. (28) breaks ties between plans
+    with the same ``t_a``. Not in park; ``t_a`` of the tracking objective is an upper bound.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
 stages only.
@@ -102,6 +108,8 @@ _REACH_SAMPLES = 2048
 _REACH_MARGIN = 0.01
 
 _FAMILIES = ("torque", "qd", "qdd", "jerk", "q")
+#: Weight of the tracking cost that breaks ties of the intercept objective (reading 10).
+INTERCEPT_TIE = 1e-6
 #: Bisection steps on log(mu) of the time penalty (reading 9).
 MU_BISECTIONS = 12
 
@@ -556,11 +564,13 @@ def _run_dp(
     t_end: float,
     reference: tuple[float, float] | None,
     mu: float = 0.0,
+    intercept: bool = False,
 ) -> _DPTables:
     """Backward recursion of park Eq. (25)-(30) with time-to-go bookkeeping (Eq. (27)).
 
     ``reference`` is ``(r0, x~2)`` for the tracking cost (Eq. (28)); None for minimum time.
-    ``mu`` adds ``mu dt`` to the tracking cost (reading 9 of the module docstring).
+    ``mu`` adds ``mu dt`` to the tracking cost (reading 9 of the module docstring);
+    ``intercept`` replaces the cost by the time off the part (reading 10).
     """
     N1 = pc.r.shape[0] - 1
     N2 = x2.shape[0] - 1
@@ -594,7 +604,7 @@ def _run_dp(
     )
     for i in range(N1 - 1, -1, -1):
         with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
-            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu)
+            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu, intercept)
         if isinstance(out, list):
             return _DPTables(V, NP, T, (i, out))
         qdd_next = out
@@ -612,6 +622,7 @@ def _dp_stage(
     qdd_next: np.ndarray,
     reference: tuple[float, float] | None,
     mu: float = 0.0,
+    intercept: bool = False,
 ) -> np.ndarray | list[str]:
     """One stage of park Eq. (25)-(30), all ``(j, l)`` pairs at once; fills row i of V, T, NP.
 
@@ -633,6 +644,11 @@ def _dp_stage(
         e1 = pc.r[i] - (r0 + rd_ref * t)  # park Eq. (17) at t(i, j)
         e2 = (x2j - rd_ref)[:, None]
         stage_cost = dt * (e1 * e1 + e2 * e2 + mu)  # park Eq. (28) (+ mu dt, reading 9)
+        if intercept:  # reading 10: time off the part, the tracking cost breaks ties
+            on = (np.abs(e1) <= STEADY_TOL) & (np.abs(e2) <= STEADY_TOL)
+            stage_cost = dt * (np.where(on, 0.0, 1.0) + mu) + INTERCEPT_TIE * stage_cost
+            if i == 0:
+                stage_cost = stage_cost + np.maximum(t, 0.0)  # the wait before t(0, 0)
     else:
         stage_cost = dt  # minimum time
     cost = np.where(ok, stage_cost + V[i + 1][None, :], np.inf)  # park Eq. (29)
@@ -669,6 +685,7 @@ def _time_penalty_search(
     j_end: int,
     t_end: float,
     reference: tuple[float, float],
+    intercept: bool = False,
 ) -> tuple[_DPTables, float]:
     """Reading 9: the smallest time penalty ``mu`` (stage cost ``+ mu dt``) whose DP starts at
     ``t(0, 0) >= 0``: a decade scan of ``mu``, then a bisection on ``log mu``. Returns the
@@ -678,12 +695,12 @@ def _time_penalty_search(
     lo, last = 0.0, None
     for k in range(-3, 9):
         mu = scale * 10.0**k
-        tab = _run_dp(pc, limits, x2, j_end, t_end, reference, mu)
+        tab = _run_dp(pc, limits, x2, j_end, t_end, reference, mu, intercept)
         if tab.blocked is None and np.isfinite(tab.V[0, 0]):
             hi, best = mu, tab
             for _ in range(MU_BISECTIONS):
                 mid = np.sqrt(lo * hi) if lo > 0.0 else hi / 10.0
-                t_mid = _run_dp(pc, limits, x2, j_end, t_end, reference, mid)
+                t_mid = _run_dp(pc, limits, x2, j_end, t_end, reference, mid, intercept)
                 if t_mid.blocked is None and np.isfinite(t_mid.V[0, 0]):
                     hi, best = mid, t_mid
                 else:
@@ -778,7 +795,7 @@ def solve_conveyor_tracking(
     limits: TrackLimits | None = None,
     N1: int = 50,
     N2: int = 100,
-    objective: Literal["tracking", "time"] = "tracking",
+    objective: Literal["tracking", "time", "intercept"] = "tracking",
     nt_fraction: float = NT_FRACTION,
     x2_max: float | None = None,
     joint_names: Sequence[str] | None = None,
@@ -787,7 +804,9 @@ def solve_conveyor_tracking(
 
     ``objective="tracking"``: DPCT, the tracking cost of Eq. (22)/(28) against ``reference``
     (Eq. (16)-(17)), from rest at ``r = 0`` to the part's state at ``r = 1`` at ``t_f``.
-    ``objective="time"``: the same recursion with cost ``dt`` (minimum time), from rest to rest
+    ``objective="intercept"``: the same problem, cost the time until the hand is on the part
+    (reading 10). ``objective="time"``: the same recursion with cost ``dt`` (minimum time), from
+    rest to rest
     (``r' = 0`` at both ends), with the same limits, jerk included.
 
     Parameters
@@ -804,7 +823,7 @@ def solve_conveyor_tracking(
         position limits ``q`` (reading 8 of the module docstring).
     N1, N2 : int
         Stages (along r) and states (along r'); park §5 uses 30x50, 50x100, 100x200.
-    objective : {"tracking", "time"}
+    objective : {"tracking", "time", "intercept"}
     nt_fraction : float
         ``N_t = round(nt_fraction N2)``, the state of the part's speed (tracking only).
     x2_max : float, optional
@@ -830,8 +849,10 @@ def solve_conveyor_tracking(
     park_conveyor_tracking_dp, Eq. (16)-(35); the module docstring lists the readings.
     """
     t_start = time.perf_counter()
-    if objective not in ("tracking", "time"):
-        raise ConfigError(f"objective: expected 'tracking' or 'time', got {objective!r}")
+    if objective not in ("tracking", "time", "intercept"):
+        raise ConfigError("objective: expected 'tracking', 'time' or 'intercept', got "
+                          f"{objective!r}")
+    intercept = objective == "intercept"
     if N1 < 1 or N2 < 1:
         raise ConfigError(f"grid: expected N1, N2 >= 1, got {N1} x {N2}")
     limits = limits or TrackLimits()
@@ -844,9 +865,9 @@ def solve_conveyor_tracking(
     x1 = np.linspace(0.0, 1.0, N1 + 1)
     pc = phase_coefficients(dynamics, path, x1)  # park Eq. (9)-(12) at every stage
     ref_phase: tuple[float, float] | None = None
-    if objective == "tracking":
+    if objective != "time":
         if reference is None:
-            raise ConfigError("objective tracking: a conveyor reference is required")
+            raise ConfigError(f"objective {objective}: a conveyor reference is required")
         ref_phase = reference.phase(path)
         r0, rd_ref = ref_phase
         Nt = int(round(nt_fraction * N2))
@@ -888,12 +909,12 @@ def solve_conveyor_tracking(
             solve_time_s=time.perf_counter() - t_start,
             blocked_at_r=(float(x1[i_b]), float(x1[i_b])), blocking_limits=tuple(names))
 
-    tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase)
+    tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase, 0.0, intercept)
     feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
     mu = 0.0
     blocked_by_start = tab.blocked is not None and "start" in tab.blocked[1]
     if not feasible and blocked_by_start:  # reading 9: relax t(0, 0) >= 0 into the cost
-        tab, mu = _time_penalty_search(pc, lim, x2, j_end, t_end, ref_phase)
+        tab, mu = _time_penalty_search(pc, lim, x2, j_end, t_end, ref_phase, intercept)
         feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
     if not feasible:
         i_b, names = tab.blocked if tab.blocked is not None else (0, [])
@@ -950,7 +971,7 @@ def solve_conveyor_tracking(
     peak = traj.torque[peak_idx, np.arange(n)]
 
     t_a: float | None = None
-    if objective == "tracking":
+    if objective != "time":
         r0, rd_ref = ref_phase  # type: ignore[misc]
         on_part = (np.abs(traj.r - (r0 + rd_ref * traj.t)) <= STEADY_TOL) & (
             np.abs(traj.rd - rd_ref) <= STEADY_TOL
@@ -961,7 +982,8 @@ def solve_conveyor_tracking(
         t_a = float(traj.t[k])
         t_move = float(tab.T[0, 0])
         duration = float(traj.t[-1])
-        message = f"ok: steady tracking from t_a = {t_a:.4g} s on the {N1}x{N2} grid" + (
+        what = "intercepts the part at" if intercept else "steady tracking from"
+        message = f"ok: {what} t_a = {t_a:.4g} s on the {N1}x{N2} grid" + (
             "" if limits_ok else " (a limit is exceeded on the realised trajectory)"
         )
         if mu > 0.0:

@@ -18,9 +18,10 @@ joints, the redundancy is ``n - m``. ``f(r)`` is the solution of
 the task reached (first term) and, for a redundant arm, the posture closest to the start
 solution ``q_s`` on the self-motion manifold (second term: the null-space posture term). It is
 found by Newton's method on G, continued along a table ``r = -0.02 .. 1.02`` from the start
-solution (each point starts from the previous one, moved along the tangent ``f'``), so the branch chosen at the start is kept;
-points between are solved from the table interpolated at their r. ``A^+`` is the pseudo-inverse
-truncated at the task's rank at the start (zero rows such as z of a planar arm drop out).
+solution (each point starts from the previous one, moved along the tangent ``f'``), so the
+branch chosen at the start is kept; points between are solved from the table interpolated at
+their r. ``A^+`` is the pseudo-inverse truncated at the task's generic rank (zero rows such as
+z of a planar arm drop out).
 
 **Derivatives** (park Eq. (10)-(11)), by the implicit function theorem on ``G = 0``:
 

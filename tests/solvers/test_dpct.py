@@ -329,3 +329,25 @@ def test_part_too_far_ahead_is_infeasible_and_says_why() -> None:
     ok = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=ref, N1=50, N2=100,
                                  nt_fraction=0.5)  # top 0.8 /s > 0.667 /s
     assert ok.status is TrackStatus.OK and ok.trajectory.t[0] == 0.0
+
+
+@pytest.mark.parametrize("case", ["none", "torque", "full"])
+def test_intercept_objective_gives_the_earliest_steady_tracking(case: str) -> None:
+    """dpct reading 10: cost = time off the part, J*(0, 0) = t_a. It never tracks later than
+    DPCT on the same grid; without limits it meets the earliest on-part node of the grid:
+    the first stage r = 0.02 at t = (0.02 + 0.2) / 0.4 = 0.55 s (the rest node r = 0 has
+    r' = 0 != x~2); with all limits t_a >= 1.0935 s (PAPER_NOTES: |qd2| <= 0.2 at r' = 0.4)."""
+    res = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=REF, N1=50, N2=100,
+                                  limits=LIMITS[case], objective="intercept")
+    assert res.status is TrackStatus.OK and res.limits_ok, res.message
+    assert "intercepts the part" in res.message
+    track = solve(case, 50, 100)
+    assert res.t_a_s <= track.t_a_s + 1e-12
+    assert res.cost == pytest.approx(res.t_a_s, abs=1e-5)  # plus 1e-6 x the tracking cost
+    tr = res.trajectory
+    after = tr.t >= res.t_a_s - 1e-12
+    assert np.max(np.abs(tr.tracking_error[after])) <= 1e-9
+    if case == "none":
+        assert res.t_a_s == pytest.approx(0.55, abs=1e-12)
+    if case == "full":
+        assert 1.0935 <= res.t_a_s <= 1.10 + 1e-9
