@@ -34,32 +34,73 @@ GridInt = Annotated[int, Field(strict=True, ge=1, le=5000)]
 Fraction = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=1)]
 
 
+Component = Literal["x", "y", "z", "rx", "ry", "rz"]
+COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
+
+
 class PathSpec(Spec):
-    """Straight hand line with fixed orientation (park Eq. (7)): ``start`` and ``end`` points
-    [length unit] (2 values: z = 0), and the hand ``frame`` (default: the end effector)."""
+    """Straight hand line (park Eq. (7)): ``start`` and ``end`` points [length unit] (2 values:
+    z = 0), and the hand ``frame`` (default: the end effector).
+
+    ``orientation``: ``fixed`` holds the hand's orientation at the start orientation (that of
+    the ``ik.initial_guess`` configuration) along the whole line, ``free`` lets it turn
+    (position-only task). Default: ``fixed`` for an arm with 6 or more joints, ``free`` for
+    fewer (a planar 2R arm such as park's cannot hold an orientation besides its position).
+    ``mask`` names the task components instead, like the ik weights (``x, y, z`` position,
+    ``rx, ry, rz`` orientation about the base axes), e.g. ``[x, y, z, rz]`` for a tool that may
+    tilt but not turn about z; it must hold every position component the line moves along.
+    """
 
     start: Point
     end: Point
     frame: Name | None = None
+    orientation: Literal["fixed", "free"] | None = None
+    mask: Annotated[list[Component], Field(min_length=1, max_length=6)] | None = None
 
     @model_validator(mode="after")
     def _check(self) -> PathSpec:
         if len(self.start) != len(self.end):
             raise ValueError("start and end need the same number of coordinates")
-        if np.linalg.norm(np.subtract(self.start, self.end)) == 0.0:
+        d = np.subtract(self.start, self.end)
+        if np.linalg.norm(d) == 0.0:
             raise ValueError("start and end are the same point")
+        if self.mask is not None:
+            if len(set(self.mask)) != len(self.mask):
+                raise ValueError(f"mask: a component is named twice in {self.mask}")
+            rot = [c for c in self.mask if c.startswith("r")]
+            if self.orientation == "free" and rot:
+                raise ValueError(f"mask names {', '.join(rot)} but orientation is free")
+            if self.orientation == "fixed" and not rot:
+                raise ValueError("orientation fixed needs rx, ry or rz in the mask")
+            free = [a for a, v in zip("xyz", d, strict=False) if v != 0.0 and a not in self.mask]
+            if free:
+                raise ValueError(f"mask: the line moves along {', '.join(free)}, which the mask "
+                                 "leaves free; add it")
         return self
 
 
+def path_mask(path: PathSpec, n_joints: int) -> tuple[str, ...]:
+    """The task components of the path IK: ``mask`` if given, else all six for a held
+    orientation and ``x, y, z`` for a free one (default orientation: fixed when the arm has at
+    least 6 joints, free otherwise; :class:`PathSpec`)."""
+    if path.mask is not None:
+        return tuple(c for c in COMPONENTS if c in path.mask)
+    orientation = path.orientation or ("fixed" if n_joints >= 6 else "free")
+    return COMPONENTS if orientation == "fixed" else COMPONENTS[:3]
+
+
 class IkBranchSpec(Spec):
-    """Inverse kinematics along the line (park Eq. (9)): Newton-Raphson on the hand position,
-    continued along the path from ``initial_guess`` (joint values by name in the file's units;
-    default the mechanism's home). ``branch`` fixes signs of joints (``{q2: positive}``, park's
-    elbow q2 > 0): the start solution and the whole path must keep them."""
+    """Inverse kinematics along the line (park Eq. (9)): Newton's method on the hand's task
+    (``path.mask``; with a null-space posture term for a redundant arm), continued along the
+    path from ``initial_guess`` (joint values by name in the file's units; default the
+    mechanism's home). ``branch`` fixes signs of joints (``{q2: positive}``, park's elbow
+    q2 > 0): the start solution and the whole path must keep them. ``tolerance`` [length unit]
+    and ``orientation_tolerance`` [rad] bound the task error of every solution."""
 
     initial_guess: dict[Name, Num] | None = None
     branch: dict[Name, Literal["positive", "negative"]] | None = None
     tolerance: PosNum = 1e-12
+    orientation_tolerance: PosNum = 1e-12
 
 
 class ConveyorSpec(Spec):
@@ -104,19 +145,24 @@ Limit = list[PosNum] | LimitPairSpec
 class LimitsSpec(Spec):
     """Joint limits (park Eq. (3)-(6)); a list is symmetric magnitudes per joint (-x <= . <= x).
 
-    ``torque`` [N m | N]; ``qd``, ``qdd``, ``jerk`` in the angle unit per s, s^2, s^3.
+    ``torque`` [N m | N]; ``qd``, ``qdd``, ``jerk`` in the angle unit per s, s^2, s^3; ``q``
+    joint positions in the angle unit (length unit for prismatic joints). The joint position
+    limits are always DP constraints: by default the mechanism's ``limits`` (strokes), ``q``
+    replaces them.
     """
 
     torque: Limit | None = None
     qd: Limit | None = None
     qdd: Limit | None = None
     jerk: Limit | None = None
+    q: Limit | None = None
 
 
 class TrackSpec(Spec):
     """``track:`` section.
 
-    ``objective``: ``tracking`` (DPCT, park §4: follow the part on the belt) or ``time``
+    ``objective``: ``tracking`` (DPCT, park §4: follow the part on the belt), ``intercept``
+    (the same, reaching steady tracking as early as possible: the earliest t_a) or ``time``
     (minimum time from rest to rest along the same path, same limits). ``grid_study`` solves
     the same problem on several grids (park §5.2) and reports one record per grid; the outputs
     (CSV, plots, MCAP) are those of ``grid``. ``dynamics``: ``rnea`` (recursive Newton-Euler
@@ -124,7 +170,7 @@ class TrackSpec(Spec):
     planar 2R arm; its parameters are read from the same inertials).
     """
 
-    objective: Literal["tracking", "time"] = "tracking"
+    objective: Literal["tracking", "time", "intercept"] = "tracking"
     path: PathSpec
     ik: IkBranchSpec = Field(default_factory=IkBranchSpec)
     conveyor: ConveyorSpec | None = None
@@ -135,8 +181,9 @@ class TrackSpec(Spec):
 
     @model_validator(mode="after")
     def _check(self) -> TrackSpec:
-        if self.objective == "tracking" and self.conveyor is None:
-            raise ValueError("objective tracking needs a conveyor: {part_start, belt_velocity}")
+        if self.objective != "time" and self.conveyor is None:
+            raise ValueError(f"objective {self.objective} needs a conveyor: "
+                             "{part_start, belt_velocity}")
         if self.grid_study is not None and not self.grid_study:
             raise ValueError("grid_study: give at least one grid")
         return self
@@ -152,12 +199,12 @@ def point_si(p: list[float], units: Units) -> np.ndarray:
 def limits_si(
     spec: LimitsSpec, units: Units, prismatic: np.ndarray
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """``name -> (lo (n,), hi (n,))`` in SI; qd/qdd/jerk of revolute joints scaled by the angle
-    unit, of prismatic joints by the length unit; torques as given (N m | N)."""
+    """``name -> (lo (n,), hi (n,))`` in SI; q/qd/qdd/jerk of revolute joints scaled by the
+    angle unit, of prismatic joints by the length unit; torques as given (N m | N)."""
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     pris = np.asarray(prismatic, dtype=bool)
     motion = np.where(pris, length_factor(units.length), angle_factor(units.angle))
-    for name in ("torque", "qd", "qdd", "jerk"):
+    for name in ("torque", "qd", "qdd", "jerk", "q"):
         lim = getattr(spec, name)
         if lim is None:
             continue

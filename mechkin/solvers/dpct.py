@@ -42,6 +42,31 @@ stated model can reproduce, see PAPER_NOTES):
 7. **Steady state** (§2, §5). ``t_a`` is the time of the first node after which the hand stays on
    the part (``|x1 - x~1| <= 1e-9`` and ``x2 = x~2``); with reading 2 the steady state has zero
    tracking error, and ``t_a`` lies on the grid ``t_f - m dx1 / x~2``.
+8. **Joint positions.** ``q = f(r)`` (Eq. (9)) depends on the stage alone, so a node
+   ``(x1[i], x2[j])`` whose ``q(x1[i])`` is outside the joint limits is infeasible for every
+   ``j``, and one such stage makes the problem infeasible before the search (the message names
+   the joint and r). The limits are checked at the nodes, like the others; their usage is the
+   distance from the middle of each joint's range as a fraction of its half width.
+9. **A part that starts ahead of the hand** (``r~(0) > 0``). The rule ``t >= 0`` of reading 4
+   is a bound on the plan's total duration, ``t_f - t(0, 0) <= t_f``, and Bellman's principle
+   does not hold for it: a node's time is not part of the state, so each node keeps only its
+   cost-optimal tail, and with it a single time. When the part starts ahead, the tails that are
+   cost-optimal (they stay close to the part's phase-plane line late in the plan) are slower
+   than the hand must be to catch the part, every stage's times then come out negative, and the
+   DP -- with no state that remembers a faster tail -- reports the start rule as blocking, even
+   without any limit. The bound is therefore relaxed into the cost with a Lagrange multiplier,
+   ``J + mu sum dt`` (Eq. (28) plus ``mu dt`` per transition), and the smallest ``mu`` whose
+   plan starts at ``t(0, 0) >= 0`` is found by bisection (``time_penalty`` in the result; the
+   reported cost is the tracking cost alone). That plan is optimal for ``J + mu T`` among the
+   grid's plans, not necessarily for ``J`` alone under ``t >= 0`` (that would need the time in
+   the state). When no ``mu`` helps, the grid cannot catch the part by ``r = 1``: its top
+   speed ``x2[N2] = x~2 N2 / N_t`` is too low (the message says so).
+10. **Intercept** (``objective="intercept"``): the same grid, end node and limits as tracking,
+    but the stage cost is the time spent off the part, ``dt [not on the part at (i, j)]``
+    (on: ``|x1 - x~1(t)| <= 1e-9`` and ``x2 = x~2``, reading 7), plus the initial wait
+    ``t(0, 0)`` at stage 0, so ``J*(0, 0) = t_a``: the earliest steady tracking the grid and
+    the limits allow. ``1e-6`` times the tracking cost of Eq. (28) breaks ties between plans
+    with the same ``t_a``. Not in park; ``t_a`` of the tracking objective is an upper bound.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
 stages only.
@@ -55,6 +80,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -81,7 +107,11 @@ _REACH_SAMPLES = 2048
 #: Relative margin on the sampled reachability bound of r'.
 _REACH_MARGIN = 0.01
 
-_FAMILIES = ("torque", "qd", "qdd", "jerk")
+_FAMILIES = ("torque", "qd", "qdd", "jerk", "q")
+#: Weight of the tracking cost that breaks ties of the intercept objective (reading 10).
+INTERCEPT_TIE = 1e-6
+#: Bisection steps on log(mu) of the time penalty (reading 9).
+MU_BISECTIONS = 12
 
 
 TrackStatus = Status  # ok or infeasible (mechkin.solvers.result)
@@ -174,14 +204,16 @@ def _limit_pair(
 class TrackLimits:
     """Joint limits of park Eq. (3)-(6); each pair is ``(lo (n,), hi (n,))`` or None (no limit).
 
-    Units: torque [N m | N], qd [rad/s | m/s], qdd [rad/s^2], jerk [rad/s^3]. Infinite bounds
-    are allowed per joint.
+    Units: torque [N m | N], qd [rad/s | m/s], qdd [rad/s^2], jerk [rad/s^3], q (joint
+    positions, the mechanism's limits or strokes) [rad | m]. Infinite bounds are allowed per
+    joint.
     """
 
     torque: tuple[np.ndarray, np.ndarray] | None = None
     qd: tuple[np.ndarray, np.ndarray] | None = None
     qdd: tuple[np.ndarray, np.ndarray] | None = None
     jerk: tuple[np.ndarray, np.ndarray] | None = None
+    q: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         for name in _FAMILIES:
@@ -269,6 +301,8 @@ class TrackResult:
         For an infeasible problem, the r interval where the search dies.
     blocking_limits : tuple of str
         For an infeasible problem, the limit families that block.
+    time_penalty : float
+        The multiplier ``mu`` of reading 9 (0 unless the part starts ahead of the hand).
     trajectory : TrackTrajectory or None
     """
 
@@ -287,6 +321,7 @@ class TrackResult:
     solve_time_s: float
     blocked_at_r: tuple[float, float] | None = None
     blocking_limits: tuple[str, ...] = ()
+    time_penalty: float = 0.0
     trajectory: TrackTrajectory | None = field(default=None, repr=False)
 
     def summary(self) -> dict[str, object]:
@@ -312,6 +347,7 @@ class TrackResult:
             "solve_time_s": self.solve_time_s,
             "blocked_at_r": None if self.blocked_at_r is None else list(self.blocked_at_r),
             "blocking_limits": list(self.blocking_limits),
+            "time_penalty": self.time_penalty,
         }
 
 
@@ -495,6 +531,7 @@ def _describe(names: list[str]) -> str:
         "qdd": "joint acceleration limit",
         "jerk": "joint jerk limit",
         "start": "start no earlier than t_0 = 0",
+        "q": "joint position limit",
     }
     joints: dict[str, list[str]] = {}
     for nm in names:
@@ -526,10 +563,14 @@ def _run_dp(
     j_end: int,
     t_end: float,
     reference: tuple[float, float] | None,
+    mu: float = 0.0,
+    intercept: bool = False,
 ) -> _DPTables:
     """Backward recursion of park Eq. (25)-(30) with time-to-go bookkeeping (Eq. (27)).
 
     ``reference`` is ``(r0, x~2)`` for the tracking cost (Eq. (28)); None for minimum time.
+    ``mu`` adds ``mu dt`` to the tracking cost (reading 9 of the module docstring);
+    ``intercept`` replaces the cost by the time off the part (reading 10).
     """
     N1 = pc.r.shape[0] - 1
     N2 = x2.shape[0] - 1
@@ -563,7 +604,7 @@ def _run_dp(
     )
     for i in range(N1 - 1, -1, -1):
         with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
-            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference)
+            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu, intercept)
         if isinstance(out, list):
             return _DPTables(V, NP, T, (i, out))
         qdd_next = out
@@ -580,6 +621,8 @@ def _dp_stage(
     NP: np.ndarray,
     qdd_next: np.ndarray,
     reference: tuple[float, float] | None,
+    mu: float = 0.0,
+    intercept: bool = False,
 ) -> np.ndarray | list[str]:
     """One stage of park Eq. (25)-(30), all ``(j, l)`` pairs at once; fills row i of V, T, NP.
 
@@ -600,7 +643,12 @@ def _dp_stage(
         ok &= start_ok
         e1 = pc.r[i] - (r0 + rd_ref * t)  # park Eq. (17) at t(i, j)
         e2 = (x2j - rd_ref)[:, None]
-        stage_cost = dt * (e1 * e1 + e2 * e2)  # park Eq. (28)
+        stage_cost = dt * (e1 * e1 + e2 * e2 + mu)  # park Eq. (28) (+ mu dt, reading 9)
+        if intercept:  # reading 10: time off the part, the tracking cost breaks ties
+            on = (np.abs(e1) <= STEADY_TOL) & (np.abs(e2) <= STEADY_TOL)
+            stage_cost = dt * (np.where(on, 0.0, 1.0) + mu) + INTERCEPT_TIE * stage_cost
+            if i == 0:
+                stage_cost = stage_cost + np.maximum(t, 0.0)  # the wait before t(0, 0)
     else:
         stage_cost = dt  # minimum time
     cost = np.where(ok, stage_cost + V[i + 1][None, :], np.inf)  # park Eq. (29)
@@ -628,6 +676,69 @@ def _usage(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     both = np.fmax(up, dn)
     both = np.where(np.isnan(x), -np.inf, both)
     return np.max(both, axis=0)
+
+
+def _time_penalty_search(
+    pc: PhaseCoefficients,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    x2: np.ndarray,
+    j_end: int,
+    t_end: float,
+    reference: tuple[float, float],
+    intercept: bool = False,
+) -> tuple[_DPTables, float]:
+    """Reading 9: the smallest time penalty ``mu`` (stage cost ``+ mu dt``) whose DP starts at
+    ``t(0, 0) >= 0``: a decade scan of ``mu``, then a bisection on ``log mu``. Returns the
+    feasible tables and mu, or the tables of the largest mu tried (still blocked) and 0."""
+    r0, rd = reference
+    scale = r0 * r0 + rd * rd + 1e-12  # the tracking cost per second at the start
+    lo, last = 0.0, None
+    for k in range(-3, 9):
+        mu = scale * 10.0**k
+        tab = _run_dp(pc, limits, x2, j_end, t_end, reference, mu, intercept)
+        if tab.blocked is None and np.isfinite(tab.V[0, 0]):
+            hi, best = mu, tab
+            for _ in range(MU_BISECTIONS):
+                mid = np.sqrt(lo * hi) if lo > 0.0 else hi / 10.0
+                t_mid = _run_dp(pc, limits, x2, j_end, t_end, reference, mid, intercept)
+                if t_mid.blocked is None and np.isfinite(t_mid.V[0, 0]):
+                    hi, best = mid, t_mid
+                else:
+                    lo = mid
+            return best, hi
+        lo, last = mu, tab
+    assert last is not None
+    return last, 0.0
+
+
+def _usage_interval(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Largest distance from the middle of ``[lo, hi]`` per joint as a fraction of the half
+    width ``(n,)`` (1 at a bound; joint positions, whose interval need not contain 0); an
+    unbounded side counts 0."""
+    finite = np.isfinite(lo) & np.isfinite(hi)
+    mid = np.where(finite, 0.5 * (lo + hi), 0.0)
+    half = np.where(finite, 0.5 * (hi - lo), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.where(half > 0, np.abs(x - mid) / half, np.where(x == mid, 0.0, np.inf))
+    one_side = ~finite & (np.isfinite(lo) | np.isfinite(hi))  # only one bound: 0 inside
+    if np.any(one_side):
+        out = (x < lo) | (x > hi)
+        u = np.where(one_side, np.where(out, np.inf, 0.0), u)
+    return np.max(np.where(np.isnan(x), -np.inf, u), axis=0)
+
+
+def _position_block(
+    pc: PhaseCoefficients, q_lim: tuple[np.ndarray, np.ndarray]
+) -> tuple[int, list[int]] | None:
+    """First stage whose ``q(x1[i])`` leaves the joint position limits, and its joints (a node
+    state ``(x1[i], x2[j])`` is infeasible for every ``j``: q depends on r alone, Eq. (9))."""
+    lo, hi = q_lim
+    bad = (pc.q < lo - _slack(lo)) | (pc.q > hi + _slack(hi))
+    rows = np.flatnonzero(np.any(bad, axis=1))
+    if rows.size == 0:
+        return None
+    i = int(rows[0])
+    return i, [int(k) for k in np.flatnonzero(bad[i])]
 
 
 def _realise(
@@ -684,15 +795,18 @@ def solve_conveyor_tracking(
     limits: TrackLimits | None = None,
     N1: int = 50,
     N2: int = 100,
-    objective: Literal["tracking", "time"] = "tracking",
+    objective: Literal["tracking", "time", "intercept"] = "tracking",
     nt_fraction: float = NT_FRACTION,
     x2_max: float | None = None,
+    joint_names: Sequence[str] | None = None,
 ) -> TrackResult:
     r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
 
     ``objective="tracking"``: DPCT, the tracking cost of Eq. (22)/(28) against ``reference``
     (Eq. (16)-(17)), from rest at ``r = 0`` to the part's state at ``r = 1`` at ``t_f``.
-    ``objective="time"``: the same recursion with cost ``dt`` (minimum time), from rest to rest
+    ``objective="intercept"``: the same problem, cost the time until the hand is on the part
+    (reading 10). ``objective="time"``: the same recursion with cost ``dt`` (minimum time), from
+    rest to rest
     (``r' = 0`` at both ends), with the same limits, jerk included.
 
     Parameters
@@ -705,15 +819,18 @@ def solve_conveyor_tracking(
         The part on the belt (park Eq. (1)); required for tracking, optional for time (then
         ``part`` and ``tracking_error`` are reported too when given).
     limits : TrackLimits, optional
-        Torque (Eq. (3)), velocity, acceleration and jerk limits (Eq. (4)-(6)).
+        Torque (Eq. (3)), velocity, acceleration and jerk limits (Eq. (4)-(6)), joint
+        position limits ``q`` (reading 8 of the module docstring).
     N1, N2 : int
         Stages (along r) and states (along r'); park §5 uses 30x50, 50x100, 100x200.
-    objective : {"tracking", "time"}
+    objective : {"tracking", "time", "intercept"}
     nt_fraction : float
         ``N_t = round(nt_fraction N2)``, the state of the part's speed (tracking only).
     x2_max : float, optional
         Top of the r' grid for ``objective="time"`` [1/s]; default: the largest r' reachable
         from rest that can still stop (torque and velocity limits).
+    joint_names : sequence of str, optional
+        Names of the joints for the message of a joint position limit.
 
     Returns
     -------
@@ -732,8 +849,10 @@ def solve_conveyor_tracking(
     park_conveyor_tracking_dp, Eq. (16)-(35); the module docstring lists the readings.
     """
     t_start = time.perf_counter()
-    if objective not in ("tracking", "time"):
-        raise ConfigError(f"objective: expected 'tracking' or 'time', got {objective!r}")
+    if objective not in ("tracking", "time", "intercept"):
+        raise ConfigError("objective: expected 'tracking', 'time' or 'intercept', got "
+                          f"{objective!r}")
+    intercept = objective == "intercept"
     if N1 < 1 or N2 < 1:
         raise ConfigError(f"grid: expected N1, N2 >= 1, got {N1} x {N2}")
     limits = limits or TrackLimits()
@@ -746,9 +865,9 @@ def solve_conveyor_tracking(
     x1 = np.linspace(0.0, 1.0, N1 + 1)
     pc = phase_coefficients(dynamics, path, x1)  # park Eq. (9)-(12) at every stage
     ref_phase: tuple[float, float] | None = None
-    if objective == "tracking":
+    if objective != "time":
         if reference is None:
-            raise ConfigError("objective tracking: a conveyor reference is required")
+            raise ConfigError(f"objective {objective}: a conveyor reference is required")
         ref_phase = reference.phase(path)
         r0, rd_ref = ref_phase
         Nt = int(round(nt_fraction * N2))
@@ -769,8 +888,34 @@ def solve_conveyor_tracking(
         grid = DPGrid(N1=N1, N2=N2, Nt=None, x2_max=float(top))
         j_end, t_end = 0, 0.0
 
-    tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase)
+    blocked_q = _position_block(pc, lim["q"]) if "q" in lim else None
+    if blocked_q is not None:  # no state of that stage is admissible: nothing to search
+        i_b, js = blocked_q
+        lo, hi = lim["q"]
+        names = [f"q_{k + 1}" for k in js]
+        hand = np.round(path.hand(x1[i_b:i_b + 1])[0], 4).tolist()
+        jn = list(joint_names) if joint_names is not None else [f"q{k + 1}" for k in range(n)]
+        detail = "; ".join(f"{jn[k]} = {pc.q[i_b, k]:.4g} outside [{lo[k]:.4g}, {hi[k]:.4g}]"
+                           for k in js)
+        message = (f"infeasible: joint position limit (joint{'s' if len(js) > 1 else ''} "
+                   f"{', '.join(f'{k + 1} = {jn[k]}' for k in js)}) blocks the motion at r = "
+                   f"{x1[i_b]:.4g} (hand at {hand} m; {detail}, SI units): the path's inverse "
+                   "kinematics leaves the joint limits there")
+        logger.info(message)
+        return TrackResult(
+            status=TrackStatus.INFEASIBLE, message=message, objective=objective, t_a_s=None,
+            t_start_s=None, duration_s=None, peak_torque=None, limits_ok=False,
+            active_limits=(), limit_usage={}, grid=grid, cost=float("inf"),
+            solve_time_s=time.perf_counter() - t_start,
+            blocked_at_r=(float(x1[i_b]), float(x1[i_b])), blocking_limits=tuple(names))
+
+    tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase, 0.0, intercept)
     feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
+    mu = 0.0
+    blocked_by_start = tab.blocked is not None and "start" in tab.blocked[1]
+    if not feasible and blocked_by_start:  # reading 9: relax t(0, 0) >= 0 into the cost
+        tab, mu = _time_penalty_search(pc, lim, x2, j_end, t_end, ref_phase, intercept)
+        feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
     if not feasible:
         i_b, names = tab.blocked if tab.blocked is not None else (0, [])
         where = (float(x1[i_b]), float(x1[min(i_b + 1, N1)]))
@@ -784,6 +929,13 @@ def solve_conveyor_tracking(
             )
         what = _describe(names) if names else "the limits"
         message = f"infeasible: {what} blocks the motion {loc} on the {N1}x{N2} grid"
+        if "start" in names and ref_phase is not None and ref_phase[0] > 0.0:
+            message += (
+                f"; the part starts ahead of the hand (r~(0) = {ref_phase[0]:.4g}) and no "
+                f"plan on this grid reaches it by r = 1 at t_f = {t_end:.4g} s, even with a "
+                "time penalty (reading 9): the r' grid tops at "
+                f"{grid.x2_max:.4g} /s = {grid.x2_max / ref_phase[1]:.3g} x the part's r'; a "
+                "smaller nt_fraction lets the hand go faster")
         if any(nm.startswith("jerk") for nm in names):
             message += "; a finer r' grid (larger N2 / N1) represents smaller jerks"
         logger.info(message)
@@ -806,10 +958,12 @@ def solve_conveyor_tracking(
         )
 
     traj = _realise(pc, path, x2, tab, objective, reference)
-    values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk}
+    values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk,
+              "q": traj.q}
     usage: dict[str, float] = {}
     for name, (lo, hi) in lim.items():
-        for k, u in enumerate(_usage(values[name], lo, hi)):
+        use = _usage_interval if name == "q" else _usage
+        for k, u in enumerate(use(values[name], lo, hi)):
             usage[f"{name}_{k + 1}"] = float(u)
     limits_ok = all(u <= 1.0 + LIMIT_RTOL for u in usage.values())
     active = tuple(k for k, u in usage.items() if u >= ACTIVE_FRACTION)
@@ -817,7 +971,7 @@ def solve_conveyor_tracking(
     peak = traj.torque[peak_idx, np.arange(n)]
 
     t_a: float | None = None
-    if objective == "tracking":
+    if objective != "time":
         r0, rd_ref = ref_phase  # type: ignore[misc]
         on_part = (np.abs(traj.r - (r0 + rd_ref * traj.t)) <= STEADY_TOL) & (
             np.abs(traj.rd - rd_ref) <= STEADY_TOL
@@ -828,9 +982,13 @@ def solve_conveyor_tracking(
         t_a = float(traj.t[k])
         t_move = float(tab.T[0, 0])
         duration = float(traj.t[-1])
-        message = f"ok: steady tracking from t_a = {t_a:.4g} s on the {N1}x{N2} grid" + (
+        what = "intercepts the part at" if intercept else "steady tracking from"
+        message = f"ok: {what} t_a = {t_a:.4g} s on the {N1}x{N2} grid" + (
             "" if limits_ok else " (a limit is exceeded on the realised trajectory)"
         )
+        if mu > 0.0:
+            message += (f"; the part starts ahead of the hand: a time penalty mu = {mu:.3g} "
+                        "on the cost keeps the start at t >= 0 (reading 9)")
     else:
         t_move = 0.0
         duration = float(traj.t[-1])
@@ -847,7 +1005,8 @@ def solve_conveyor_tracking(
         active_limits=active,
         limit_usage=usage,
         grid=grid,
-        cost=float(tab.V[0, 0]),
+        cost=float(tab.V[0, 0]) - (mu * (t_end - float(tab.T[0, 0])) if mu > 0.0 else 0.0),
         solve_time_s=time.perf_counter() - t_start,
+        time_penalty=mu,
         trajectory=traj,
     )

@@ -191,7 +191,9 @@ class IKLinePath:
     r"""Straight hand line for any mechanism, given inverse-kinematics and Jacobian callables.
 
     ``q = ik(X_h)`` (park Eq. (9)); ``f' = J^+ (p1 - p0)`` with ``J = jacobian(q)`` the hand
-    position Jacobian (least squares when J is not square); ``f''`` by a central difference of
+    position Jacobian (least squares when J is not square or singular: a redundant arm gets
+    the minimum-norm f', which is not the derivative of a posture-consistent f; for that use
+    :class:`mechkin.solvers.path_ik.HandLineIK`); ``f''`` by a central difference of
     ``f'`` in r with step ``fd_step`` (the line extends past ``[0, 1]``, so the ends need no
     special case), which keeps the interface to two callables.
 
@@ -240,7 +242,10 @@ class IKLinePath:
         J = np.asarray(self.jacobian(q), dtype=np.float64)
         dp = np.broadcast_to(self.p1 - self.p0, (q.shape[0], self.p0.shape[0]))
         if J.shape[1] == J.shape[2]:
-            return np.linalg.solve(J, dp[..., None])[..., 0]
+            try:
+                return np.linalg.solve(J, dp[..., None])[..., 0]
+            except np.linalg.LinAlgError:  # e.g. the zero z row of a planar 3R arm
+                pass
         return np.einsum("mij,mj->mi", np.linalg.pinv(J), dp)
 
     def dq(self, r: np.ndarray) -> np.ndarray:

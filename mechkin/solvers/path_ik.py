@@ -1,26 +1,55 @@
-r"""Inverse kinematics of a hand frame along a straight line, on one branch (park Eq. (9)).
+r"""Inverse kinematics of a hand frame along a straight line, on one branch (park Eq. (7), (9)).
 
-The hand moves on ``X_h(r) = p0 + r (p1 - p0)`` (park Eq. (7)). A table ``q(r)`` is built once
-by continuation: each point's Newton-Raphson (pseudo-inverse steps, step length capped at
-0.5 rad | m) starts from the previous point's solution, so the branch chosen at the start is
-kept along the whole line. A batch of points is then solved by Newton-Raphson from the table
-interpolated at their r. :class:`HandLineIK` is the ``ik`` / ``jacobian`` pair that
-:class:`mechkin.solvers.path.IKLinePath` needs.
+The hand moves on ``p(r) = p0 + r (p1 - p0)`` (park Eq. (7)) with its orientation held at the
+start orientation ``R0`` ("fixed orientation", park §3.1) or free. The task coordinates are
+the components of
+
+.. math:: x(q) = [\,p(q);\ \varphi(q)\,], \qquad \varphi = \log(R(q) R_0^T)
+
+that the ``mask`` selects (``x, y, z, rx, ry, rz``; rotation vector in the base frame), with
+the task Jacobian ``A = [J_v; J_l(\varphi)^{-1} J_\omega]`` (rows of the mask; ``J_l`` the left
+Jacobian of SO(3), the identity wherever the orientation is held, ``\varphi = 0``).
+
+**Joint map q = f(r)** (park Eq. (9)). With ``k`` task components of rank ``m`` and ``n``
+joints, the redundancy is ``n - m``. ``f(r)`` is the solution of
+
+.. math:: G(q, r) = A^+ (x^*(r) - x(q)) + N (q_s - q) = 0, \qquad N = I - A^+ A,
+
+the task reached (first term) and, for a redundant arm, the posture closest to the start
+solution ``q_s`` on the self-motion manifold (second term: the null-space posture term). It is
+found by Newton's method on G, continued along a table ``r = -0.02 .. 1.02`` from the start
+solution (each point starts from the previous one, moved along the tangent ``f'``), so the
+branch chosen at the start is kept; points between are solved from the table interpolated at
+their r. ``A^+`` is the pseudo-inverse truncated at the task's generic rank (zero rows such as
+z of a planar arm drop out).
+
+**Derivatives** (park Eq. (10)-(11)), by the implicit function theorem on ``G = 0``:
+
+.. math:: f' = (I - D)^{-1} A^+ \dot x^*, \qquad D = \frac{\partial N}{\partial q}(q_s - q),
+          \qquad f'' = \frac{d f'}{dq} f'
+
+with ``\dot x^* = [p1 - p0; 0]`` (masked); ``D = 0`` without redundancy, where
+``f' = A^+ \dot x^*`` and ``f'' = -A^+ \dot A f'`` (``A f'' + \dot A f' = 0``: the hand does not
+accelerate along r nor turn). ``D`` is a central difference of ``N`` over the joints; ``f''`` a
+central difference of ``f'(q)`` along ``f'``.
 
 Failures raise :class:`PathIKError`, whose ``key`` says which part of the problem is at fault
-(``start``: the start point is not reached from the initial guess; ``path``: the line leaves
-the workspace or meets a singularity; ``branch``: a joint leaves its required sign); the task
-turns it into a located ConfigError.
+(``start``: the start pose is not reached from the initial guess; ``path``: the line leaves the
+workspace or meets a singularity, the message names r and the point; ``branch``: a joint leaves
+its required sign); the task turns it into a located ConfigError.
 
-Imports: numpy, model.kinematics, errors.
+Imports: numpy, model.kinematics, spatial.rotations, errors.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from mechkin.errors import ConfigError
-from mechkin.model.kinematics import forward_kinematics, frame_jacobian, frame_poses
+from mechkin.model.kinematics import forward_kinematics, frame_jacobian
+from mechkin.spatial.rotations import rotation_log
 
 #: Continuation table of the inverse kinematics: r from -IK_MARGIN to 1 + IK_MARGIN.
 IK_MARGIN = 0.02
@@ -28,21 +57,62 @@ IK_STEP = 0.005
 IK_MAX_ITER = 100
 #: Largest joint change [rad | m] between two neighbouring table points (else: a jump).
 IK_MAX_JUMP = 0.5
+#: Singular values below RANK_RTOL * the largest do not count to the task's rank (at the start).
+RANK_RTOL = 1e-9
+#: Perturbed configurations that decide the task's generic rank.
+RANK_SAMPLES = 6
+#: Along the path, sigma_m / sigma_1 of the task Jacobian below this is a singularity.
+SINGULAR_RTOL = 1e-7
+#: Tolerance of the posture condition N (q_s - q) = 0 [rad | m].
+NULL_TOL = 1e-10
+#: Steps of the central differences: D over the joints, f'' along f'.
+FD_D = 1e-6
+FD_F2 = 1e-5
+FD_F2_REDUNDANT = 1e-4
+COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 
 
 class PathIKError(ConfigError):
     """The path inverse kinematics failed; ``key`` is ``start``, ``path`` or ``branch``
-    (``joint`` names the joint of a branch failure)."""
+    (``joint`` names the joint of a branch failure; ``r`` and ``point`` where it failed)."""
 
-    def __init__(self, key: str, message: str, joint: str | None = None) -> None:
+    def __init__(self, key: str, message: str, joint: str | None = None,
+                 r: float | None = None, point: np.ndarray | None = None) -> None:
         super().__init__(message)
         self.key = key
         self.joint = joint
         self.message = message
+        self.r = r
+        self.point = point
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    S = np.zeros(v.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
+
+
+def left_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
+    r"""``J_l(phi)^{-1} (m, 3, 3)``: ``d phi / dt = J_l^{-1} omega`` for ``exp([phi]) = R R0^T``.
+
+    ``J_l^{-1} = I - [phi]/2 + (1/t^2 - (1 + cos t) / (2 t sin t)) [phi]^2``, ``t = |phi|``
+    (series ``1/12 + t^2/720`` near 0).
+    """
+    t = np.linalg.norm(phi, axis=-1)
+    small = t < 1e-4
+    ts = np.where(small, 1.0, t)
+    c = np.where(small, 1.0 / 12.0 + t * t / 720.0,
+                 1.0 / ts**2 - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts)))
+    S = _skew(phi)
+    return np.eye(3) - 0.5 * S + c[..., None, None] * (S @ S)
 
 
 class HandLineIK:
-    """Position inverse kinematics of frame ``frame`` along the line ``p0 -> p1``, one branch.
+    """Inverse kinematics of frame ``frame`` along the line ``p0 -> p1``, on one branch.
+
+    Implements :class:`mechkin.solvers.path.JointPath` (``hand``, ``q``, ``dq``, ``ddq``).
 
     Parameters
     ----------
@@ -53,53 +123,104 @@ class HandLineIK:
     p0, p1 : array (3,)
         Hand positions at ``r = 0`` and ``r = 1`` [m].
     q0 : array (n,)
-        Initial guess of the start solution [rad | m].
+        Initial guess of the start solution [rad | m]; the held orientation ``R0`` is the
+        hand's orientation there.
     tol : float
-        Position tolerance of Newton-Raphson [m].
+        Position tolerance [m].
     branch : dict, optional
         ``joint index -> +1 | -1``: the sign each named joint must keep on ``0 <= r <= 1``.
+    mask : sequence of str, optional
+        Task components (``x, y, z, rx, ry, rz``); default the position ``x, y, z``.
+    tol_rot : float
+        Orientation tolerance [rad] (default ``tol``).
 
     Raises
     ------
     PathIKError
-        The start point is not reached, the line leaves the workspace or meets a singularity,
+        The start pose is not reached, the line leaves the workspace or meets a singularity,
         or a branch sign is violated.
     """
 
     def __init__(self, mech, frame: int, p0: np.ndarray, p1: np.ndarray, q0: np.ndarray,
-                 tol: float, branch: dict[int, int] | None = None) -> None:
-        self.mech, self.p0, self.p1 = mech, p0, p1
-        self.dp = p1 - p0
-        self.tol = tol
+                 tol: float, branch: dict[int, int] | None = None,
+                 mask: Sequence[str] | None = None, tol_rot: float | None = None) -> None:
+        self.mech = mech
+        self.p0 = np.asarray(p0, dtype=float)
+        self.p1 = np.asarray(p1, dtype=float)
+        self.dp = self.p1 - self.p0
+        self.tol = float(tol)
+        self.tol_rot = float(tol if tol_rot is None else tol_rot)
         self.f = int(frame)
-        q_start, ok, err = self._newton(np.asarray(q0, dtype=float)[None, :], p0[None, :],
-                                        IK_MAX_ITER)
+        self.n = int(mech.n)
+        names = tuple(mask) if mask is not None else COMPONENTS[:3]
+        bad = [c for c in names if c not in COMPONENTS]
+        if bad or not names:
+            raise ValueError(f"mask: expected components of {COMPONENTS}, got {list(names)}")
+        self.mask = tuple(c for c in COMPONENTS if c in names)
+        self.rows = np.array([COMPONENTS.index(c) for c in self.mask])
+        self.pos_rows = np.flatnonzero(self.rows < 3)
+        self.rot_rows = np.flatnonzero(self.rows >= 3)
+        self.orientation_held = bool(self.rot_rows.size)
+        q0 = np.asarray(q0, dtype=float)
+        self.R0 = self._poses(q0[None])[0, :3, :3]
+        xdot = np.zeros(6)
+        xdot[:3] = self.dp
+        self.xdot = xdot[self.rows]
+        self._cache: tuple[bytes, np.ndarray] | None = None
+        # the task's generic rank (largest over the guess and seeded perturbations of it: the
+        # guess may be singular, e.g. a wrist at q5 = 0) fixes the pseudo-inverse's truncation
+        rng = np.random.default_rng(0)
+        qs = np.vstack([q0, q0 + rng.uniform(-0.3, 0.3, size=(RANK_SAMPLES, self.n))])
+        s = np.linalg.svd(self._task_jacobian(qs), compute_uv=False)
+        tol_s = RANK_RTOL * np.maximum(s[:, :1], 1e-300)
+        self.rank = int(np.max(np.sum(s > tol_s, axis=1)))
+        self.redundancy = self.n - self.rank
+        self.q_ref = q0.copy()
+        q_start, ok, err = self._newton(q0[None, :], np.zeros(1), IK_MAX_ITER)
         if not ok:
-            raise PathIKError("start", f"the hand cannot reach {p0.tolist()} m from the initial "
-                                       f"guess (error {err:.3g} m)")
+            raise PathIKError("start", f"the hand cannot reach {self.p0.tolist()} m"
+                              + (" with the initial orientation" if self.orientation_held
+                                 else "") + f" from the initial guess (error {err:.3g})")
+        self.q_ref = q_start[0].copy()  # the posture the null-space term keeps close to
+        sig0 = self._sigma_ratio(q_start)[0]
+        if sig0 < SINGULAR_RTOL:
+            raise PathIKError("path", "the hand starts at a singularity, r = 0 (point "
+                              f"{np.round(self.p0, 6).tolist()} m, sigma_min / sigma_max of the "
+                              f"task Jacobian {sig0:.3g})", r=0.0, point=self.p0.copy())
         self.r_tab = np.arange(-IK_MARGIN, 1.0 + IK_MARGIN + IK_STEP / 2, IK_STEP)
         self.r_tab[np.argmin(np.abs(self.r_tab))] = 0.0
         i0 = int(np.argmin(np.abs(self.r_tab)))
-        tab = np.empty((len(self.r_tab), mech.n))
+        tab = np.empty((len(self.r_tab), self.n))
         tab[i0] = q_start[0]
         for rng in (range(i0 + 1, len(self.r_tab)), range(i0 - 1, -1, -1)):
             prev = i0
             for i in rng:
-                X = (p0 + self.r_tab[i] * self.dp)[None, :]
-                q, ok, err = self._newton(tab[prev][None, :], X, IK_MAX_ITER)
+                r = self.r_tab[i]
+                # Euler predictor along the tangent f' (Eq. (10)), then Newton's corrector
+                guess = tab[prev] + (r - self.r_tab[prev]) * self.dq_of(tab[prev][None, :])[0]
+                if not np.all(np.isfinite(guess)):
+                    guess = tab[prev]
+                q, ok, err = self._newton(guess[None, :], np.array([r]), IK_MAX_ITER)
+                point = np.round(self.p0 + r * self.dp, 6).tolist()
                 if not ok or np.max(np.abs(q[0] - tab[prev])) > IK_MAX_JUMP:
                     raise PathIKError(
                         "path", "the hand line leaves the reachable workspace or meets a "
-                        f"singularity near r = {self.r_tab[i]:.3g} (point "
-                        f"{np.round(X[0], 6).tolist()} m, IK error {err:.3g} m)")
+                        f"singularity near r = {r:.3g} (point {point} m, IK error {err:.3g})",
+                        r=float(r), point=np.asarray(point))
+                sig = self._sigma_ratio(q)[0]
+                if sig < SINGULAR_RTOL:
+                    raise PathIKError(
+                        "path", f"the hand line meets a singularity near r = {r:.3g} (point "
+                        f"{point} m, sigma_min / sigma_max of the task Jacobian {sig:.3g})",
+                        r=float(r), point=np.asarray(point))
                 tab[i] = q[0]
                 prev = i
-        for j, s in (branch or {}).items():
+        for j, sgn in (branch or {}).items():
             name = mech.joint_names[j]
-            sign = "positive" if s > 0 else "negative"
+            sign = "positive" if sgn > 0 else "negative"
             qj = np.angle(np.exp(1j * tab[:, j])) if mech.s[j] == 0 else tab[:, j]
-            bad = np.flatnonzero(s * qj <= 0.0)
-            inside = bad[(self.r_tab[bad] >= 0.0) & (self.r_tab[bad] <= 1.0)]
+            bad_i = np.flatnonzero(sgn * qj <= 0.0)
+            inside = bad_i[(self.r_tab[bad_i] >= 0.0) & (self.r_tab[bad_i] <= 1.0)]
             if inside.size:
                 k = int(inside[0])
                 raise PathIKError(
@@ -108,37 +229,177 @@ class HandLineIK:
                     "on that branch", joint=name)
         self.tab = tab
 
-    def _pos(self, q: np.ndarray) -> np.ndarray:
-        return frame_poses(self.mech, q, [self.f])[:, 0, :3, 3]
+    # ---- kinematics of the task ---------------------------------------------------------------
 
-    def jacobian(self, q: np.ndarray) -> np.ndarray:
-        """Hand position Jacobian ``(m, 3, n)``."""
-        q = np.asarray(q, dtype=float)
+    def _poses(self, q: np.ndarray) -> np.ndarray:
+        return forward_kinematics(self.mech, q).frames(self.mech, [self.f])[:, 0]
+
+    def _task(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Hand poses (m, 4, 4), task coordinates x (m, 6) and task Jacobian (m, 6, n)."""
         kin = forward_kinematics(self.mech, q)
-        return frame_jacobian(self.mech, kin, self.f)[:, 3:, :]
+        T = kin.frames(self.mech, [self.f])[:, 0]
+        J = frame_jacobian(self.mech, kin, self.f)  # rows (omega, v)
+        x = np.empty((q.shape[0], 6))
+        x[:, :3] = T[:, :3, 3]
+        A = np.empty((q.shape[0], 6, self.n))
+        A[:, :3] = J[:, 3:]
+        if self.orientation_held:
+            phi = rotation_log(T[:, :3, :3] @ self.R0.T)
+            x[:, 3:] = phi
+            A[:, 3:] = left_jacobian_inverse(phi) @ J[:, :3]
+        else:
+            x[:, 3:] = 0.0
+            A[:, 3:] = J[:, :3]
+        return T, x, A
 
-    def _newton(self, q: np.ndarray, X: np.ndarray, max_iter: int
+    def _task_jacobian(self, q: np.ndarray) -> np.ndarray:
+        return self._task(q)[2][:, self.rows]
+
+    def target(self, r: np.ndarray) -> np.ndarray:
+        """Task coordinates ``x*(r) (m, k)``: the line's point and the held orientation."""
+        x = np.zeros((np.size(r), 6))
+        x[:, :3] = self.p0 + np.asarray(r, dtype=float)[:, None] * self.dp
+        return x[:, self.rows]
+
+    def _pinv(self, A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pseudo-inverse truncated at the task's rank (m, n, k), null projector (m, n, n) and
+        sigma_rank / sigma_1 (m,)."""
+        U, s, Vt = np.linalg.svd(A, full_matrices=False)
+        m = self.rank
+        Ur, sr, Vr = U[:, :, :m], s[:, :m], np.swapaxes(Vt[:, :m, :], 1, 2)
+        with np.errstate(divide="ignore"):
+            inv = np.where(sr > 0.0, 1.0 / sr, 0.0)
+        P = (Vr * inv[:, None, :]) @ np.swapaxes(Ur, 1, 2)
+        N = np.eye(self.n) - Vr @ np.swapaxes(Vr, 1, 2)
+        ratio = sr[:, -1] / np.maximum(s[:, 0], 1e-300) if m else np.ones(A.shape[0])
+        return P, N, ratio
+
+    def _sigma_ratio(self, q: np.ndarray) -> np.ndarray:
+        return self._pinv(self._task_jacobian(q))[2]
+
+    def _null(self, q: np.ndarray) -> np.ndarray:
+        return self._pinv(self._task_jacobian(q))[1]
+
+    def _D(self, q: np.ndarray) -> np.ndarray:
+        """``D = dN/dq (q_s - q)`` (m, n, n) by central differences over the joints."""
+        m, n = q.shape
+        h = FD_D
+        E = np.eye(n) * h
+        qq = np.concatenate([(q[:, None, :] + E[None]).reshape(-1, n),
+                             (q[:, None, :] - E[None]).reshape(-1, n)])
+        Nq = self._null(qq).reshape(2, m, n, n, n)  # [+/-, m, k, :, :]
+        w = self.q_ref - q
+        dN = (Nq[0] - Nq[1]) / (2.0 * h)  # (m, k, n, n): dN/dq_k
+        return np.einsum("mkij,mj->mik", dN, w)
+
+    def _residual(self, q: np.ndarray, r: np.ndarray):
+        _, x, A = self._task(q)
+        e = self.target(r) - x[:, self.rows]
+        P, N, ratio = self._pinv(A[:, self.rows])
+        g = np.einsum("mij,mj->mi", N, self.q_ref - q) if self.redundancy else None
+        return e, P, g, ratio
+
+    def _errors(self, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pos = np.linalg.norm(e[:, self.pos_rows], axis=1) if self.pos_rows.size else \
+            np.zeros(e.shape[0])
+        rot = np.linalg.norm(e[:, self.rot_rows], axis=1) if self.rot_rows.size else \
+            np.zeros(e.shape[0])
+        return pos, rot
+
+    def _newton(self, q: np.ndarray, r: np.ndarray, max_iter: int
                 ) -> tuple[np.ndarray, bool, float]:
+        """Newton's method on ``G(q, r) = 0`` (module docstring) from ``q (m, n)``; returns
+        q, whether every point converged, and the largest task error."""
         q = np.array(q, dtype=float)
         err = np.inf
         for _ in range(max_iter):
-            e = X - self._pos(q)
-            err = float(np.max(np.linalg.norm(e, axis=1)))
-            if err <= self.tol:
+            e, P, g, _ = self._residual(q, r)
+            pos, rot = self._errors(e)
+            err = float(max(np.max(pos), np.max(rot)))
+            null = 0.0 if g is None else float(np.max(np.abs(g)))
+            if np.all(pos <= self.tol) and np.all(rot <= self.tol_rot) and null <= NULL_TOL:
                 return q, True, err
-            step = np.einsum("mij,mj->mi", np.linalg.pinv(self.jacobian(q)), e)
+            step = np.einsum("mij,mj->mi", P, e)
+            if g is not None:
+                M = np.eye(self.n) - self._D(q)
+                step = np.linalg.solve(M, (step + g)[..., None])[..., 0]
             big = np.max(np.abs(step), axis=1, keepdims=True)
             q = q + step * np.minimum(1.0, 0.5 / np.maximum(big, 1e-300))
-        return q, err <= self.tol, err
+        null = 0.0 if g is None else float(np.max(np.abs(g)))
+        ok = bool(np.all(pos <= self.tol) and np.all(rot <= self.tol_rot) and null <= NULL_TOL)
+        return q, ok, err
+
+    # ---- JointPath ----------------------------------------------------------------------------
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n."""
+        return self.n
+
+    def hand(self, r: np.ndarray) -> np.ndarray:
+        """Hand position ``X_h(r) (m, 3)`` (park Eq. (7))."""
+        return self.p0 + np.atleast_1d(np.asarray(r, dtype=float))[:, None] * self.dp
+
+    def q(self, r: np.ndarray) -> np.ndarray:
+        """``f(r) (m, n)`` (park Eq. (9)): Newton from the table interpolated at r."""
+        r = np.atleast_1d(np.asarray(r, dtype=float))
+        key = r.tobytes()
+        if self._cache is not None and self._cache[0] == key:
+            return self._cache[1].copy()
+        q0 = np.column_stack([np.interp(r, self.r_tab, self.tab[:, j]) for j in range(self.n)])
+        q, ok, err = self._newton(q0, r, 30)
+        if not ok:
+            raise ConfigError(f"track.path: inverse kinematics failed near r = "
+                              f"{float(np.max(r)):.4g} (error {err:.3g} m)")
+        self._cache = (key, q)
+        return q.copy()
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
         """Joint values ``(m, n)`` at hand points ``X (m, 3)`` on the line (park Eq. (9))."""
         X = np.asarray(X, dtype=float)
-        r = (X - self.p0) @ self.dp / float(self.dp @ self.dp)
-        q0 = np.column_stack([np.interp(r, self.r_tab, self.tab[:, j])
-                              for j in range(self.mech.n)])
-        q, ok, err = self._newton(q0, X, 30)
-        if not ok:
-            raise ConfigError(f"track.path: inverse kinematics failed near r = "
-                              f"{float(np.max(r)):.4g} (error {err:.3g} m)")
-        return q
+        return self.q((X - self.p0) @ self.dp / float(self.dp @ self.dp))
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Hand position Jacobian ``(m, 3, n)``."""
+        kin = forward_kinematics(self.mech, np.asarray(q, dtype=float))
+        return frame_jacobian(self.mech, kin, self.f)[:, 3:, :]
+
+    def dq_of(self, q: np.ndarray) -> np.ndarray:
+        """``f'`` as a function of the configuration, ``(I - D)^{-1} A^+ xdot*`` (m, n)."""
+        P, _, _ = self._pinv(self._task_jacobian(q))
+        v = np.einsum("mij,j->mi", P, self.xdot)
+        if self.redundancy:
+            M = np.eye(self.n) - self._D(q)
+            v = np.linalg.solve(M, v[..., None])[..., 0]
+        return v
+
+    def dq(self, r: np.ndarray) -> np.ndarray:
+        """``df/dr (m, n)`` (park Eq. (10)), module docstring."""
+        return self.dq_of(self.q(r))
+
+    def ddq(self, r: np.ndarray) -> np.ndarray:
+        """``d2f/dr2 (m, n)`` (park Eq. (11)): central difference of ``f'(q)`` along ``f'``."""
+        q = self.q(r)
+        f1 = self.dq_of(q)
+        h = FD_F2_REDUNDANT if self.redundancy else FD_F2
+        return (self.dq_of(q + h * f1) - self.dq_of(q - h * f1)) / (2.0 * h)
+
+    # ---- verification -------------------------------------------------------------------------
+
+    def pose_errors(self, q: np.ndarray, r: np.ndarray) -> dict[str, float]:
+        """Largest errors of configurations ``q (m, n)`` at path parameters ``r (m,)`` by
+        forward kinematics: distance from the line point (held position components) [m],
+        angle of the held orientation components [rad] (None when free), and the largest
+        rotation of the hand from ``R0`` [rad]."""
+        T = self._poses(np.asarray(q, dtype=float))
+        p = self.hand(r)
+        pos_idx = self.rows[self.pos_rows]
+        pos = np.linalg.norm((T[:, :3, 3] - p)[:, pos_idx], axis=1)
+        phi = rotation_log(T[:, :3, :3] @ self.R0.T)
+        rot_idx = self.rows[self.rot_rows] - 3
+        return {
+            "max_position_error_m": float(np.max(pos, initial=0.0)),
+            "max_orientation_error_rad": (float(np.max(np.linalg.norm(phi[:, rot_idx], axis=1)))
+                                          if self.orientation_held else None),
+            "max_rotation_from_start_rad": float(np.max(np.linalg.norm(phi, axis=1))),
+        }

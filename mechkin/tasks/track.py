@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from mechkin.config.scenario import Scenario
-from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, point_si
+from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, path_mask, point_si
 from mechkin.config.units import length_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
@@ -38,7 +38,6 @@ from mechkin.solvers.dynamics_from_mechanism import (
     dynamics_from_mechanism,
     planar_two_link_from_mechanism,
 )
-from mechkin.solvers.path import IKLinePath
 from mechkin.solvers.path_ik import HandLineIK, PathIKError
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 
@@ -89,19 +88,26 @@ def hand_ik(sc: Scenario, mech: Mechanism, p0: np.ndarray, p1: np.ndarray) -> Ha
             raise ConfigError(f"{doc.where(('track', 'ik', 'branch', name))}: "
                               f"{exc.args[0]}") from None
     try:
-        return HandLineIK(mech, f, p0, p1, q0, tol, branch)
+        return HandLineIK(mech, f, p0, p1, q0, tol, branch, mask=path_mask(spec.path, mech.n),
+                          tol_rot=spec.ik.orientation_tolerance)
     except PathIKError as exc:
         key = {"start": ("track", "path", "start"), "path": ("track", "path"),
                "branch": ("track", "ik", "branch", exc.joint)}[exc.key]
         raise ConfigError(f"{doc.where(key)}: {exc.message}") from None
 
 
-def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: IKLinePath,
-           ref: ConveyorReference | None, limits: TrackLimits) -> TrackResult:
+def _finite_or_none(a: np.ndarray) -> list[float | None]:
+    """A limit vector for summary.json: an unbounded side is null."""
+    return [float(v) if np.isfinite(v) else None for v in np.asarray(a, dtype=float)]
+
+
+def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandLineIK,
+           ref: ConveyorReference | None, limits: TrackLimits, joint_names: list[str]
+           ) -> TrackResult:
     return solve_conveyor_tracking(
         dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
         objective=spec.objective, nt_fraction=grid.nt_fraction,
-        x2_max=grid.x2_max if spec.objective == "time" else None,
+        x2_max=grid.x2_max if spec.objective == "time" else None, joint_names=joint_names,
     )
 
 
@@ -128,6 +134,8 @@ def run(scenario: Scenario) -> Report:
     mech = load_mechanism(scenario.mechanism_path)
     dyn = _dynamics(scenario, mech)
     lim = limits_si(spec.limits, units, np.asarray(mech.s) == 1)
+    if "q" not in lim:  # the mechanism's joint limits are DP constraints (dpct reading 8)
+        lim["q"] = (np.asarray(mech.lower, dtype=float), np.asarray(mech.upper, dtype=float))
     for name, (lo, _) in lim.items():
         if lo.shape != (mech.n,):
             raise ConfigError(f"{doc.where(('track', 'limits', name))}: expected {mech.n} "
@@ -135,8 +143,7 @@ def run(scenario: Scenario) -> Report:
                               f"{lo.shape[0]}")
     limits = TrackLimits(**lim)
     p0, p1 = point_si(spec.path.start, units), point_si(spec.path.end, units)
-    ik = hand_ik(scenario, mech, p0, p1)
-    path = IKLinePath(p0=p0, p1=p1, ik=ik, jacobian=ik.jacobian, n=mech.n)
+    ik = path = hand_ik(scenario, mech, p0, p1)
     ref = None
     if spec.conveyor is not None:
         ref = ConveyorReference(part_start=point_si(spec.conveyor.part_start, units),
@@ -146,13 +153,14 @@ def run(scenario: Scenario) -> Report:
         except ConfigError as exc:
             raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
 
-    res = _solve(spec, spec.grid, dyn, path, ref, limits)
+    res = _solve(spec, spec.grid, dyn, path, ref, limits, list(mech.joint_names))
     study: list[dict[str, Any]] | None = None
     study_results: list[TrackResult] = []
     if spec.grid_study is not None:
         for g in spec.grid_study:
             study_results.append(res if g == spec.grid
-                                 else _solve(spec, g, dyn, path, ref, limits))
+                                 else _solve(spec, g, dyn, path, ref, limits,
+                                             list(mech.joint_names)))
         study = [_grid_record(r) for r in study_results]
 
     summary: dict[str, Any] = {
@@ -167,11 +175,16 @@ def run(scenario: Scenario) -> Report:
         else {n: float(v) for n, v in zip(mech.joint_names, res.peak_torque, strict=True)})
     summary["path"] = {"start_m": p0.tolist(), "end_m": p1.tolist(),
                        "frame": mech.frame_names[ik.f],
-                       "length_m": float(np.linalg.norm(p1 - p0))}
+                       "length_m": float(np.linalg.norm(p1 - p0)),
+                       "orientation": "fixed" if ik.orientation_held else "free",
+                       "mask": list(ik.mask), "task_rank": ik.rank,
+                       "redundancy": ik.redundancy}
+    if res.trajectory is not None:  # the realised plan, verified by forward kinematics
+        summary["path"].update(ik.pose_errors(res.trajectory.q, res.trajectory.r))
     if ref is not None:
         r0, rd = ref.phase(path)
         summary["reference"] = {"r0": r0, "rd_1_s": rd, "t_f_s": (1.0 - r0) / rd}
-    summary["limits_si"] = {k: {"min": lo.tolist(), "max": hi.tolist()}
+    summary["limits_si"] = {k: {"min": _finite_or_none(lo), "max": _finite_or_none(hi)}
                             for k, (lo, hi) in lim.items()}
     if study is not None:
         summary["grid_study"] = study

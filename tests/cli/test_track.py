@@ -1,6 +1,7 @@
 """`mechkin track` end to end on park's scenarios: summaries, CSV, MCAP read back, bad input."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -160,4 +161,105 @@ def test_bad_track_section_exits_2(tmp_path: Path, edit, pattern) -> None:
     import re
 
     assert re.search(str(p).replace(".", r"\.") + pattern, res.stderr), res.stderr
+    assert not out.exists()
+
+
+# ---- issue 11: any arm along any path ----------------------------------------------------------
+
+
+def test_puma560_line_holds_the_tool_orientation(tmp_path: Path) -> None:
+    """6-D path IK: the realised plan, checked by forward kinematics, stays on the line with the
+    start orientation (was: the tool turned by tens of degrees with a position-only IK)."""
+    rep = run(load_scenario(SCEN / "puma560_track_line.yaml"))
+    summary = rep.write(tmp_path / "out", plots=False)
+    assert rep.exit_code == 0, (summary["message"], summary.get("expect"))
+    p = summary["path"]
+    assert p["orientation"] == "fixed" and p["mask"] == ["x", "y", "z", "rx", "ry", "rz"]
+    assert p["max_orientation_error_rad"] <= 1e-6 and p["max_position_error_m"] <= 1e-6
+    assert p["max_rotation_from_start_rad"] <= 1e-6
+    cols = {k: np.asarray(v, dtype=float) for k, v in read_csv(tmp_path / "out" / "track.csv")
+            .items()}
+    from mechkin.model import load_mechanism
+    from mechkin.model.kinematics import forward_kinematics
+
+    mech = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
+    q = np.column_stack([cols[f"q{k}_rad"] for k in range(1, 7)])
+    T = forward_kinematics(mech, q).frames(mech, [mech.end_effector])[:, 0]
+    R0 = T[0, :3, :3]
+    cosang = (np.einsum("mij,ij->m", T[:, :3, :3], R0) - 1.0) / 2.0
+    assert np.min(cosang) >= np.cos(1e-6)
+    hand = np.column_stack([cols[f"hand_{a}_m"] for a in "xyz"])
+    assert np.max(np.abs(T[:, :3, 3] - hand)) <= 1e-6
+
+
+def test_planar3r_line_solves_exit_0(tmp_path: Path) -> None:
+    """A redundant arm (3 joints, 2 task components) on a line in its plane: exit 0 (was exit 3,
+    LinAlgError: Singular matrix in solvers/path.py)."""
+    res = runner.invoke(app, ["track", str(SCEN / "planar3r_track_line.yaml"), "--no-plots",
+                              "--json", "--out", str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+    s = json.loads(res.stdout)
+    assert s["path"]["redundancy"] == 1 and s["path"]["task_rank"] == 2
+    assert s["path"]["max_position_error_m"] <= 1e-9
+    assert s["status"] == "ok" and s["limits_ok"]
+
+
+@pytest.mark.parametrize(("edit", "pattern"), [
+    (("orientation: fixed}", "orientation: free, mask: [x, y, z, rz]}"),
+     r":\d+: track\.path: .*mask names rz but orientation is free"),
+    (("orientation: fixed}", "mask: [x, z, rx, ry, rz]}"),
+     r":\d+: track\.path: .*the line moves along y, which the mask leaves free"),
+    (("orientation: fixed}", "mask: [x, y, y]}"), r":\d+: track\.path: .*named twice"),
+    (("orientation: fixed}", "mask: [x, y, z, yaw]}"), r":\d+: track\.path\.mask\[3\]: .*yaw"),
+])
+def test_bad_path_mask_exits_2(tmp_path: Path, edit, pattern) -> None:
+    p = _local(tmp_path, "puma560_track_line", edit)
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 2, res.output
+    import re
+
+    assert re.search(str(p).replace(".", r"\.") + pattern, res.stderr), res.stderr
+    assert not out.exists()
+
+
+def test_joint_limit_infeasibility_names_the_joint_and_r(tmp_path: Path) -> None:
+    """A PUMA 560 line towards the base whose IK drives q3 to about -190 deg (limits +-135):
+    infeasible, exit 1, naming the joint and r (was: "ok, limits ok")."""
+    p = _local(tmp_path, "puma560_track_line",
+               ("end: [0.80574977, 0.24995, 0.1956]", "end: [0.50574977, -0.15005, 0.1956]"),
+               ("part_start: [0.80574977, -0.20005, 0.1956], belt_velocity: [0, 0.1, 0]",
+                "part_start: [0.85574977, -0.15005, 0.1956], belt_velocity: [-0.1, 0, 0]"))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 1, res.output
+    assert "infeasible: joint position limit (joint 3 = q3)" in res.stderr, res.stderr
+    m = re.search(r"at r = ([0-9.]+)", res.stderr)
+    assert m is not None
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "infeasible" and summary["blocking_limits"] == ["q_3"]
+    assert summary["blocked_at_r"][0] == pytest.approx(float(m.group(1)), abs=1e-4)
+    assert 0.0 < summary["blocked_at_r"][0] < 1.0
+    assert summary["limits_si"]["q"]["min"][2] == pytest.approx(-135 * np.pi / 180)
+
+
+def test_line_leaving_the_workspace_names_r_and_the_point(tmp_path: Path) -> None:
+    """A PUMA 560 line outwards past the stretched arm: a one-line error at track.path naming
+    r and the point (exit 2, nothing written)."""
+    p = _local(tmp_path, "puma560_track_line",
+               ("end: [0.80574977, 0.24995, 0.1956]", "end: [1.30574977, -0.15005, 0.1956]"),
+               ("part_start: [0.80574977, -0.20005, 0.1956], belt_velocity: [0, 0.1, 0]",
+                "part_start: [0.75574977, -0.15005, 0.1956], belt_velocity: [0.1, 0, 0]"))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 2, res.output
+    m = re.search(str(p).replace(".", r"\.") + r":\d+: track\.path: the hand line leaves the "
+                  r"reachable workspace or meets a singularity near r = ([0-9.]+) \(point "
+                  r"\[([-0-9., ]+)\] m", res.stderr)
+    assert m is not None, res.stderr
+    r = float(m.group(1))
+    point = np.array([float(v) for v in m.group(2).split(",")])
+    assert 0.0 < r < 1.0
+    assert_line = np.array([0.80574977, -0.15005, 0.1956]) + r * np.array([0.5, 0.0, 0.0])
+    np.testing.assert_allclose(point, assert_line, atol=1e-5)
     assert not out.exists()

@@ -266,3 +266,88 @@ def test_summary_and_columns_are_writer_ready() -> None:
         N2=20,
     )
     assert json.loads(json.dumps(bad.summary()))["status"] == "infeasible"
+
+
+def test_joint_position_limits_are_dp_constraints() -> None:
+    """dpct reading 8: a stage whose q(r) leaves the joint limits makes the plan infeasible,
+    named by joint and r; inside the limits their usage is reported like the others."""
+    q = PATH.q(np.linspace(0.0, 1.0, 51))
+    q2_max = float(np.median(q[:, 1]))  # q2 crosses this half way along the line
+    lo = np.array([-np.pi, -np.pi])
+    res = solve_conveyor_tracking(
+        dynamics=DYN, path=PATH, reference=REF, N1=50, N2=100,
+        limits=TrackLimits(q=(lo, np.array([np.pi, q2_max]))), joint_names=["q1", "q2"])
+    assert res.status is TrackStatus.INFEASIBLE
+    assert res.blocking_limits == ("q_2",)
+    i = int(np.flatnonzero(q[:, 1] > q2_max * (1 + 1e-9) + 1e-9)[0])
+    assert res.blocked_at_r == (pytest.approx(i / 50), pytest.approx(i / 50))
+    assert "joint position limit (joint 2 = q2)" in res.message
+    assert f"at r = {i / 50:.4g}" in res.message
+    ok = solve_conveyor_tracking(
+        dynamics=DYN, path=PATH, reference=REF, N1=50, N2=100,
+        limits=TrackLimits(q=(lo, np.array([np.pi, 1.01 * float(q[:, 1].max())]))))
+    assert ok.status is TrackStatus.OK and ok.limits_ok
+    # usage: distance from the middle of [lo, hi] over the half width
+    u2 = (q[:, 1].max() - 0.5 * (-np.pi + 1.01 * q[:, 1].max())) / (
+        0.5 * (1.01 * q[:, 1].max() + np.pi))
+    assert ok.limit_usage["q_2"] == pytest.approx(u2, rel=1e-9)
+    assert ok.t_a_s == solve("none", 50, 100).t_a_s  # a slack position limit changes nothing
+
+
+def test_part_ahead_of_the_hand_is_planned_with_a_time_penalty() -> None:
+    """dpct reading 9: the part starts ahead of the hand (r~(0) = 0.04), no limits at all.
+    Was infeasible ("start no earlier than t_0 = 0"); the relaxed start rule plans it: the
+    hand leaves rest at t = 0, never runs earlier, and ends on the part."""
+    ref = ConveyorReference(part_start=[-0.78, 1.732], belt_velocity=[0.2, 0.0])
+    res = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=ref, N1=50, N2=100)
+    assert res.status is TrackStatus.OK, res.message
+    assert res.time_penalty > 0.0 and "part starts ahead" in res.message
+    tr = res.trajectory
+    assert tr is not None and tr.t[0] == 0.0 and np.all(np.diff(tr.t) > 0.0)
+    assert res.t_start_s >= -1e-9
+    assert tr.t[-1] == pytest.approx((1.0 - 0.04) / 0.4, abs=1e-12)  # t_f of Eq. (17)
+    assert np.max(np.abs(tr.tracking_error[tr.t >= res.t_a_s - 1e-12])) <= 1e-9
+    # the reported cost is the tracking cost of Eq. (28) alone, recomputed from the nodes
+    k = plan_part(res)
+    t, r, rd = tr.t[k], tr.r[k], tr.rd[k]
+    dt = np.diff(t)
+    j = dt * ((r[:-1] - (0.04 + 0.4 * t[:-1])) ** 2 + (rd[:-1] - 0.4) ** 2)
+    assert res.cost == pytest.approx(float(np.sum(j)), rel=1e-9)
+    # the part behind the hand (park) needs no penalty
+    assert solve("none", 50, 100).time_penalty == 0.0
+
+
+def test_part_too_far_ahead_is_infeasible_and_says_why() -> None:
+    """r~(0) = 0.4: the hand must cover r = 1 in t_f = 1.5 s, an average r' of 0.667 /s, above
+    the grid's top x2[N2] = 0.4 * 100 / 80 = 0.5 /s: no plan exists on this grid."""
+    ref = ConveyorReference(part_start=[-0.6, 1.732], belt_velocity=[0.2, 0.0])
+    res = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=ref, N1=50, N2=100)
+    assert 1.0 / 1.5 > res.grid.x2_max == pytest.approx(0.5)
+    assert res.status is TrackStatus.INFEASIBLE
+    assert "the part starts ahead of the hand (r~(0) = 0.4)" in res.message
+    assert "1.25 x the part's r'" in res.message
+    ok = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=ref, N1=50, N2=100,
+                                 nt_fraction=0.5)  # top 0.8 /s > 0.667 /s
+    assert ok.status is TrackStatus.OK and ok.trajectory.t[0] == 0.0
+
+
+@pytest.mark.parametrize("case", ["none", "torque", "full"])
+def test_intercept_objective_gives_the_earliest_steady_tracking(case: str) -> None:
+    """dpct reading 10: cost = time off the part, J*(0, 0) = t_a. It never tracks later than
+    DPCT on the same grid; without limits it meets the earliest on-part node of the grid:
+    the first stage r = 0.02 at t = (0.02 + 0.2) / 0.4 = 0.55 s (the rest node r = 0 has
+    r' = 0 != x~2); with all limits t_a >= 1.0935 s (PAPER_NOTES: |qd2| <= 0.2 at r' = 0.4)."""
+    res = solve_conveyor_tracking(dynamics=DYN, path=PATH, reference=REF, N1=50, N2=100,
+                                  limits=LIMITS[case], objective="intercept")
+    assert res.status is TrackStatus.OK and res.limits_ok, res.message
+    assert "intercepts the part" in res.message
+    track = solve(case, 50, 100)
+    assert res.t_a_s <= track.t_a_s + 1e-12
+    assert res.cost == pytest.approx(res.t_a_s, abs=1e-5)  # plus 1e-6 x the tracking cost
+    tr = res.trajectory
+    after = tr.t >= res.t_a_s - 1e-12
+    assert np.max(np.abs(tr.tracking_error[after])) <= 1e-9
+    if case == "none":
+        assert res.t_a_s == pytest.approx(0.55, abs=1e-12)
+    if case == "full":
+        assert 1.0935 <= res.t_a_s <= 1.10 + 1e-9
