@@ -227,9 +227,9 @@ def test_joint_limit_infeasibility_names_the_joint_and_r(tmp_path: Path) -> None
     """A PUMA 560 line towards the base whose IK drives q3 to about -190 deg (limits +-135):
     infeasible, exit 1, naming the joint and r (was: "ok, limits ok")."""
     p = _local(tmp_path, "puma560_track_line",
-               ("end: [0.80574977, 0.24995, 0.1956]", "end: [0.50574977, -0.15005, 0.1956]"),
-               ("part_start: [0.80574977, -0.20005, 0.1956], belt_velocity: [0, 0.1, 0]",
-                "part_start: [0.85574977, -0.15005, 0.1956], belt_velocity: [-0.1, 0, 0]"))
+               ("end: [0.80574977, 0.24995, 0.86743]", "end: [0.50574977, -0.15005, 0.86743]"),
+               ("part_start: [0.80574977, -0.20005, 0.86743], belt_velocity: [0, 0.1, 0]",
+                "part_start: [0.85574977, -0.15005, 0.86743], belt_velocity: [-0.1, 0, 0]"))
     out = tmp_path / "out"
     res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
     assert res.exit_code == 1, res.output
@@ -247,9 +247,9 @@ def test_line_leaving_the_workspace_names_r_and_the_point(tmp_path: Path) -> Non
     """A PUMA 560 line outwards past the stretched arm: a one-line error at track.path naming
     r and the point (exit 2, nothing written)."""
     p = _local(tmp_path, "puma560_track_line",
-               ("end: [0.80574977, 0.24995, 0.1956]", "end: [1.30574977, -0.15005, 0.1956]"),
-               ("part_start: [0.80574977, -0.20005, 0.1956], belt_velocity: [0, 0.1, 0]",
-                "part_start: [0.75574977, -0.15005, 0.1956], belt_velocity: [0.1, 0, 0]"))
+               ("end: [0.80574977, 0.24995, 0.86743]", "end: [1.30574977, -0.15005, 0.86743]"),
+               ("part_start: [0.80574977, -0.20005, 0.86743], belt_velocity: [0, 0.1, 0]",
+                "part_start: [0.75574977, -0.15005, 0.86743], belt_velocity: [0.1, 0, 0]"))
     out = tmp_path / "out"
     res = runner.invoke(app, ["track", str(p), "--out", str(out), "--no-plots"])
     assert res.exit_code == 2, res.output
@@ -260,6 +260,6 @@ def test_line_leaving_the_workspace_names_r_and_the_point(tmp_path: Path) -> Non
     r = float(m.group(1))
     point = np.array([float(v) for v in m.group(2).split(",")])
     assert 0.0 < r < 1.0
-    assert_line = np.array([0.80574977, -0.15005, 0.1956]) + r * np.array([0.5, 0.0, 0.0])
+    assert_line = np.array([0.80574977, -0.15005, 0.86743]) + r * np.array([0.5, 0.0, 0.0])
     np.testing.assert_allclose(point, assert_line, atol=1e-5)
     assert not out.exists()

@@ -290,7 +290,8 @@ def test_task_space_pose_list(tmp_path):
     assert rep2.data.record.reachable.tolist() == rec.reachable.tolist()
     # bad input: one line with the file and key
     with pytest.raises(ConfigError, match=r"poses: expected every pose"):
-        load_scenario(_write(tmp_path, "b1", f"name: b1\n{head}  poses: [[1, 2, 3], [1, 2, 3, 4]]\n"))
+        load_scenario(_write(tmp_path, "b1",
+                             f"name: b1\n{head}  poses: [[1, 2, 3], [1, 2, 3, 4]]\n"))
     (tmp_path / "bad.csv").write_text("x,y\n1,2\n")
     with pytest.raises(ConfigError, match=r"bad.csv:1: missing column"):
         run(_scenario(tmp_path, "b2", f"name: b2\n{head}  poses_csv: bad.csv\n"))
