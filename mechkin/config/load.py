@@ -70,11 +70,20 @@ def short_str(value: Any, n: int = ECHO_CHARS) -> str:
     return s if len(s) <= n else s[: n - 3] + "..."
 
 
-def short_list(names: Any, n_items: int = 20, n: int = ECHO_CHARS) -> str:
-    """``a, b, c, ...``: the first ``n_items`` names, each cut to ``n`` characters."""
+def short_list(names: Any, n_chars: int = 100, n: int = 30) -> str:
+    """``a, b, c, ... (N in all)``: the names that fit in about ``n_chars`` characters, each cut
+    to ``n`` characters."""
     names = list(names)
-    out = ", ".join(short_str(x, n) for x in names[:n_items])
-    return out + (f", ... ({len(names)} in all)" if len(names) > n_items else "")
+    parts: list[str] = []
+    used = 0
+    for x in names:
+        s = short_str(x, n)
+        if parts and used + len(s) > n_chars:
+            break
+        parts.append(s)
+        used += len(s) + 2
+    out = ", ".join(parts)
+    return out + (f", ... ({len(names)} in all)" if len(parts) < len(names) else "")
 
 
 @dataclass(frozen=True)
