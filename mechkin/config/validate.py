@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from mechkin.config.load import short, short_list
+from mechkin.config.load import short, short_list, short_str
 from mechkin.errors import ConfigError, MechkinError
 
 MAX_STEPS = 1_000_000
@@ -374,6 +374,10 @@ def _lee_problems(sc: Any, mech: Any | None) -> list[str]:
 _FK_KEYS = {"scenario", "task", "mechanism", "status", "n_steps", "steps", "first_failure_step",
             "closure", "joints_outside_limits", "solve_time_s", "time_per_step_s", "t_s",
             "final"}
+_FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_mean",
+                          "iterations_max", "max_condition"},
+              "steps": {"converged", "not converged", "singular"},
+              "final": {"q", "end_effector"}}
 _IK_KEYS = {"scenario", "task", "mechanism", "method", "status", "n_targets", "counts",
             "max_position_error", "max_orientation_error", "solve_time_s",
             "median_time_per_target_s", "end_effector", "targets"}
@@ -433,7 +437,7 @@ def expect_problems(sc: Any, mech: Any | None) -> list[str]:
         kp = ("expect", i, "key")
         if parts[0] not in top:
             out.append(f"{sc.doc.where(kp)}: the summary of this {sc.spec.task} run has no key "
-                       f"{short(parts[0])} (keys: {short_list(sorted(top), 160)})")
+                       f"{short(parts[0])} (keys: {short_list(sorted(top), 80)})")
             continue
         msg = _deep_key_problem(sc, mech, parts)
         if msg:
@@ -446,6 +450,11 @@ def _deep_key_problem(sc: Any, mech: Any | None, parts: list[str]) -> str | None
         return None
     name = sc.section_name
     joints = list(mech.joint_names)
+    if name == "fk" and len(parts) >= 2 and parts[0] in _FK_NESTED:
+        sub = _FK_NESTED[parts[0]]
+        if parts[1] not in sub:
+            return (f"{parts[0]} has no key {short(parts[1])} (keys: "
+                    f"{short_list(sorted(sub), 80)})")
     if name == "fk" and parts[0] == "final" and len(parts) >= 3 and parts[1] == "q":
         if parts[2] not in joints:
             return f"final.q has no joint {short(parts[2])} (joints: {short_list(joints)})"
@@ -455,11 +464,11 @@ def _deep_key_problem(sc: Any, mech: Any | None, parts: list[str]) -> str | None
         spec = sc.section
         n_max = len(spec.targets) + (spec.random_targets.count if spec.random_targets else 0)
         if not parts[1].isdigit() or int(parts[1]) >= n_max:
-            return (f"targets.{short(parts[1])}: expected a target index 0..{n_max - 1} (the "
+            return (f"targets.{short_str(parts[1])}: expected a target index 0..{n_max - 1} (the "
                     f"scenario has at most {n_max} targets)")
         if len(parts) >= 3 and parts[2] not in _IK_TARGET_KEYS:
             return (f"a target record has no key {short(parts[2])} (keys: "
-                    f"{short_list(sorted(_IK_TARGET_KEYS), 160)})")
+                    f"{short_list(sorted(_IK_TARGET_KEYS), 80)})")
         if len(parts) >= 4 and parts[2] == "q_v" and parts[3] not in mech.independent_names:
             return (f"q_v has no joint {short(parts[3])} (independent: "
                     f"{short_list(mech.independent_names)})")
