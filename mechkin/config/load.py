@@ -65,8 +65,11 @@ def short(value: Any, n: int = ECHO_CHARS) -> str:
 
 
 def short_str(value: Any, n: int = ECHO_CHARS) -> str:
-    """``str`` of a value for a message (no quotes), cut to ``n`` characters."""
+    """``str`` of a value for a message (no quotes; control characters escaped, so a message
+    stays one line), cut to ``n`` characters."""
     s = str(value)
+    if not s.isprintable():
+        s = repr(s)[1:-1]
     return s if len(s) <= n else s[: n - 3] + "..."
 
 
