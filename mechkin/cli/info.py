@@ -9,7 +9,7 @@ import numpy as np
 import typer
 
 from mechkin.cli.common import echo_json, handle_errors
-from mechkin.model import Mechanism, load_mechanism
+from mechkin.model import Mechanism
 from mechkin.model.kinematics import closure_jacobian, forward_kinematics
 
 
@@ -51,8 +51,11 @@ def run_info(*, mechanism: Path) -> dict[str, Any]:
     if isinstance(doc.data, dict) and "task" in doc.data and "links" not in doc.data:
         raise ConfigError(f"{doc.where(('task',))}: this is a scenario file; 'mechkin info' "
                           "takes a mechanism file (its 'mechanism:' key names one)")
-    mech = load_mechanism(mechanism)
-    return mechanism_info(mech)
+    from mechkin.config.mechanism_file import read_mechanism_spec
+    from mechkin.model.build import build_mechanism
+
+    spec, doc = read_mechanism_spec(mechanism, doc=doc)  # parsed once
+    return mechanism_info(build_mechanism(spec, doc))
 
 
 def mechanism_info(mech: Mechanism) -> dict[str, Any]:

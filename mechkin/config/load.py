@@ -73,6 +73,12 @@ def short_str(value: Any, n: int = ECHO_CHARS) -> str:
     return s if len(s) <= n else s[: n - 3] + "..."
 
 
+def short_tail(value: Any, n: int = ECHO_CHARS) -> str:
+    """``str`` of a value (a path) cut from the left to ``n`` characters: ``...end/of/it``."""
+    s = short_str(value, 10**9)
+    return s if len(s) <= n else "..." + s[-(n - 3):]
+
+
 def short_list(names: Any, n_chars: int = 100, n: int = 30) -> str:
     """``a, b, c, ... (N in all)``: the names that fit in about ``n_chars`` characters, each cut
     to ``n`` characters."""

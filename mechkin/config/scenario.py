@@ -12,7 +12,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from mechkin.config.load import YamlDoc, read_yaml, short, short_str
+from mechkin.config.load import YamlDoc, read_yaml, short, short_str, short_tail
 from mechkin.config.schema import Name, Num, PosNum, Spec, Units, validate_model
 from mechkin.errors import ConfigError
 
@@ -214,7 +214,7 @@ def load_scenario(path: str | Path, doc: YamlDoc | None = None) -> Scenario:
         if not found:
             problems.append(f"{doc.where(('mechanism',))}: mechanism file not found: "
                             f"{short_str(spec.mechanism)} (resolved to "
-                            f"{short_str(mech_path, 120)})")
+                            f"{short_tail(mech_path, 80)})")
     if problems:
         raise ConfigError(problems)
     model = TASK_SECTIONS.get(section_name)

@@ -253,6 +253,7 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
     except MechkinError as exc:
         msg = str(exc).splitlines()[0]
         msg = msg[len(mech.name) + 2:] if msg.startswith(f"{mech.name}: ") else msg
+        msg = msg[len("dynamics: "):] if msg.startswith("dynamics: ") else msg
         out.append(f"{doc.where(('track', 'dynamics'))}: {spec.dynamics}: {msg}")
     lim = limits_si(spec.limits, sc.spec.units, np.asarray(mech.s) == 1)
     for name, (lo, _) in lim.items():

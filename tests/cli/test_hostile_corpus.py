@@ -388,7 +388,7 @@ NO_INERTIA = copy.deepcopy(SCARA)
 for link in NO_INERTIA["links"]:
     link.pop("inertial", None)
 scen_case("scenario: track on a mechanism without inertial data", "track", dump(TRACK),
-          r"track\.dynamics: rnea: dynamics: no link of the chain has a mass",
+          r"track\.dynamics: rnea: no link of the chain has a mass",
           mech=NO_INERTIA, run_names_file=False)
 scen_case("scenario: closed_form_2link on the puma", "track",
           dump(mutated(TRACK, ["track", "dynamics"], "closed_form_2link")),
