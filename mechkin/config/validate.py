@@ -117,9 +117,11 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
         if ts.stop <= ts.start:
             out.append(f"{doc.where(('fk', 'time', 'stop'))}: expected stop > start")
         else:
-            m = math.floor((ts.stop - ts.start) / ts.step + 1e-9) + 1
-            if m > MAX_STEPS:
-                out.append(f"{doc.where(('fk', 'time'))}: {m} steps is more than {MAX_STEPS}")
+            with np.errstate(over="ignore"):
+                m = float(np.float64(ts.stop - ts.start) / ts.step) + 1.0  # may be inf
+            if not m <= MAX_STEPS:
+                out.append(f"{doc.where(('fk', 'time'))}: {m:.4g} steps is more than "
+                           f"{MAX_STEPS}")
         if ts.start < 0:
             out.append(f"{doc.where(('fk', 'time', 'start'))}: times must be >= 0")
         for k in spec.motion:
