@@ -7,7 +7,8 @@ nesting, huge and sparse files, devices, a FIFO, a directory, non-finite numbers
 
 * exit 2 (bad input), one line on stderr of at most 300 characters, ``file:line: key: message``
   naming the file and the key, no "Traceback", nothing written in ``--out``;
-* in-process for the whole corpus (the CLI path is the same typer app), each case under 2 s;
+* in-process for the whole corpus (the CLI path is the same typer app), each case under 2 s
+  of CPU;
 * in a subprocess for the resource-hostile cases (bombs, nesting, sizes, devices), in parallel
   batches, each child under 2 s of CPU and 200 MB of peak RSS (``os.wait4`` rusage).
 
@@ -448,17 +449,17 @@ def assert_one_line(case: Case, stderr: str, bad: Path, names_file: bool = True)
 
 def run_inprocess(case: Case, tmp: Path) -> None:
     target, bad, out = materialise(case, tmp)
-    t0 = time.perf_counter()
+    t0 = time.process_time()  # CPU time: robust on a loaded machine
     res = runner.invoke(app, ["check", str(target)])
-    dt = time.perf_counter() - t0
+    dt = time.process_time() - t0
     assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
     assert res.exit_code == 2, (res.exit_code, res.output)
     assert_one_line(case, res.stderr, bad)
     assert dt < 2.0, dt
     if case.run:
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         res = runner.invoke(app, [case.task, str(target), "--out", str(out), "--no-plots"])
-        dt = time.perf_counter() - t0
+        dt = time.process_time() - t0
         assert res.exception is None or isinstance(res.exception, SystemExit), \
             repr(res.exception)
         assert res.exit_code in (1, 2), (res.exit_code, res.output)

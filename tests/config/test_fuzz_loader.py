@@ -107,14 +107,14 @@ def test_hostile_yaml_text_is_read_or_refused_in_one_line(tmp_path, parts, repea
     text = "".join(parts) * repeat
     p = tmp_path / "h.yaml"
     p.write_text(text, encoding="utf-8")
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     try:
         read_yaml(p)
     except ConfigError as exc:
         assert len(exc.problems) == 1
         assert exc.problems[0].startswith(str(p)), exc.problems
         assert len(exc.problems[0]) <= 400
-    assert time.perf_counter() - t0 < 2.0
+    assert time.process_time() - t0 < 2.0
 
 
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
