@@ -2,6 +2,13 @@
 
 from __future__ import annotations
 
+#: Longest problem line kept (messages cut the strings they echo; this is the backstop).
+MAX_LINE = 400
+
+
+def _clip(line: str) -> str:
+    return line if len(line) <= MAX_LINE else line[: MAX_LINE - 3] + "..."
+
 
 class MechkinError(Exception):
     """Root of every error mechkin raises on purpose."""
@@ -20,7 +27,8 @@ class ConfigError(MechkinError):
     def __init__(self, problems: list[str] | str) -> None:
         if isinstance(problems, str):
             problems = [problems]
-        self.problems = list(problems)
+        # one line per problem, never a flood: a line is cut at MAX_LINE characters
+        self.problems = [_clip(ln) for p in problems for ln in (str(p).splitlines() or [""])]
         super().__init__("\n".join(self.problems))
 
 

@@ -170,8 +170,10 @@ def handle_errors(fn: F) -> F:
             raise
         except Exception as exc:  # noqa: BLE001 - the CLI must never show a traceback
             logging.getLogger("mechkin").debug("internal error", exc_info=True)
-            typer.echo(f"mechkin: internal error: {type(exc).__name__}: {exc} (run with "
-                       "MECHKIN_DEBUG=1 for details)", err=True)
+            from mechkin.config.load import short_str
+
+            typer.echo(f"mechkin: internal error: {type(exc).__name__}: {short_str(exc, 200)} "
+                       "(run with MECHKIN_DEBUG=1 for details)", err=True)
             if _debug():
                 raise
             raise typer.Exit(code=3) from None

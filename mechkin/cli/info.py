@@ -49,14 +49,16 @@ def _info(mechanism: Path, json_out: bool) -> None:
 def run_info(*, mechanism: Path) -> dict[str, Any]:
     from mechkin.config.load import read_yaml
     from mechkin.errors import ConfigError
-    from mechkin.model import load_mechanism
 
     doc = read_yaml(mechanism)
     if isinstance(doc.data, dict) and "task" in doc.data and "links" not in doc.data:
         raise ConfigError(f"{doc.where(('task',))}: this is a scenario file; 'mechkin info' "
                           "takes a mechanism file (its 'mechanism:' key names one)")
-    mech = load_mechanism(mechanism)
-    return mechanism_info(mech)
+    from mechkin.config.mechanism_file import read_mechanism_spec
+    from mechkin.model.build import build_mechanism
+
+    spec, doc = read_mechanism_spec(mechanism, doc=doc)  # parsed once
+    return mechanism_info(build_mechanism(spec, doc))
 
 
 def mechanism_info(mech: Mechanism) -> dict[str, Any]:

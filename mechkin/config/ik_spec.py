@@ -56,6 +56,9 @@ class TargetSpec(Spec):
             if any(v is not None for v in (self.xyz, self.euler, self.quaternion)):
                 raise ValueError("give either matrix, or xyz with euler or quaternion, not both")
             M = np.asarray(self.matrix, dtype=float)
+            if np.abs(M[:3, :3]).max() > 1.0 + ORTHO_TOL:
+                raise ValueError("matrix: expected a rotation in the upper-left 3x3 (entries "
+                                 f"within [-1, 1]), got {np.abs(M[:3, :3]).max():.3g}")
             if not np.allclose(M[3], [0, 0, 0, 1], atol=1e-9):
                 raise ValueError(f"matrix: expected last row [0, 0, 0, 1], got {M[3].tolist()}")
             R = M[:3, :3]
@@ -69,8 +72,14 @@ class TargetSpec(Spec):
             raise ValueError("give a matrix, or xyz with euler or quaternion")
         if (self.euler is None) == (self.quaternion is None):
             raise ValueError("with xyz give exactly one of euler or quaternion")
-        if self.quaternion is not None and np.linalg.norm(self.quaternion) < 1e-9:
-            raise ValueError("quaternion: expected a non-zero (w, x, y, z)")
+        if self.quaternion is not None:
+            q = np.abs(np.asarray(self.quaternion, dtype=float))
+            if q.max() < 1e-9 or q.max() > 1e9:
+                raise ValueError("quaternion: expected a non-zero (w, x, y, z) of moderate size "
+                                 "(it is normalised)")
+        if self.weights is not None and not any(self.weights):
+            raise ValueError("weights: all six are zero, so every pose would count as reached; "
+                             "give at least one positive weight")
         return self
 
 
@@ -129,6 +138,11 @@ class IkSpec(Spec):
             raise ValueError("give targets (a list of precision points) or random_targets")
         if self.batch and self.method != "lm":
             raise ValueError("batch: only method lm solves targets in a batch")
+        uses_default = self.random_targets is not None or any(
+            t.weights is None for t in self.targets)
+        if uses_default and not any(self.weights):
+            raise ValueError("weights: all six are zero, so every pose would count as reached; "
+                             "give at least one positive weight")
         return self
 
 

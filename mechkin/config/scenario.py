@@ -12,7 +12,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from mechkin.config.load import YamlDoc, read_yaml
+from mechkin.config.load import YamlDoc, read_yaml, short, short_str, short_tail
 from mechkin.config.schema import Name, Num, PosNum, Spec, Units, validate_model
 from mechkin.errors import ConfigError
 
@@ -180,10 +180,13 @@ def _register_builtin_sections() -> None:
                 raise
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario file (raises ConfigError listing every problem)."""
+def load_scenario(path: str | Path, doc: YamlDoc | None = None) -> Scenario:
+    """Read and validate a scenario file (raises ConfigError listing every problem).
+
+    ``doc``: the file already parsed by :func:`mechkin.config.load.read_yaml` (read once)."""
     _register_builtin_sections()
-    doc = read_yaml(path)
+    if doc is None:
+        doc = read_yaml(path)
     spec = validate_model(doc, ScenarioSpec, doc.data)
     problems: list[str] = []
     allowed = SECTIONS_OF_TASK[spec.task]
@@ -203,15 +206,20 @@ def load_scenario(path: str | Path) -> Scenario:
         if spec.task not in MECHANISM_OPTIONAL:
             problems.append(f"{doc.where(('mechanism',))}: required key is missing")
     else:
-        mech_path = (doc.path.parent / spec.mechanism).resolve()
-        if not mech_path.is_file():
+        try:
+            mech_path = (doc.path.parent / spec.mechanism).resolve()
+            found = mech_path.is_file()
+        except (OSError, ValueError):  # a NUL byte, a name too long, a loop of links
+            mech_path, found = doc.path.parent / spec.mechanism, False
+        if not found:
             problems.append(f"{doc.where(('mechanism',))}: mechanism file not found: "
-                            f"{spec.mechanism} (resolved to {mech_path})")
+                            f"{short_str(spec.mechanism)} (resolved to "
+                            f"{short_tail(mech_path, 80)})")
     if problems:
         raise ConfigError(problems)
     model = TASK_SECTIONS.get(section_name)
     if model is None:
-        raise ConfigError(f"{doc.where((section_name,))}: section {section_name!r} is not "
+        raise ConfigError(f"{doc.where((section_name,))}: section {short(section_name)} is not "
                           "available in this version")
     parsed = validate_model(doc, model, section, prefix=(section_name,))
     return Scenario(spec=spec, section=parsed, doc=doc, mechanism_path=mech_path,

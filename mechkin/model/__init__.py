@@ -11,7 +11,11 @@ from mechkin.model.mechanism import Cut, JointGroup, Mechanism
 def load_mechanism(path: str | Path) -> Mechanism:
     """Read, validate and build a mechanism file (raises ConfigError on bad input)."""
     p = Path(path)
-    return _load_cached(str(p.resolve()), p.stat().st_mtime_ns if p.exists() else 0)
+    try:
+        key, mtime = str(p.resolve()), p.stat().st_mtime_ns
+    except (OSError, ValueError):  # missing, a NUL byte, a name too long: read_yaml says which
+        key, mtime = str(p), 0
+    return _load_cached(key, mtime)
 
 
 @lru_cache(maxsize=32)

@@ -6,7 +6,7 @@ from collections import deque
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc
+from mechkin.config.load import YamlDoc, short, short_list
 from mechkin.config.schema import MechanismSpec
 from mechkin.errors import ConfigError
 from mechkin.model.mechanism import AXIS_NAMES, Cut, JointGroup, Mechanism
@@ -18,10 +18,98 @@ COMPOUND_AXES = {"universal": ([1, 0, 0], [0, 1, 0]),
                  "spherical": ([1, 0, 0], [0, 1, 0], [0, 0, 1])}
 
 
-def align_z(axis: np.ndarray) -> np.ndarray:
-    """A rotation (3, 3) whose z column is the unit vector ``axis``."""
+#: Largest length [m] and angle [rad] accepted in a mechanism file (beyond, the kinematics
+#: overflows or loses every digit); smallest axis component that still gives a direction.
+MAX_LENGTH = 1e6
+MAX_ANGLE = 1e6
+MAX_MASS = 1e9
+MIN_AXIS = 1e-9
+#: |sin| of the angle below which two successive axes of a compound joint count as parallel.
+PARALLEL_TOL = 1e-6
+
+
+def axis_problem(axis) -> str | None:
+    """Why ``axis`` is not a direction (None if it is one): non-finite or (near) zero."""
     a = np.asarray(axis, dtype=np.float64)
-    a = a / np.linalg.norm(a)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        return f"expected 3 finite numbers, got {short(list(axis))}"
+    if np.max(np.abs(a)) < MIN_AXIS:
+        return (f"axis {short(a.tolist())} has (near) zero length; expected a direction such "
+                "as [0, 0, 1]")
+    return None
+
+
+def unit(axis) -> np.ndarray:
+    """``axis`` / ||axis||, scaled by its largest component first (no overflow or underflow)."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.max(np.abs(a))
+    return a / np.sqrt(a @ a)
+
+
+def _check_geometry(spec: MechanismSpec, P: _Problems) -> None:
+    """Joints, axes, lengths, angles and inertias that would make the model degenerate or its
+    arithmetic overflow: at least one joint; every axis a direction; successive axes of a
+    universal or spherical joint not parallel; lengths within MAX_LENGTH m, angles within
+    MAX_ANGLE rad, masses within MAX_MASS kg (SI spec)."""
+    if not spec.joints:
+        P.add(("joints",), "a mechanism needs at least one joint")
+
+    def bound(kp: tuple, values, limit: float, what: str) -> None:
+        vals = values if isinstance(values, list) else [values]
+        flat = [v for x in vals for v in (x if isinstance(x, list) else [x])]
+        if any(abs(v) > limit for v in flat):
+            P.add(kp, f"{what} beyond {limit:g} (SI) is outside the supported range")
+
+    for i, link in enumerate(spec.links):
+        for k, fr in enumerate(link.frames):
+            bound(("links", i, "frames", k, "xyz"), fr.xyz, MAX_LENGTH, "a length")
+            bound(("links", i, "frames", k, "rpy"), fr.rpy, MAX_ANGLE, "an angle")
+        if link.inertial is not None:
+            kp = ("links", i, "inertial")
+            bound(kp + ("mass",), link.inertial.mass, MAX_MASS, "a mass")
+            bound(kp + ("com",), link.inertial.com, MAX_LENGTH, "a length")
+            bound(kp + ("inertia",), link.inertial.inertia, MAX_MASS * MAX_LENGTH,
+                  "an inertia")
+    for i, j in enumerate(spec.joints):
+        kp = ("joints", i)
+        q_what, q_max = (("a length", MAX_LENGTH) if j.type == "prismatic"
+                         else ("an angle", MAX_ANGLE))
+        for key in ("offset", "home", "limits"):
+            v = getattr(j, key)
+            if v is not None:
+                bound(kp + (key,), v, q_max, q_what)
+        if j.dh is not None:
+            bound(kp + ("dh",), [j.dh.a, j.dh.d], MAX_LENGTH, "a length")
+            bound(kp + ("dh",), [j.dh.alpha, j.dh.theta], MAX_ANGLE, "an angle")
+        if j.origin is not None:
+            bound(kp + ("origin", "xyz"), j.origin.xyz, MAX_LENGTH, "a length")
+            bound(kp + ("origin", "rpy"), j.origin.rpy, MAX_ANGLE, "an angle")
+        if j.axis is not None:
+            msg = axis_problem(j.axis)
+            if msg:
+                P.add(kp + ("axis",), msg)
+        if j.axes is not None:
+            bad = False
+            for k, ax in enumerate(j.axes):
+                msg = axis_problem(ax)
+                if msg:
+                    P.add(kp + ("axes", k), msg)
+                    bad = True
+            if not bad:
+                for k in range(1, len(j.axes)):
+                    c = np.cross(unit(j.axes[k - 1]), unit(j.axes[k]))
+                    if np.sqrt(c @ c) < PARALLEL_TOL:
+                        P.add(kp + ("axes", k), f"axis {k + 1} is parallel to axis {k}: the "
+                              f"{j.type} joint would lose a degree of freedom")
+    if spec.gravity is not None:
+        bound(("gravity",), spec.gravity, MAX_LENGTH, "an acceleration")
+    P.raise_if_any()
+
+
+def align_z(axis: np.ndarray) -> np.ndarray:
+    """A rotation (3, 3) whose z column is the unit vector along ``axis`` (a direction: see
+    :func:`axis_problem`)."""
+    a = unit(axis)
     helper = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 1.0, 0])
     x = np.cross(helper, a)
     x /= np.linalg.norm(x)
@@ -89,6 +177,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     or a number of independent joints different from the degrees of freedom.
     """
     P = _Problems(doc, spec.name)
+    _check_geometry(spec, P)
     # ---- links and frames ---------------------------------------------------------------------
     link_names: list[str] = []
     frame_names: list[str] = []
@@ -97,13 +186,13 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     seen: dict[str, tuple] = {}
     for i, link in enumerate(spec.links):
         if link.name in seen:
-            P.add(("links", i, "name"), f"duplicate link {link.name!r}")
+            P.add(("links", i, "name"), f"duplicate link {short(link.name)}")
             continue
         seen[link.name] = ("links", i, "name")
         link_names.append(link.name)
     base_name = spec.base or spec.links[0].name
     if base_name not in link_names:
-        P.add(("base",), f"unknown link {base_name!r} (links: {', '.join(link_names)})")
+        P.add(("base",), f"unknown link {short(base_name)} (links: {short_list(link_names)})")
         P.raise_if_any()
     # the base is link 0
     link_names.remove(base_name)
@@ -116,7 +205,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
 
     def add_joint(name, kind, parent, child, A, B, lo, hi, home, kp):
         if name in jnames:
-            P.add(kp + ("name",), f"duplicate joint name {name!r}")
+            P.add(kp + ("name",), f"duplicate joint name {short(name)}")
         jnames[name] = kp
         joints.append((name, kind, parent, child, A, B, lo, hi, home, kp))
         return len(joints) - 1
@@ -167,7 +256,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
             groups.append(JointGroup(j.name, j.type, tuple(idxs)))
     for v in virtual:
         if v in link_names:
-            P.add(("links",), f"link name {v!r} is reserved for a compound joint's inner link")
+            P.add(("links",), f"link name {short(v)} is reserved for a compound joint's inner link")
         link_names.append(v)
     P.raise_if_any()
     nl = len(link_names)
@@ -180,7 +269,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         for k, fr in enumerate(link.frames):
             kp = ("links", i, "frames", k, "name")
             if fr.name in frame_names:
-                P.add(kp, f"duplicate frame name {fr.name!r} (already a link or frame)")
+                P.add(kp, f"duplicate frame name {short(fr.name)} (already a link or frame)")
                 continue
             frame_names.append(fr.name)
             frame_link.append(link_idx[link.name])
@@ -197,26 +286,26 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     for k, (_name, _kind, parent, child, Aj, Bj, _lo, _hi, _home, kp) in enumerate(joints):
         ok = True
         if parent not in frame_idx:
-            P.add(kp + ("parent",), f"unknown link or frame {parent!r} "
-                  f"(links: {', '.join(link_names[:20])})")
+            P.add(kp + ("parent",), f"unknown link or frame {short(parent)} "
+                  f"(links: {short_list(link_names)})")
             ok = False
         if child not in link_idx:
-            msg = f"unknown link {child!r}"
+            msg = f"unknown link {short(child)}"
             if child in frame_idx:
-                msg = f"{child!r} is a frame; a joint's child must be a link"
-            P.add(kp + ("child",), msg + f" (links: {', '.join(link_names[:20])})")
+                msg = f"{short(child)} is a frame; a joint's child must be a link"
+            P.add(kp + ("child",), msg + f" (links: {short_list(link_names)})")
             ok = False
         if not ok:
             continue
         c = link_idx[child]
         if c == 0:
-            P.add(kp + ("child",), f"the base link {child!r} cannot be a joint's child")
+            P.add(kp + ("child",), f"the base link {short(child)} cannot be a joint's child")
             continue
         if link_parent_joint[c] >= 0:
             other = joints[link_parent_joint[c]][0]
-            P.add(kp + ("child",), f"link {child!r} is already the child of joint {other!r}: a "
-                  "closed loop needs a cut (end this branch in a link of its own and add a cut "
-                  "whose two frames must coincide)")
+            P.add(kp + ("child",), f"link {short(child)} is already the child of joint "
+                  f"{short(other)}: a closed loop needs a cut (end this branch in a link of its "
+                  "own and add a cut whose two frames must coincide)")
             continue
         link_parent_joint[c] = k
         pf = frame_idx[parent]
@@ -253,8 +342,9 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
             for i, link in enumerate(spec.links):
                 if link.name == link_names[lk]:
                     kp = ("links", i, "name")
-            P.add(kp, f"link {link_names[lk]!r} is not connected to the base {base_name!r} "
-                  "(no chain of joints leads to it, or it lies on a cycle of joints)")
+            P.add(kp, f"link {short(link_names[lk])} is not connected to the base "
+                  f"{short(base_name)} (no chain of joints leads to it, or it lies on a cycle of "
+                  "joints)")
     P.raise_if_any()
     levels = tuple(np.flatnonzero(jdepth == dd) for dd in range(int(jdepth.max(initial=-1)) + 1))
     # ---- cuts ----------------------------------------------------------------------------------
@@ -263,13 +353,13 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     for i, c in enumerate(spec.cuts):
         kp = ("cuts", i)
         if c.name in cut_names:
-            P.add(kp + ("name",), f"duplicate cut name {c.name!r}")
+            P.add(kp + ("name",), f"duplicate cut name {short(c.name)}")
         cut_names.add(c.name)
         fa, fb = c.frames
         bad = False
         for k, f in enumerate((fa, fb)):
             if f not in frame_idx:
-                P.add(kp + ("frames", k), f"unknown frame {f!r}")
+                P.add(kp + ("frames", k), f"unknown frame {short(f)}")
                 bad = True
         if bad:
             continue
@@ -277,9 +367,9 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         if la == lb:
             # both frames on one rigid link: no joint lies between them, so the "cut" closes no
             # loop (a cut onto an ancestor link, e.g. back to the ground, is a valid loop)
-            P.add(kp + ("frames",), f"frames {fa!r} and {fb!r} lie on the same branch: both "
-                  f"are fixed on link {link_names[la]!r}, so no joint lies between them and the "
-                  "cut closes no loop")
+            P.add(kp + ("frames",), f"frames {short(fa)} and {short(fb)} lie on the same branch: "
+                  f"both are fixed on link {short(link_names[la])}, so no joint lies between them "
+                  "and the cut closes no loop")
             continue
         mask = np.ones(6, dtype=bool)
         if c.mask is not None:
@@ -292,8 +382,8 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     ee = None
     if spec.end_effector is not None:
         if spec.end_effector not in frame_idx:
-            P.add(("end_effector",), f"unknown frame {spec.end_effector!r} "
-                  f"(frames: {', '.join(frame_names[:30])})")
+            P.add(("end_effector",), f"unknown frame {short(spec.end_effector)} "
+                  f"(frames: {short_list(frame_names)})")
         else:
             ee = frame_idx[spec.end_effector]
     P.raise_if_any()
@@ -364,10 +454,23 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
     rng = np.random.default_rng(12345)
     q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)
     qs = np.stack([q0, q0 + 0.05 * rng.standard_normal(n)])
-    _, J = closure_jacobian(mech, forward_kinematics(mech, qs))
+    try:
+        with np.errstate(over="raise", invalid="raise", divide="raise"):
+            _, J = closure_jacobian(mech, forward_kinematics(mech, qs))
+    except FloatingPointError as exc:
+        P.add(("joints",), f"the kinematics at home is not finite ({exc}): degenerate geometry")
+        P.raise_if_any()
+    if not np.all(np.isfinite(J)):
+        P.add(("joints",), "the constraint Jacobian at home is not finite: degenerate geometry")
+        P.raise_if_any()
     rank = (int(max(np.linalg.matrix_rank(J[0], tol=1e-9), np.linalg.matrix_rank(J[1], tol=1e-9)))
             if J.shape[1] else 0)
     dof = n - rank
+    if dof < 1:
+        P.add(("cuts",) if mech.cuts else ("joints",), f"the mechanism has no degree of "
+              f"freedom ({n} joint coordinates, rank {rank} of the constraint Jacobian at home): "
+              "nothing can move")
+        P.raise_if_any()
     group_of = {g.name: g for g in groups}
     if spec.independent is None:
         if mech.cuts:
@@ -382,7 +485,7 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
         elif name in group_of:
             idx.extend(group_of[name].joints)
         else:
-            P.add(("independent", k), f"unknown joint {name!r} (joints: {', '.join(names)})")
+            P.add(("independent", k), f"unknown joint {short(name)} (joints: {short_list(names)})")
     P.raise_if_any()
     if len(set(idx)) != len(idx):
         P.add(("independent",), "a joint is listed twice")

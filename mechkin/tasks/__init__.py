@@ -32,6 +32,14 @@ def run(scenario: Any, **options: Any) -> Report:
     ``options`` are the task's own run options (workspace: ``workers``, ``scheduler``,
     ``progress``).
     """
+    from mechkin.tasks.validate import validate_scenario
+
+    mech = None
+    if scenario.mechanism_path is not None:
+        from mechkin.model import load_mechanism
+
+        mech = load_mechanism(scenario.mechanism_path)
+    validate_scenario(scenario, mech)  # everything short of solving, as `mechkin check` does
     mod = importlib.import_module(f"mechkin.tasks.{task_module_name(scenario)}")
     return mod.run(scenario, **options)
 
