@@ -116,7 +116,7 @@ def test_scenario_unknown_joint_in_motion(tmp_path):
     s = _scenario(tmp_path, extra="    q_elbow: {type: constant, value: 1}\n")
     res, out = _run_fk(tmp_path, s)
     assert res.exit_code == 2
-    assert "fk.motion.q_elbow: not an independent joint" in res.stderr
+    assert "fk.motion.q_elbow: 'q_elbow' is not an independent joint" in res.stderr
     assert not out.exists()
 
 

@@ -340,7 +340,7 @@ for label, base, path, value, key, kw in [
      r"ik\.targets\[0\]\.euler", {}),
     ("no targets", IK, ["ik", "targets"], [], r"ik: give targets", {}),
     ("closed form for puma", IK, ["ik", "method"], "closed-form",
-     r"ik\.method: no closed form for mechanism", {}),
+     r"ik\.method: no closed form fits mechanism", {}),
     ("unknown ik initial guess", IK, ["ik", "initial_guess"], {"q9": 1},
      r"ik\.initial_guess\.q9: .*not a joint", {}),
     ("random targets count 0", IK, ["ik", "random_targets"], {"count": 0},

@@ -51,6 +51,6 @@ def test_unbundled_66_stewart_closed_form_equals_lm(tmp_path):
 
 def test_no_closed_form_is_one_line(tmp_path):
     path = ROOT / "mechanisms" / "puma560.yaml"
-    with pytest.raises(ConfigError, match="no closed form fits mechanism puma560") as exc:
+    with pytest.raises(ConfigError, match="no closed form fits mechanism 'puma560'") as exc:
         run_file(_scenario(tmp_path, path, "closed-form", np.eye(4)[None]), "ik")
     assert len(str(exc.value).splitlines()) == 1

@@ -140,7 +140,8 @@ def test_sweep_unknown_joint_exit_2(tmp_path):
     p.write_text(yaml.safe_dump(d, sort_keys=False))
     res = _run(p, tmp_path / "o")
     assert res.exit_code == 2
-    assert re_search(r"s\.yaml:\d+: workspace\.joints\.q9: not an independent joint", res.output)
+    assert re_search(r"s\.yaml:\d+: workspace\.joints\.q9: 'q9' is not an independent "
+                     r"joint", res.output)
 
 
 def re_search(pattern: str, text: str) -> bool:
