@@ -110,3 +110,17 @@ def check(where: str, estimate_bytes: float, what: str) -> None:
         raise ConfigError(f"{where}: {what} needs about {human(estimate_bytes)}, more than the "
                           f"memory budget of {human(lim)} (raise it with --max-memory SIZE or "
                           "MECHKIN_MAX_MEMORY, or make the job smaller)")
+
+
+#: Memory of one local worker process (interpreter, numpy, mechkin, its share of a job).
+WORKER_BYTES = 200 * 1024**2
+
+
+def check_workers(where: str, workers: int) -> None:
+    """Refuse more local worker processes than the machine can run: more than 4 per CPU, or
+    more than the memory budget holds at :data:`WORKER_BYTES` each."""
+    cpus = os.cpu_count() or 1
+    if workers > 4 * cpus:
+        raise ConfigError(f"{where}: {workers} worker processes on a machine with {cpus} CPUs "
+                          f"(at most {4 * cpus}; use --scheduler for a cluster)")
+    check(where, workers * WORKER_BYTES, f"{workers} worker processes")

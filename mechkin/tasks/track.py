@@ -121,6 +121,21 @@ def _grid_record(res: TrackResult) -> dict[str, Any]:
     return rec
 
 
+def _check_budget(scenario: Scenario, mech: Any) -> None:
+    """The DP's memory before any work: N1 x N2 states (cost, predecessor, times, joint
+    values, rates and torques per state) plus one stage's N2 x N2 transitions per joint."""
+    from mechkin.tasks import budget
+
+    spec: TrackSpec = scenario.section
+    grids = [spec.grid] + list(spec.grid_study or [])
+    for k, g in enumerate(grids):
+        states = 8.0 * g.N1 * g.N2 * (8 + 4 * mech.n)
+        stage = 8.0 * g.N2 * g.N2 * (4 + 3 * mech.n)
+        key = ("track", "grid") if k == 0 else ("track", "grid_study", str(k - 1))
+        budget.check(scenario.doc.where(key), 2.0 * (states + stage),
+                     f"a {g.N1} x {g.N2} DP grid for {mech.n} joints")
+
+
 def run(scenario: Scenario) -> Report:
     """Plan the scenario's tracking (or minimum-time) motion.
 
@@ -132,6 +147,7 @@ def run(scenario: Scenario) -> Report:
     units = scenario.spec.units
     doc = scenario.doc
     mech = load_mechanism(scenario.mechanism_path)
+    _check_budget(scenario, mech)
     dyn = _dynamics(scenario, mech)
     lim = limits_si(spec.limits, units, np.asarray(mech.s) == 1)
     if "q" not in lim:  # the mechanism's joint limits are DP constraints (dpct reading 8)

@@ -67,6 +67,7 @@ def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = 
         failed.
     """
     ex = _execution(scenario, workers, scheduler, progress)
+    check_workspace_budget(scenario, ex)
     kind = scenario.section.kind
     if kind == "lee_spherical":
         if scenario.section.design is not None:
@@ -75,6 +76,52 @@ def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = 
     if kind == "task_space":
         return _run_task_space(scenario, ex)
     return _run_joint_sweep(scenario, ex)
+
+
+def _grid_size(axes: list[Any]) -> int:
+    n = 1
+    for a in axes:
+        n *= max(int(getattr(a, "n", None) or 1), 1)
+    return n
+
+
+def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
+    """Estimate the sweep's peak memory from the scenario (grid sizes x joints and frames,
+    samples, poses) and refuse it beyond the budget, before any work (mechkin.tasks.budget)."""
+    from mechkin.tasks import budget
+
+    spec = sc.section
+    doc = sc.doc
+    if ex.get("workers") is not None and not ex.get("address"):
+        budget.check_workers(doc.where(("workspace", "workers")), int(ex["workers"]))
+    if spec.kind == "lee_spherical":
+        cells = (_grid_size([spec.alpha, spec.beta]) if spec.alpha and spec.beta else 91 * 91)
+        gammas = sum(len(v) for v in (spec.isotropy_maps or {}).values())
+        est = 8.0 * 60 * cells * max(gammas, 1)
+        if spec.gamma_range is not None:
+            g = spec.gamma_range
+            est += 8.0 * 30 * g.n * g.n_alpha * g.n_beta
+        est += 8.0 * 20 * len(spec.poses or [])
+        budget.check(doc.where(("workspace",)), est, f"a lee map of {cells} alpha-beta cells "
+                     f"x {max(gammas, 1)} gammas")
+        return
+    from mechkin.model import load_mechanism
+
+    mech = load_mechanism(sc.mechanism_path)
+    per = 8.0 * (6 * mech.n + 16 * (mech.n_links + len(mech.frame_names)) + 6 * mech.n * 4)
+    if spec.kind == "joint_sweep":
+        if spec.method == "monte_carlo" or spec.samples is not None:
+            m = int(spec.samples or 0)
+        else:
+            m = _grid_size(list((spec.joints or {}).values()))
+        budget.check(doc.where(("workspace",)), 2.0 * per * m,
+                     f"a joint sweep of {m} samples of {mech.name} ({mech.n} joints)")
+    else:
+        axes = [a for a in (getattr(spec, "positions", None) or {}).values()] if isinstance(
+            getattr(spec, "positions", None), dict) else []
+        m = int(spec.samples or 0) or _grid_size(axes) + len(spec.poses or [])
+        budget.check(doc.where(("workspace",)), 3.0 * per * m,
+                     f"a task-space sweep of {m} poses of {mech.name} ({mech.n} joints)")
 
 
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
