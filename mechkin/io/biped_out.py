@@ -1,5 +1,6 @@
 """The files of a biped run: ``leg_right.csv``, ``leg_left.csv`` (one row per step),
-``frames.csv`` (one row per frame: joint values and rates), ``biped.png`` (the biped standing on its plane, like hwang2023 Figs. 7/8) and ``biped.mcap``
+``frames.csv`` (one row per frame: joint values and rates), ``biped.png`` (the biped standing
+on its plane, like hwang2023 Figs. 7/8) and ``biped.mcap``
 (/tf, /scene with the planes, body, legs, feet or blades and the phase, /joint_states with
 position and velocity, /mechkin/state).
 
@@ -106,5 +107,6 @@ def biped_log(rec: BipedRecord) -> MotionLog:
     return MotionLog(
         times=np.asarray(rec.times, float), root_frame="world", frame_names=all_names,
         frame_parents=all_parents, T_parent_child=T_all, joint_names=list(rec.joint_names),
-        q=rec.q, qd=rec.qd if rec.qd.shape == rec.q.shape else None, scene=scene, state=rec.state, state_schema=rec.state_schema,
+        q=rec.q, qd=rec.qd if rec.qd.shape == rec.q.shape else None, scene=scene,
+        state=rec.state, state_schema=rec.state_schema,
         metadata=rec.metadata)
