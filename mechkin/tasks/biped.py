@@ -268,6 +268,7 @@ def run(scenario: Scenario, **_options: Any) -> Report:
                      "joint_limits_rad": {mech.joint_names[j]: [_num(mech.lower[j]),
                                                                 _num(mech.upper[j])]
                                           for s in SIDES for j in joints[s]}},
+        "motion": _motion_summary(frames),
         "steps": records,
     }
     checks = with_expect(summary, scenario)
@@ -279,6 +280,20 @@ def run(scenario: Scenario, **_options: Any) -> Report:
                   solver_ok=summary["status"] == "ok", writer="biped", data=data,
                   outputs=output_flags(scenario), scenario_path=scenario.path,
                   messages=messages + expect_messages(checks, scenario.path))
+
+
+def _motion_summary(frames: list[BipedFrame]) -> dict[str, float]:
+    """Figures of the whole log (both legs' joints, a failed leg's last good q): the largest
+    change of a joint between consecutive frames [rad], the largest joint rate (``frames.csv``)
+    [rad/s] and the largest difference of a joint between the last and the first frame [rad]
+    (0 when the motion returns to its start pose)."""
+    qf = _frame_q(frames)
+    q = np.concatenate([qf[s] for s in SIDES], axis=1)
+    t = np.array([f.t for f in frames], float)
+    step = float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 else 0.0
+    return {"max_frame_step_rad": step,
+            "max_rate_rad_s": float(np.abs(frame_rates(t, q)).max()),
+            "end_minus_start_rad": float(np.abs(q[-1] - q[0]).max())}
 
 
 def _step_end_times(steps: list[BipedStep]) -> list[float]:
