@@ -188,6 +188,7 @@ def test_final_walk_returns_to_the_start_pose(runs):
     for r in (rep, fine):
         q = r.data.q
         assert np.abs(q[-1] - q[0]).max() <= 1e-9
+        assert r.summary["motion"]["end_minus_start_rad"] <= 1e-9
         st = r.summary["steps"]
         for side in SIDES:
             np.testing.assert_allclose(st[4]["legs"][side]["q_rad_list"],
@@ -244,3 +245,23 @@ def test_joint_rates_in_frames_csv_and_joint_states(runs):
                     for i in range(len(js))])
     assert [js[0].joints[k].name for k in range(len(names))] == names
     np.testing.assert_allclose(vel, rec.qd, atol=1e-12)
+
+
+def test_readme_biped_example_runs_and_returns_to_its_start(tmp_path):
+    """The README's continuous-motion example (section ``ik``), run as written (with the name,
+    task and units its comment asks for)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = text.split("*Any biped, continuous motions.*", 1)[1].split("```yaml", 1)[1]
+    block = block.split("```", 1)[0].replace("../mechanisms/", f"{ROOT / 'mechanisms'}/")
+    p = tmp_path / "readme.yaml"
+    p.write_text("name: readme_biped\ntask: ik\nunits: {length: mm, angle: deg}\n" + block)
+    rep = run_file(p, "ik")
+    assert rep.ok, rep.summary["status"]
+    st = rep.summary["steps"]
+    assert st[2]["legs"]["left"]["beta_deg"] == pytest.approx(-10.0, abs=1e-9)
+    assert st[2]["legs"]["right"]["q"]["r_theta6"] == pytest.approx(np.deg2rad(8), abs=1e-12)
+    for side in SIDES:
+        assert st[3]["legs"][side]["beta_deg"] == pytest.approx(0.0, abs=1e-9)
+        assert len(st[0]["legs"][side]["solutions"]) == st[0]["legs"][side]["n_solutions"] >= 1
+    assert rep.summary["motion"]["end_minus_start_rad"] <= 1e-9
+    assert rep.summary["motion"]["max_frame_step_rad"] < np.deg2rad(2.0)
