@@ -127,7 +127,11 @@ class BipedSpec(Spec):
     from the previous step's ankle angle (or blade tilt) to ``theta6`` (or ``beta_end``) in
     rolls without slipping (§2.4); a walk or skate step moves the body and each contact frame
     from where the previous step left them to the step's pose (positions along straight lines,
-    orientations by slerp), every frame solved by §2.2. ``time_law``: ``linear`` or ``smooth``
+    orientations by slerp), every frame solved by §2.2. Across a switch the moving frame is
+    the new step's contact frame where the old pose holds it (walk -> skate: the blade point E
+    of the standing foot's pose; skate or roll -> walk: the sole of the blade's pose), so the
+    foot-to-blade switch is continuous too; with ``frames: 1`` it is one jump (hwang2023 Table
+    6 (a) -> (b): right theta4 -11.60 -> -5.00 deg). ``time_law``: ``linear`` or ``smooth``
     (10 s^3 - 15 s^4 + 6 s^5: zero speed and acceleration at both ends).
     ``solutions: all`` lists every closed-form solution of each leg (each checked by the
     mechanism file's forward kinematics) in the summary.

@@ -1,7 +1,8 @@
 """The files of a biped run: ``leg_right.csv``, ``leg_left.csv`` (one row per step),
-``biped.png`` (the biped standing on its plane, like hwang2023 Figs. 7/8) and ``biped.mcap``
-(/tf, /scene with the planes, body, legs, feet or blades and the phase, /joint_states,
-/mechkin/state).
+``frames.csv`` (one row per frame: joint values and rates), ``biped.png`` (the biped standing
+on its plane, like hwang2023 Figs. 7/8) and ``biped.mcap``
+(/tf, /scene with the planes, body, legs, feet or blades and the phase, /joint_states with
+position and velocity, /mechkin/state).
 
 Imports: records (types), io.atomic, io.mcap_out, io.plots (lazily).
 """
@@ -24,6 +25,8 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
     if outs.csv:
         for s in SIDES:
             od.write_csv(f"leg_{s}.csv", rec.columns[s])
+        if rec.frame_columns:
+            od.write_csv("frames.csv", rec.frame_columns)
     if plots and outs.plots:
         plot_biped(od.path_for("biped.png"), rec)
     if outs.mcap:
@@ -104,5 +107,6 @@ def biped_log(rec: BipedRecord) -> MotionLog:
     return MotionLog(
         times=np.asarray(rec.times, float), root_frame="world", frame_names=all_names,
         frame_parents=all_parents, T_parent_child=T_all, joint_names=list(rec.joint_names),
-        q=rec.q, scene=scene, state=rec.state, state_schema=rec.state_schema,
+        q=rec.q, qd=rec.qd if rec.qd.shape == rec.q.shape else None, scene=scene,
+        state=rec.state, state_schema=rec.state_schema,
         metadata=rec.metadata)

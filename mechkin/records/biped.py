@@ -1,5 +1,5 @@
 """The record of a biped run (``mechkin ik`` with ``biped:``): what ``mechkin.io.biped_out``
-writes (``leg_right.csv``, ``leg_left.csv``, ``biped.png``, ``biped.mcap``).
+writes (``leg_right.csv``, ``leg_left.csv``, ``frames.csv``, ``biped.png``, ``biped.mcap``).
 
 Plain arrays and values only: the task (``mechkin.tasks.biped``) fills them from the solved
 sequence; the writer draws and logs them without knowing the closed forms.
@@ -33,6 +33,9 @@ class BipedRecord:
         Mechanism name.
     columns : dict
         ``{"right": {...}, "left": {...}}``: the two CSV tables in column order.
+    frame_columns : dict
+        ``frames.csv`` in column order: one row per frame of the animation (time, step, each
+        leg joint's value ``<joint>_rad`` and rate ``<joint>_rad_s``, the contact angles).
     plot_title : str
         Title of ``biped.png``.
     snapshots : list of BipedPlot
@@ -60,7 +63,10 @@ class BipedRecord:
     joint_names : list of str
         Every joint of the mechanism.
     q : array (m, n)
-        Joint values per frame [rad].
+        Joint values per frame [rad] (every run, also without MCAP).
+    qd : array (m, n)
+        Joint rates per frame [rad/s]: finite differences of ``q`` over ``times``
+        (``mechkin.tasks.biped.frame_rates``); ``/joint_states`` velocity.
     state : list of dict
         Per-frame ``/mechkin/state`` messages.
     state_schema : dict, optional
@@ -72,6 +78,7 @@ class BipedRecord:
     title: str
     mechanism: str
     columns: dict[str, dict[str, list[Any]]]
+    frame_columns: dict[str, list[Any]] = field(default_factory=dict)
     plot_title: str = ""
     snapshots: list[BipedPlot] = field(default_factory=list)
     plot_planes: list[tuple[np.ndarray, np.ndarray, float]] = field(default_factory=list)
@@ -88,6 +95,7 @@ class BipedRecord:
     T_parent_child: np.ndarray | None = None
     joint_names: list[str] = field(default_factory=list)
     q: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    qd: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     state: list[dict[str, Any]] = field(default_factory=list)
     state_schema: dict[str, Any] | None = None
     metadata: dict[str, str] = field(default_factory=dict)

@@ -469,7 +469,12 @@ def _moving_frames(geometry: BipedGeometry | BipedModel, step: BipedStep, first:
                    ) -> list[tuple[float, dict[str, LegSolution], np.ndarray]]:
     """The frames f = 1/n .. (n-1)/n of a walk or skate step: the body and each contact frame
     move from where the previous step left them to the step's solved pose, every frame solved
-    by §2.2 (the solution nearest the previous frame). Returns (f, legs, T_0_G) per frame."""
+    by §2.2 (the solution nearest the previous frame). Returns (f, legs, T_0_G) per frame.
+
+    The contact frame is the step's own (``kind``): after a step of the other class it starts
+    where the previous pose holds it (walk -> skate: the blade point E of the standing foot's
+    pose; skate/roll -> walk: the sole point of the blade's pose), so frame 0 is the previous
+    pose exactly and the foot-to-blade switch is spread over the step's frames."""
     geos = _geometries(geometry)
     T_a = {s: leg_fk(geos[s], s, prev_q[s][None], prev_TG, kind)[0] for s in SIDES}
     T_b = {s: first.legs[s].T_0_E for s in SIDES}

@@ -6,7 +6,8 @@ inclined planes, one case or a walk -> skate -> roll switching sequence.
 leg by forward kinematics (the closed-form chain and the mechanism file's model), evaluates the
 ``expect:`` entries and returns a :class:`~mechkin.records.Report` whose
 :class:`~mechkin.records.biped.BipedRecord` ``mechkin.io.biped_out`` writes (``leg_right.csv``,
-``leg_left.csv``, ``biped.png``, ``biped.mcap``). Writes nothing.
+``leg_left.csv``, ``frames.csv`` with the joint rates per frame, ``biped.png``, ``biped.mcap``).
+Writes nothing.
 
 Imports: config, model, solvers, spatial, records, tasks.common.
 """
@@ -267,6 +268,7 @@ def run(scenario: Scenario, **_options: Any) -> Report:
                      "joint_limits_rad": {mech.joint_names[j]: [_num(mech.lower[j]),
                                                                 _num(mech.upper[j])]
                                           for s in SIDES for j in joints[s]}},
+        "motion": _motion_summary(frames),
         "steps": records,
     }
     checks = with_expect(summary, scenario)
@@ -278,6 +280,20 @@ def run(scenario: Scenario, **_options: Any) -> Report:
                   solver_ok=summary["status"] == "ok", writer="biped", data=data,
                   outputs=output_flags(scenario), scenario_path=scenario.path,
                   messages=messages + expect_messages(checks, scenario.path))
+
+
+def _motion_summary(frames: list[BipedFrame]) -> dict[str, float]:
+    """Figures of the whole log (both legs' joints, a failed leg's last good q): the largest
+    change of a joint between consecutive frames [rad], the largest joint rate (``frames.csv``)
+    [rad/s] and the largest difference of a joint between the last and the first frame [rad]
+    (0 when the motion returns to its start pose)."""
+    qf = _frame_q(frames)
+    q = np.concatenate([qf[s] for s in SIDES], axis=1)
+    t = np.array([f.t for f in frames], float)
+    step = float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 else 0.0
+    return {"max_frame_step_rad": step,
+            "max_rate_rad_s": float(np.abs(frame_rates(t, q)).max()),
+            "end_minus_start_rad": float(np.abs(q[-1] - q[0]).max())}
 
 
 def _step_end_times(steps: list[BipedStep]) -> list[float]:
@@ -337,6 +353,43 @@ def _frame_q(frames: list[BipedFrame]) -> dict[str, np.ndarray]:
                 last = leg.q
             out[s][i] = last
     return out
+
+
+def frame_rates(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Joint rates (m, n) [rad/s] of the frames q (m, n) at the times t (m,) [s]: finite
+    differences of the sampled motion (``numpy.gradient``: second-order central differences on
+    the non-uniform time grid inside, first-order one-sided at the two ends; zeros for a
+    single frame). Inside an animated step (``frames > 1``) the frames sample a smooth motion,
+    so these approximate dq/dt to O(dt^2); across a step of one frame they are its jump over
+    its duration."""
+    t = np.asarray(t, float)
+    q = np.asarray(q, float)
+    if len(t) < 2:
+        return np.zeros_like(q)
+    return np.gradient(q, t, axis=0)
+
+
+def _frame_columns(mech: Mechanism, joints: Mapping[str, list[int]], frames: list[BipedFrame],
+                   steps: list[BipedStep], t: np.ndarray, q: np.ndarray, qd: np.ndarray
+                   ) -> dict[str, list[Any]]:
+    """``frames.csv``: one row per frame (a failed leg keeps its last good q, ``status``
+    says so): time, step, each leg joint's value [rad] and rate [rad/s], the contact angle."""
+    cols: dict[str, list[Any]] = {
+        "frame": list(range(len(frames))), "t_s": [float(x) for x in t],
+        "step": [int(f.step) for f in frames],
+        "phase": [steps[f.step].label for f in frames],
+        "mode": [steps[f.step].mode for f in frames]}
+    idx = [j for s in SIDES for j in joints[s]]
+    for j in idx:
+        cols[f"{mech.joint_names[j]}_rad"] = [float(v) for v in q[:, j]]
+    for j in idx:
+        cols[f"{mech.joint_names[j]}_rad_s"] = [float(v) for v in qd[:, j]]
+    for s in SIDES:
+        cols[f"beta_{s}_rad"] = [float(f.legs[s].beta) if f.legs[s].ok
+                                 and math.isfinite(f.legs[s].beta) else "" for f in frames]
+    cols["status"] = [next((f.legs[s].status for s in SIDES if not f.legs[s].ok), STATUS_OK)
+                      for f in frames]
+    return cols
 
 
 def _snapshot_label(r: dict[str, Any]) -> str:
@@ -440,19 +493,21 @@ def _record(scenario: Scenario, mech: Mechanism, model: BipedModel, steps: list[
         rec.snapshots.append(BipedPlot(polys[i], _snapshot_label(records[frames[i].step])))
     for pln in _distinct([steps[frames[i].step].leg_plane(s) for i in idx for s in SIDES]):
         rec.plot_planes.append((np.asarray(pln.origin, float), pln.normal, 2 * PLANE_HALF))
-    if not scenario.spec.outputs.mcap:
-        return rec
     m = len(frames)
     q = np.zeros((m, mech.n))
     for s in SIDES:
         q[:, joints[s]] = qf[s]
+    rec.q = q
+    rec.times = np.array([f.t for f in frames], float)
+    rec.qd = frame_rates(rec.times, q)
+    rec.frame_columns = _frame_columns(mech, joints, frames, steps, rec.times, q, rec.qd)
+    if not scenario.spec.outputs.mcap:
+        return rec
     kin = forward_kinematics(mech, q)
     rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child = frame_tree(
         mech, kin)  # rooted at the body frame
     rec.frame_names, rec.frame_parents = list(rec.frame_names), list(rec.frame_parents)
     rec.joint_names = list(mech.joint_names)
-    rec.q = q
-    rec.times = np.array([f.t for f in frames], float)
     rec.polylines = polys
     rec.T_0_G = np.stack([_body(f, steps) for f in frames])
     two = any(len(_distinct([st.leg_plane(s) for s in SIDES])) > 1 for st in steps)

@@ -62,9 +62,10 @@ def _mcap(path: Path) -> tuple[dict, dict, list]:
     return topics, {"counts": counts, "times": times}, msgs
 
 
-def test_there_are_nine_scenarios():
+def test_there_are_ten_scenarios():
     names = {p.stem for p in SCENARIOS}
-    assert names == {f"hwang2023_fig7_{c}" for c in "abcdefgh"} | {"hwang2023_walk_to_skate"}
+    assert names == ({f"hwang2023_fig7_{c}" for c in "abcdefgh"}
+                     | {"hwang2023_walk_to_skate", "hwang2023_walk_skate_roll_unroll"})
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
