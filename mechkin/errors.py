@@ -68,3 +68,10 @@ class Interrupted(MechkinError):
     """SIGINT or SIGTERM: the run stopped, staging removed, previous outputs intact."""
 
     exit_code = 130
+
+
+class ClusterError(MechkinError):
+    """A Dask scheduler that does not answer, has no workers, or whose workers cannot run
+    mechkin (not installed, another version): found before any job runs, exit 2."""
+
+    exit_code = 2

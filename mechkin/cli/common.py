@@ -104,26 +104,45 @@ class _Terminated(BaseException):
 
 @contextlib.contextmanager
 def terminate_cleanly() -> Iterator[None]:
-    """SIGTERM during a run: stop child processes, unwind (so staging folders and locks are
-    removed by their ``finally`` blocks), exit 143 with one line."""
+    """SIGTERM or SIGINT during a run: stop child processes, unwind (so staging folders and
+    locks are removed by their ``finally`` blocks), one line, exit 143 / 130.
+
+    A signal can land while a C extension initialises (numpy, scipy): Python then reports an
+    ImportError, and the half-initialised module may abort the interpreter's finalisation. So
+    the handlers record the signal, and once the stack has unwound the process leaves with
+    ``os._exit`` (no finalisation) whatever exception carried the signal up.
+    """
+    import os
     import signal
 
-    def on_term(signum: int, frame: Any) -> None:
+    def on_signal(signum: int, frame: Any) -> None:
+        _SIGNALLED.append(signum)
         _stop_children()
-        raise _Terminated()
+        raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
     try:
-        old = signal.signal(signal.SIGTERM, on_term)
+        old = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
     except ValueError:  # not the main thread (e.g. inside a test runner thread)
         yield
         return
     try:
         yield
-    except _Terminated:
-        typer.echo("mechkin: terminated (SIGTERM); no output was changed", err=True)
-        raise typer.Exit(143) from None
+    except BaseException:
+        if not _SIGNALLED:
+            raise
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for s, h in old.items():
+            signal.signal(s, h)
+    if _SIGNALLED:
+        term = _SIGNALLED[0] == signal.SIGTERM
+        sys.stderr.write(f"mechkin: {'terminated (SIGTERM)' if term else 'interrupted (SIGINT)'}"
+                         "; no output was changed\n")
+        sys.stderr.flush()
+        sys.stdout.flush()
+        os._exit(143 if term else 130)
+
+
+_SIGNALLED: list[int] = []
 
 
 def _stop_children() -> None:
@@ -164,11 +183,15 @@ def handle_errors(fn: F) -> F:
             raise typer.Exit(code=exc.exit_code) from None
         except KeyboardInterrupt:
             _stop_children()
+            if _SIGNALLED:
+                raise  # terminate_cleanly reports it
             typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
             raise typer.Exit(code=130) from None
         except (typer.Exit, typer.Abort):
             raise
         except Exception as exc:  # noqa: BLE001 - the CLI must never show a traceback
+            if _SIGNALLED:
+                raise  # a signal that surfaced as another exception (e.g. during an import)
             logging.getLogger("mechkin").debug("internal error", exc_info=True)
             from mechkin.config.load import short_str
 

@@ -1,0 +1,149 @@
+"""Distributed runs that fail fast: a wrong address, a scheduler without workers and workers
+that cannot import mechkin each end in one clear line well within 30 s. Every server binds to
+127.0.0.1 with the dashboard off and is stopped by the test."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from mechkin.errors import ClusterError
+from mechkin.solvers.sweeps import connect_cluster
+
+distributed = pytest.importorskip("distributed")
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(autouse=True)
+def _short_timeout(monkeypatch):
+    monkeypatch.setenv("MECHKIN_DASK_TIMEOUT", "3")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _timed(fn):
+    t0 = time.perf_counter()
+    with pytest.raises(ClusterError) as exc:
+        fn()
+    assert time.perf_counter() - t0 < 30
+    assert len(str(exc.value).splitlines()) == 1
+    return str(exc.value)
+
+
+def test_not_an_address():
+    msg = _timed(lambda: connect_cluster("localhost:8786"))
+    assert "expected an address like tcp://HOST:8786" in msg
+
+
+def test_nothing_listening():
+    port = _free_port()
+    msg = _timed(lambda: connect_cluster(f"tcp://127.0.0.1:{port}"))
+    assert "no Dask scheduler answered" in msg
+
+
+def test_a_port_that_is_not_a_scheduler():
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    port = srv.getsockname()[1]
+    conns = []
+    stop = threading.Event()
+
+    def accept():
+        srv.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                conns.append(srv.accept()[0])  # accept and never answer
+            except OSError:
+                continue
+
+    t = threading.Thread(target=accept, daemon=True)
+    t.start()
+    try:
+        msg = _timed(lambda: connect_cluster(f"tcp://127.0.0.1:{port}"))
+        assert "no Dask scheduler answered" in msg
+    finally:
+        stop.set()
+        t.join(timeout=5)
+        for c in conns:
+            c.close()
+        srv.close()
+
+
+def _cluster(n_workers: int):
+    return distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1,
+                                    processes=False, protocol="tcp", host="127.0.0.1",
+                                    dashboard_address=None)
+
+
+def test_a_scheduler_without_workers():
+    with _cluster(0) as cluster:
+        msg = _timed(lambda: connect_cluster(cluster.scheduler_address))
+        assert "has no workers" in msg
+
+
+BLOCKER = """
+import sys
+class _NoMechkin:
+    def find_spec(self, name, path=None, target=None):
+        if name == "mechkin" or name.startswith("mechkin."):
+            raise ModuleNotFoundError("No module named 'mechkin'", name=name)
+        return None
+sys.meta_path.insert(0, _NoMechkin())
+from distributed.cli.dask_worker import main
+sys.argv = ["dask-worker", sys.argv[1], "--nthreads", "1", "--no-dashboard", "--host",
+            "127.0.0.1", "--no-nanny"]
+main()
+"""
+
+
+def test_workers_without_mechkin():
+    with _cluster(0) as cluster:
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        worker = subprocess.Popen([sys.executable, "-c", BLOCKER, cluster.scheduler_address],
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with distributed.Client(cluster.scheduler_address, set_as_default=False) as c:
+                c.wait_for_workers(1, timeout=60)
+            msg = _timed(lambda: connect_cluster(cluster.scheduler_address))
+            assert "cannot import mechkin" in msg and "install the same mechkin" in msg
+        finally:
+            worker.terminate()
+            try:
+                worker.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                worker.kill()
+
+
+def test_a_working_cluster_passes():
+    with _cluster(1) as cluster:
+        client = connect_cluster(cluster.scheduler_address)
+        try:
+            assert client.submit(sum, [1, 2]).result() == 3
+        finally:
+            client.close()
+
+
+def test_cli_wrong_scheduler_is_one_line(tmp_path):
+    port = _free_port()
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MECHKIN_DASK_TIMEOUT="3", MPLBACKEND="Agg")
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "mechkin", "workspace",
+                        str(ROOT / "scenarios" / "lee_design_sweep_r.yaml"), "--out",
+                        str(tmp_path / "o"), "--scheduler", f"tcp://127.0.0.1:{port}"],
+                       capture_output=True, text=True, timeout=120, env=env)
+    assert time.perf_counter() - t0 < 60
+    assert r.returncode == 2, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "no Dask scheduler" in r.stderr
+    assert not (tmp_path / "o").exists()
