@@ -137,6 +137,19 @@ def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str) ->
                     method="closed-form")
 
 
+def ik_options(spec: IkSpec, units: Any) -> IkOptions:
+    """The solver options of an ``ik:`` section (tolerances converted to SI; the defaults of
+    an IkSpec give the task's default solve: lm, restarts 50)."""
+    tol = spec.tolerances
+    L = length_factor(units.length)
+    A = angle_factor(units.angle)
+    return IkOptions(
+        method="cg-golden" if spec.method == "cg-golden" else "lm", grad_tol=tol.grad,
+        max_iter=tol.max_iter, tol_pos=tol.position * L if tol.position else 1e-6,
+        tol_ori=tol.orientation * A if tol.orientation else 1e-6, restarts=spec.restarts,
+        seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart)
+
+
 def reach_bound(mech: Mechanism) -> float:
     """An upper bound [m] of the distance of any frame from the base: the sum of every stick
     segment at home (constant for revolute joints) plus the largest stroke of every prismatic
@@ -294,14 +307,7 @@ def run(scenario: Scenario) -> Report:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
     qv0, qw0 = _initial(scenario, mech)
     far = beyond_reach(mech, T_P, W)
-    tol = spec.tolerances
-    L = length_factor(scenario.spec.units.length)
-    A = angle_factor(scenario.spec.units.angle)
-    opts = IkOptions(
-        method="cg-golden" if spec.method == "cg-golden" else "lm", grad_tol=tol.grad,
-        max_iter=tol.max_iter, tol_pos=tol.position * L if tol.position else 1e-6,
-        tol_ori=tol.orientation * A if tol.orientation else 1e-6, restarts=spec.restarts,
-        seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart)
+    opts = ik_options(spec, scenario.spec.units)
     t0 = time.perf_counter()
     results: list[IkResult] = []
     guesses: list[tuple[np.ndarray, np.ndarray]] = []
