@@ -5,7 +5,7 @@
     UR5: median ms per solve and verified success (0.1 mm, 1 mrad by forward kinematics) over
     N seeded random reachable poses (FK of random joints within the limits). The peer, Robotics
     Toolbox for Python's ``ik_LM`` with its defaults (its own random starts and searches) on
-    its DH models of the same robots, runs in a separate interpreter (``--rtb-python``, default
+    the ETS of its DH models of the same robots, runs in a separate interpreter (``--rtb-python``, default
     /tmp/rtbvenv/bin/python: ``python -m venv /tmp/rtbvenv && /tmp/rtbvenv/bin/pip install
     roboticstoolbox-python``) on its own FK of the same random joints, verified with its own
     FK to the same tolerances ("RTB says": its success flag). Without it the peer is reported
@@ -58,12 +58,14 @@ for name, model in args["models"].items():
     mod = rtb.models
     for part in model.split("."):
         mod = getattr(mod, part)
-    robot = mod()
+    # the robot's ETS: fkine and ik_LM of one model (DHRobot.fkine adds the tool, which its
+    # ik_LM does not see)
+    robot = mod().ets()
     T_mk = np.load(args["poses"][name])
     qs = np.load(args["joints"][name])
     # the robot's own poses of the same random joints (the models may differ slightly);
     # how far they are from mechkin's poses is reported
-    T = np.array([robot.fkine(q).A for q in qs])
+    T = np.array([robot.fkine(q).A for q in qs])  # the ETS pose, base and tool included
     fk_diff = float(np.abs(T - T_mk).max())
     robot.ik_LM(T[0])  # warm-up
     times, flags, ver, errs = [], [], [], []

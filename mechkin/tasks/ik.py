@@ -218,9 +218,12 @@ def _all_solutions(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray
     for i, (T, w) in enumerate(zip(T_P, W, strict=True)):
         qv, qw = guesses[i]
         extra = results[i].q[None] if np.all(np.isfinite(results[i].q)) else None
-        if far[i]:
-            out.append(multistart_all(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts,
-                                      starts=1, extra=None))
+        if far[i]:  # beyond the reach bound: no solution, nothing to search
+            n = mech.n
+            out.append(IkSolutions(q=np.zeros((0, n)), q_v=np.zeros((0, len(mech.independent))),
+                                   position_error=np.zeros(0), orientation_error=np.zeros(0),
+                                   distance=np.zeros(0), source="reach bound", starts=0,
+                                   time_s=0.0))
         elif kind is not None:
             out.append(closed_form_all(mech, T, kind, q_w0=qw, ref=qv, extra=extra,
                                        weights=w))
@@ -396,6 +399,9 @@ def run(scenario: Scenario) -> Report:
             "time_s": float(sum(a.time_s for a in all_sols)),
             "time_per_target_s": float(np.mean([a.time_s for a in all_sols])),
             "tolerances": {"position_m": TOL_POS_ALL, "orientation_rad": TOL_ORI_ALL},
+            # more independent joints than weighted pose components: the solutions form a
+            # continuum and the list is a sample of it
+            "continuum": bool(len(mech.independent) > int((W > 0).sum(axis=1).min())),
         }
     checks = with_expect(summary, scenario)
     if all_sols is not None:

@@ -252,3 +252,38 @@ ik:
 """
     with pytest.raises(ConfigError, match=r"sc.yaml:\d+: ik.solutions"):
         load_scenario(_write_scenario(tmp_path, body))
+
+
+def _circle_angles(c1, r1, c2, r2):
+    """Angles about c1 of the two intersections of circles (c1, r1) and (c2, r2)."""
+    d = np.linalg.norm(c2 - c1)
+    a = (r1**2 - r2**2 + d**2) / (2 * d)
+    h = np.sqrt(r1**2 - a**2)
+    u = (c2 - c1) / d
+    pts = c1 + a * u + np.outer([h, -h], [-u[1], u[0]])
+    return np.arctan2(pts[:, 1] - c1[1], pts[:, 0] - c1[0])
+
+
+@pytest.mark.parametrize("open_limits", [True, False])
+def test_five_bar_leg_branches(open_limits):
+    """A closed chain by multi-start (assembled random starts): the five-bar's 2 x 2 leg
+    branches (each motor angle from a circle intersection: A_i, l1 = 0.25 and P, l2 = 0.35);
+    the bundled elbow limits (r1 < 0 < r2) keep exactly one of them."""
+    mech = load_mechanism(MECH / "five_bar.yaml")
+    if open_limits:
+        mech = dataclasses.replace(mech, lower=np.full(mech.n, -np.pi),
+                                   upper=np.full(mech.n, np.pi))
+    qv = mech.home[mech.independent] + 0.1
+    res = solve_closure(mech, qv[None], mech.home[mech.dependent][None])
+    T = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[0, 0]
+    sols = multistart_all(mech, T, weights=np.array([1, 1, 1, 0, 0, 0.0]), seed=1)
+    P = T[:2, 3]
+    q1 = _circle_angles(np.array([-0.1, 0.0]), 0.25, P, 0.35)
+    q2 = _circle_angles(np.array([0.1, 0.0]), 0.25, P, 0.35)
+    ref = np.array([[a, b] for a in q1 for b in q2])
+    if open_limits:
+        assert sols.count == 4 and same_set(sols.q_v, ref)
+    else:
+        assert sols.count == 1 and same_set(sols.q_v, qv[None])
+        assert min(np.abs(wrap(r - qv)).max() for r in ref) < 1e-6
+    assert (sols.position_error < POS).all()

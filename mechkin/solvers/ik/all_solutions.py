@@ -15,7 +15,8 @@ q1 is fixed by the orientation); a Stewart platform one (the leg lengths). Two w
 
 Both keep a solution only when forward kinematics at the returned joints puts {E} within
 ``tol_pos`` [m] and ``tol_ori`` [rad] of the target (components with non-zero weight; defaults
-0.1 mm and 1 mrad), the loops closed, and the independent joints within their limits. Two
+0.1 mm and 1 mrad), the loops closed, and every joint within its limits (the passive ones
+too: a five-bar whose elbow limits keep one working mode has one solution). Two
 solutions are one when their independent joints differ by less than ``same_tol`` (max-abs;
 revolute joints modulo 2 pi); each is represented by its member nearest the guess (revolute
 joints at the turn nearest the guess within the limits). The result is ordered by the joint
@@ -116,6 +117,10 @@ def _finish(mech: Mechanism, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, ref:
     q = q[np.all(np.isfinite(q), axis=1)]
     if len(q):
         q[:, iv] = _near_guess(mech, iv, q[:, iv], ref)
+        iw = mech.dependent
+        if iw.size:
+            q[:, iw] = _near_guess(mech, iw, q[:, iw], np.where(np.isfinite(mech.home[iw]),
+                                                                 mech.home[iw], 0.0))
         T_E = kern.pose_check(q)
         k = len(q)
         pe, oe, wpe, woe = pose_and_weighted_errors(T_E, np.broadcast_to(T_P, (k, 4, 4)),
@@ -127,6 +132,7 @@ def _finish(mech: Mechanism, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, ref:
             phi = closure_residual(mech, forward_kinematics(mech, q))
             closed = np.linalg.norm(phi, axis=1) < 1e-8
         ok = (wpe <= tol_pos) & (woe <= tol_ori) & closed & _within_limits(mech, iv, q[:, iv])
+        ok &= _within_limits(mech, mech.dependent, q[:, mech.dependent])
         q, pe, oe = q[ok], pe[ok], oe[ok]
     else:
         pe = oe = np.zeros(0)
@@ -169,6 +175,39 @@ def closed_form_all(mech: Mechanism, T_P: np.ndarray, kind: str, *,
         cands.append(np.asarray(extra, float).reshape(-1, mech.n))
     q = np.vstack(cands)
     return _finish(mech, q, T_P, w, ref, tol_pos, tol_ori, same_tol, "closed-form", len(q), t0)
+
+
+def assembled_starts(mech: Mechanism, k: int, qw0: np.ndarray, rng: np.random.Generator
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """k starts (q_v (k, n_v), q_w (k, n_w)) of a closed chain that close the loops: random
+    q_v within the limits with random q_w (uniform, or normal about ``qw0``), the loop closure
+    solved in one batch (kim1995 §5.1), the converged ones kept (rows that never close keep
+    q_w0: lm then reports them unassembled)."""
+    from mechkin.solvers.assembly import characteristic_length
+
+    iv, iw = mech.independent, mech.dependent
+    L = characteristic_length(mech)
+    prism_v, prism_w = mech.s[iv] == 1, mech.s[iw] == 1
+    home_v = np.where(np.isfinite(mech.home[iv]), mech.home[iv], 0.0)
+    lo = np.where(np.isfinite(mech.lower[iv]), mech.lower[iv], np.where(prism_v, home_v - L,
+                                                                           -np.pi))
+    hi = np.where(np.isfinite(mech.upper[iv]), mech.upper[iv], np.where(prism_v, home_v + L,
+                                                                           np.pi))
+    m = 4 * k
+    qv = rng.uniform(lo, hi, size=(m, iv.size))
+    qw = np.where(rng.random((m, 1)) < 0.5,
+                  rng.uniform(-np.pi, np.pi, size=(m, iw.size)),
+                  qw0 + rng.normal(size=(m, iw.size)) * 0.5)
+    qw = np.where(prism_w, qw0 + rng.normal(size=(m, iw.size)) * 0.1 * L, qw)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        res = solve_closure(mech, qv, qw, max_iter=30)
+    ok = np.flatnonzero(res.ok & np.all(np.isfinite(res.q), axis=1))
+    out_v = rng.uniform(lo, hi, size=(k, iv.size))
+    out_w = np.array(np.broadcast_to(qw0, (k, iw.size)))
+    take = ok[:k]
+    out_v[:take.size] = res.q[take][:, iv]
+    out_w[:take.size] = res.q[take][:, iw]
+    return out_v, out_w
 
 
 def multistart_all(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
@@ -222,11 +261,13 @@ def multistart_all(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         seeded = seed_starts(kern, T_P[None], w[None], ranks=range(nc))
         if seeded is not None:
             Q0[1:1 + nc] = seeded[0]
+    QW = np.array(np.broadcast_to(qw0, (k, iw.size)))
+    if kern.n_cuts and k > 1:
+        Q0[1:], QW[1:] = assembled_starts(mech, k - 1, qw0, rng)
     opts = replace(options or IkOptions(), method="lm", restarts=0)
-    br = solve_ik_batch(mech, np.broadcast_to(T_P, (k, 4, 4)), q_v0=Q0,
-                        q_w0=np.broadcast_to(qw0, (k, iw.size)),
+    br = solve_ik_batch(mech, np.broadcast_to(T_P, (k, 4, 4)), q_v0=Q0, q_w0=QW,
                         weights=np.broadcast_to(w, (k, 6)), options=opts)
-    q = br.q
+    q = br.q[br.ok]  # reached within the solve's own tolerances (default 1e-6 m, 1e-6 rad)
     if extra is not None:
         q = np.vstack([np.asarray(extra, float).reshape(-1, mech.n), q])
     return _finish(mech, q, T_P, w, ref, tol_pos, tol_ori, same_tol, "multi-start", len(q),
