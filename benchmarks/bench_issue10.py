@@ -3,13 +3,13 @@
 (a) Default-settings IK (the options ``mechkin.tasks.ik`` builds from a default ``IkSpec``: lm,
     restarts 50, started at home as the task's first target) on the PUMA 560, the Panda and the
     UR5: median ms per solve and verified success (0.1 mm, 1 mrad by forward kinematics) over
-    N seeded random reachable poses (FK of random joints within the limits). The peer, Robotics
-    Toolbox for Python's ``ik_LM`` with its defaults (its own random starts and searches) on
-    the ETS of its DH models of the same robots, runs in a separate interpreter (``--rtb-python``, default
-    /tmp/rtbvenv/bin/python: ``python -m venv /tmp/rtbvenv && /tmp/rtbvenv/bin/pip install
-    roboticstoolbox-python``) on its own FK of the same random joints, verified with its own
-    FK to the same tolerances ("RTB says": its success flag). Without it the peer is reported
-    as skipped.
+    N seeded random reachable poses (FK of random joints within the limits). The peer is
+    Robotics Toolbox for Python's ``ik_LM`` with its defaults (its own random starts and
+    searches) on the ETS of its DH models of the same robots, in a separate interpreter
+    (``--rtb-python``, default /tmp/rtbvenv/bin/python, from ``python -m venv /tmp/rtbvenv &&
+    /tmp/rtbvenv/bin/pip install roboticstoolbox-python``), on its own FK of the same random
+    joints, verified with its own FK to the same tolerances ("RTB says": its success flag).
+    Without it the peer is reported as skipped.
 (b) Velocity + acceleration fk per step on the kim1995 Stewart platform: ``motion_derivatives``
     over a 1000-step trajectory (the loop closure solved beforehand, not timed).
 (c) ``solutions: all`` per target on the PUMA 560: ``multistart_all`` with the task's
