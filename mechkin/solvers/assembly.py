@@ -17,7 +17,9 @@ it from many seeded starts at once and keeps the distinct converged solutions:
   own axis) therefore do not make a new mode: the modes are the solutions of the forward
   position problem. Each mode is represented by its solution nearest the guess (joint
   distance, revolute joints modulo 2 pi);
-* ordered: by that distance from the guess, then lexicographically by q_w.
+* ordered: by that distance from the guess, then lexicographically by q_w;
+* flagged: whether every joint of a mode lies within its limits (the kim1995 direct-drive
+  arm's crossed parallelogram closes the loop but leaves the passive limits).
 
 Design
 ------
@@ -52,7 +54,8 @@ class AssemblyModes:
     q : (k, n) all joints of each mode; residual : (k,) ||phi_R|| verified by forward
     kinematics; distance : (k,) joint distance from the guess (revolute modulo 2 pi);
     starts : how many starts were run; converged : how many of them closed the loops;
-    time_s : wall time.
+    time_s : wall time; within_limits : (k,) whether every joint of the mode lies within its
+    limits (a mode outside them is a solution of the equations the mechanism cannot reach).
     """
 
     q: np.ndarray
@@ -61,6 +64,7 @@ class AssemblyModes:
     starts: int
     converged: int
     time_s: float
+    within_limits: np.ndarray | None = None  # (k,) bool: every joint within its limits
 
     @property
     def count(self) -> int:
@@ -152,8 +156,9 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
         q = mech.assemble(q_v[None], guess[None]).reshape(1, n)
         res = closure_residual(mech, forward_kinematics(mech, q))
         r = np.linalg.norm(res, axis=1) if res.shape[1] else np.zeros(1)
+        lim = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
         return AssemblyModes(q=q, residual=r, distance=np.zeros(1), starts=1, converged=1,
-                             time_s=time.perf_counter() - t0)
+                             time_s=time.perf_counter() - t0, within_limits=lim)
     Q0 = _starts(mech, guess, max(int(starts), 1), seed)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         res = solve_closure(mech, np.broadcast_to(q_v, (len(Q0), q_v.size)), Q0,
@@ -167,7 +172,8 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
     q, phin = q[ok], phin[ok]
     if q.shape[0] == 0:
         return AssemblyModes(q=np.zeros((0, n)), residual=np.zeros(0), distance=np.zeros(0),
-                             starts=len(Q0), converged=0, time_s=time.perf_counter() - t0)
+                             starts=len(Q0), converged=0, time_s=time.perf_counter() - t0,
+                             within_limits=np.zeros(0, dtype=bool))
     dist = np.linalg.norm(wrapped_difference(mech, dep, q[:, dep], guess[None]), axis=1)
     # nearest the guess first, so each mode's representative is its nearest solution
     order = np.lexsort(tuple(np.round(q[:, dep], 9).T[::-1]) + (np.round(dist, 9),))
@@ -186,8 +192,10 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
     near = guess[None] + wrapped_difference(mech, dep, q[:, dep], guess[None])
     inside = (near >= mech.lower[dep]) & (near <= mech.upper[dep])
     q[:, dep] = np.where(inside, near, q[:, dep])
+    lim = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
     return AssemblyModes(q=q, residual=phin[idx], distance=dist[idx], starts=len(Q0),
-                         converged=int(ok.sum()), time_s=time.perf_counter() - t0)
+                         converged=int(ok.sum()), time_s=time.perf_counter() - t0,
+                         within_limits=lim)
 
 
 def mode_of(mech: Mechanism, modes: AssemblyModes, q: np.ndarray,

@@ -5,9 +5,10 @@ nothing.
 ``assembly: all`` adds every assembly mode of the loop closure at the motion's first
 configuration (and at the ``assembly_at`` configurations), found by
 :func:`mechkin.solvers.assembly.assembly_modes`: summary.json gets ``assembly_modes`` (per mode
-``q``, ``q_w``, ``residual``, ``distance_from_guess`` and the {E} pose), ``n_assembly_modes``
-and ``assembly_mode_followed`` (the index of the mode the motion runs on; the motion is solved
-as with ``one``), and ``assembly_at`` for the given configurations.
+``q``, ``q_w``, ``residual``, ``distance_from_guess``, ``within_limits`` and the {E} pose),
+``n_assembly_modes``, ``n_assembly_modes_within_limits`` and ``assembly_mode_followed`` (the
+index of the mode the motion runs on; the motion is solved as with ``one``), and
+``assembly_at`` for the given configurations.
 
 Imports: config, model, solvers (assembly), records, tasks.common.
 """
@@ -280,6 +281,7 @@ def _modes_record(mech: Mechanism, modes: Any) -> list[dict[str, Any]]:
                                                             mech.dependent, strict=True)},
             "residual": float(modes.residual[k]),
             "distance_from_guess": float(modes.distance[k]),
+            "within_limits": bool(modes.within_limits[k]),
         }
         if T_e is not None:
             rec["end_effector"] = {"xyz_m": T_e[k, :3, 3].tolist(), "R": T_e[k, :3, :3].tolist()}
@@ -301,6 +303,7 @@ def assembly_summary(sc: Scenario, mech: Mechanism, qv: np.ndarray, q_w0: np.nda
                     and np.all(np.isfinite(q_first)) else None)
         out.update({"assembly_modes": _modes_record(mech, modes),
                     "n_assembly_modes": modes.count, "assembly_mode_followed": followed,
+                    "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
                     "assembly_search": {"starts": modes.starts, "converged": modes.converged,
                                         "time_s": modes.time_s}})
     at = []
@@ -308,6 +311,7 @@ def assembly_summary(sc: Scenario, mech: Mechanism, qv: np.ndarray, q_w0: np.nda
         modes = assembly_modes(mech, q, q_w0=q_w0, starts=spec.assembly_starts)
         at.append({"q_v": {n: float(v) for n, v in zip(mech.independent_names, q, strict=True)},
                    "n_assembly_modes": modes.count,
+                   "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
                    "assembly_modes": _modes_record(mech, modes)})
     if at:
         out["assembly_at"] = at

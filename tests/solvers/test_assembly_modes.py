@@ -110,6 +110,7 @@ def test_fk_task_assembly_all(tmp_path):
     s = rep.summary
     assert rep.status == "ok"
     assert s["n_assembly_modes"] == 2 == len(s["assembly_modes"])
+    assert s["n_assembly_modes_within_limits"] == 2
     assert s["assembly_mode_followed"] == 0  # the initial guess's mode, nearest first
     for m in s["assembly_modes"]:
         assert m["residual"] < 1e-9
@@ -133,3 +134,15 @@ def test_fk_task_assembly_bad_joint(tmp_path):
 
     with pytest.raises(ConfigError, match="assembly_at needs assembly: all"):
         load_scenario(_scenario(tmp_path, "  assembly_at: [{q_crank: 1}]\n"))
+
+
+def test_direct_drive_crossed_mode_is_flagged_outside_the_limits():
+    """kim1995's direct-drive arm: the parallelogram closes in two ways; the crossed one puts
+    a passive joint outside its [5, 175] deg limits (flagged, not dropped)."""
+    mech = load_mechanism(ROOT / "mechanisms" / "kim1995_direct_drive.yaml")
+    modes = assembly_modes(mech, mech.home[mech.independent], starts=128)
+    assert modes.count == 2
+    assert modes.within_limits.tolist() == [True, False]
+    q = modes.q[1]
+    assert np.any((q < mech.lower - 1e-9) | (q > mech.upper + 1e-9))
+    assert np.abs(closure_residual(mech, forward_kinematics(mech, modes.q))).max() < 1e-9

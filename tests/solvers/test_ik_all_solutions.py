@@ -287,3 +287,20 @@ def test_five_bar_leg_branches(open_limits):
         assert sols.count == 1 and same_set(sols.q_v, qv[None])
         assert min(np.abs(wrap(r - qv)).max() for r in ref) < 1e-6
     assert (sols.position_error < POS).all()
+
+
+def test_lee_exactly_one():
+    """lee's spherical mechanism: the plate orientation fixes the three leg lengths (lee Eq.
+    (5)-(9)), so one solution; the multi-start finds no other."""
+    from mechkin.solvers.closed_form.lee_spherical import inverse_position
+    from mechkin.solvers.closed_form.recognise import check_closed_form
+
+    mech = load_mechanism(MECH / "lee_spherical_rrps.yaml")
+    geom = check_closed_form(mech, "lee_spherical").geometry
+    qv = mech.home[mech.independent] + np.array([0.05, -0.03, 0.02])
+    res = solve_closure(mech, qv[None], mech.home[mech.dependent][None])
+    T = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[0, 0]
+    sols = closed_form_all(mech, T, "lee_spherical")
+    assert sols.count == 1 and np.abs(sols.q_v[0] - qv).max() < 1e-8
+    mu = res.q[0, [mech.joint_index(f"plate_rpy_{k}") for k in (1, 2, 3)]]
+    assert np.abs(np.asarray(inverse_position(geom, mu)).reshape(3) - qv).max() < 1e-8
