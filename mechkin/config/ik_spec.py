@@ -117,7 +117,10 @@ class IkSpec(Spec):
     ``restarts`` re-solves of a target the (warm) start does not reach, from the nearest poses
     of a seeded codebook, then seeded random joints (default 50: >= 99.5 % of random reachable
     PUMA 560 / Panda poses verified; 0 turns them off); ``batch`` solve all targets at once
-    (lm, independent starts).
+    (lm, independent starts); ``solutions``: ``one`` (default) the solution of ``method``, or
+    ``all``: also every distinct verified solution of each target (the closed form where the
+    mechanism has one, else multi-start lm from ``solution_starts`` seeded starts; merged with
+    revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad).
     """
 
     targets: list[TargetSpec] = Field(default_factory=list)
@@ -131,6 +134,8 @@ class IkSpec(Spec):
     warm_start: bool = True
     batch: bool = False
     cg_restart: Annotated[int, Field(strict=True, ge=0)] | None = None
+    solutions: Literal["one", "all"] = "one"
+    solution_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
 
     @model_validator(mode="after")
     def _check(self) -> IkSpec:

@@ -67,6 +67,11 @@ class FkSpec(Spec):
     Give exactly one of: ``time`` + ``motion`` (generators per joint), ``table`` (columns ``t``
     and one per independent joint), or ``csv`` (a file with a ``t_s`` column and one column per
     independent joint named ``<joint>_rad``, ``<joint>_deg``, ``<joint>_m`` or ``<joint>_mm``).
+
+    ``assembly``: ``one`` (default) or ``all``: also every assembly mode of the loop closure at
+    the first configuration of the motion (and at each ``assembly_at`` configuration of the
+    independent joints, by name in the file's units), by seeded multi-start Newton-Raphson
+    from ``assembly_starts`` starts; the motion itself follows the mode of ``initial_guess``.
     """
 
     time: TimeSpec | None = None
@@ -76,6 +81,9 @@ class FkSpec(Spec):
     initial_guess: dict[Name, Num] | None = None
     tolerances: ToleranceSpec = Field(default_factory=ToleranceSpec)
     snapshots: Annotated[int, Field(strict=True, ge=1, le=12)] = 4
+    assembly: Literal["one", "all"] = "one"
+    assembly_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
+    assembly_at: list[dict[Name, Num]] | None = None
 
     @model_validator(mode="after")
     def _one_source(self) -> FkSpec:
@@ -85,6 +93,8 @@ class FkSpec(Spec):
                              f"got {', '.join(given) or 'none'}")
         if self.motion is not None and self.time is None:
             raise ValueError("motion needs time: {start, stop, step}")
+        if self.assembly_at is not None and self.assembly != "all":
+            raise ValueError("assembly_at needs assembly: all")
         return self
 
 

@@ -2,7 +2,15 @@
 (kim1995 §5.1), warm-started step to step. Returns a :class:`mechkin.records.Report`; writes
 nothing.
 
-Imports: config, model, records, tasks.common.
+``assembly: all`` adds every assembly mode of the loop closure at the motion's first
+configuration (and at the ``assembly_at`` configurations), found by
+:func:`mechkin.solvers.assembly.assembly_modes`: summary.json gets ``assembly_modes`` (per mode
+``q``, ``q_w``, ``residual``, ``distance_from_guess``, ``within_limits`` and the {E} pose),
+``n_assembly_modes``, ``n_assembly_modes_within_limits`` and ``assembly_mode_followed`` (the
+index of the mode the motion runs on; the motion is solved as with ``one``), and
+``assembly_at`` for the given configurations.
+
+Imports: config, model, solvers (assembly), records, tasks.common.
 """
 
 from __future__ import annotations
@@ -184,6 +192,7 @@ def run(scenario: Scenario) -> Report:
     check_motion_budget(scenario, mech, len(t), ("fk",), "fk steps", extra_per_item=
                         8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
     q_w0 = initial_dependent(scenario, mech)
+    assembly_configs(scenario, mech)  # bad input before any work
     tol = scenario.section.tolerances
     t0 = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -242,6 +251,8 @@ def run(scenario: Scenario) -> Report:
             "xyz_m": T_e[-1, :3, 3].tolist(),
             "R": T_e[-1, :3, :3].tolist(),
         }
+    if scenario.section.assembly == "all":
+        summary.update(assembly_summary(scenario, mech, qv, q_w0, res.q[0] if len(t) else None))
     checks = with_expect(summary, scenario)
     extra = rate_columns(mech, md, ee)
     extra.update(singularity_columns(sing))
@@ -256,6 +267,74 @@ def run(scenario: Scenario) -> Report:
                   outputs=output_flags(scenario), scenario_path=scenario.path,
                   messages=singularity_messages(summary["singularity"], scenario.path)
                   + expect_messages(checks, scenario.path))
+
+
+def _modes_record(mech: Mechanism, modes: Any) -> list[dict[str, Any]]:
+    e = mech.end_effector
+    T_e = (forward_kinematics(mech, modes.q).frames(mech, [e])[:, 0] if e is not None
+           and modes.count else None)
+    out = []
+    for k in range(modes.count):
+        rec: dict[str, Any] = {
+            "q": {n: float(v) for n, v in zip(mech.joint_names, modes.q[k], strict=True)},
+            "q_w": {n: float(modes.q[k, j]) for n, j in zip(mech.dependent_names,
+                                                            mech.dependent, strict=True)},
+            "residual": float(modes.residual[k]),
+            "distance_from_guess": float(modes.distance[k]),
+            "within_limits": bool(modes.within_limits[k]),
+        }
+        if T_e is not None:
+            rec["end_effector"] = {"xyz_m": T_e[k, :3, 3].tolist(), "R": T_e[k, :3, :3].tolist()}
+        out.append(rec)
+    return out
+
+
+def assembly_summary(sc: Scenario, mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray,
+                     q_first: np.ndarray | None) -> dict[str, Any]:
+    """``assembly: all``: every assembly mode at the first configuration of the motion (and
+    at ``assembly_at``), and the mode the motion follows."""
+    from mechkin.solvers.assembly import assembly_modes, mode_of
+
+    spec: FkSpec = sc.section
+    out: dict[str, Any] = {}
+    if len(qv):
+        modes = assembly_modes(mech, qv[0], q_w0=q_w0, starts=spec.assembly_starts)
+        followed = (mode_of(mech, modes, q_first) if q_first is not None
+                    and np.all(np.isfinite(q_first)) else None)
+        out.update({"assembly_modes": _modes_record(mech, modes),
+                    "n_assembly_modes": modes.count, "assembly_mode_followed": followed,
+                    "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
+                    "assembly_search": {"starts": modes.starts, "converged": modes.converged,
+                                        "time_s": modes.time_s}})
+    at = []
+    for q in assembly_configs(sc, mech):
+        modes = assembly_modes(mech, q, q_w0=q_w0, starts=spec.assembly_starts)
+        at.append({"q_v": {n: float(v) for n, v in zip(mech.independent_names, q, strict=True)},
+                   "n_assembly_modes": modes.count,
+                   "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
+                   "assembly_modes": _modes_record(mech, modes)})
+    if at:
+        out["assembly_at"] = at
+    return out
+
+
+def assembly_configs(sc: Scenario, mech: Mechanism) -> list[np.ndarray]:
+    """The ``assembly_at`` configurations (n_v,) in SI; an unknown or missing joint is bad
+    input."""
+    names = mech.independent_names
+    problems = []
+    for i, cfg in enumerate(sc.section.assembly_at or []):
+        bad = [k for k in cfg if k not in names]
+        miss = [k for k in names if k not in cfg]
+        problems += [f"{sc.doc.where(('fk', 'assembly_at', i, k))}: not an independent "
+                     f"joint (independent: {', '.join(names)})" for k in bad]
+        if miss:
+            problems.append(f"{sc.doc.where(('fk', 'assembly_at', i))}: missing "
+                            f"independent joint(s) {', '.join(miss)}")
+    if problems:
+        raise ConfigError(problems)
+    return [np.array([cfg[n] * joint_factor(mech, mech.independent[k], sc.spec.units)
+                      for k, n in enumerate(names)]) for cfg in sc.section.assembly_at or []]
 
 
 def _finite_closure(mech: Mechanism, res: Any, q_w0: np.ndarray) -> Any:

@@ -2,6 +2,14 @@
 by ``lm``, ``cg-golden`` or a closed form. Returns a :class:`mechkin.records.Report`; writes
 nothing.
 
+``solutions: all`` adds every distinct verified solution of each target
+(:mod:`mechkin.solvers.ik.all_solutions`: the closed form where the mechanism has one, else
+multi-start lm; the method's own answer is always one of them): each target record gets
+``solutions`` (``q_v``, ``q``, ``position_error``, ``orientation_error`` per solution, nearest
+the guess first) and ``n_solutions``, and ik.csv gets one row per solution with a ``solution``
+column (0, 1, ... in that order; -1 for a target without any verified solution, whose row is
+the method's answer) and ``primary`` (1 on the row that is the method's answer).
+
 Imports: config, model, solvers, records, tasks.common.
 """
 
@@ -27,6 +35,15 @@ from mechkin.solvers.ik import (
     pose_errors,
     solve_ik,
     solve_ik_batch,
+)
+from mechkin.solvers.ik.all_solutions import (
+    SAME_TOL,
+    TOL_ORI_ALL,
+    TOL_POS_ALL,
+    IkSolutions,
+    closed_form_all,
+    multistart_all,
+    wrapped,
 )
 from mechkin.tasks.common import (
     check_motion_budget,
@@ -120,6 +137,19 @@ def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str) ->
                     method="closed-form")
 
 
+def ik_options(spec: IkSpec, units: Any) -> IkOptions:
+    """The solver options of an ``ik:`` section (tolerances converted to SI; the defaults of
+    an IkSpec give the task's default solve: lm, restarts 50)."""
+    tol = spec.tolerances
+    L = length_factor(units.length)
+    A = angle_factor(units.angle)
+    return IkOptions(
+        method="cg-golden" if spec.method == "cg-golden" else "lm", grad_tol=tol.grad,
+        max_iter=tol.max_iter, tol_pos=tol.position * L if tol.position else 1e-6,
+        tol_ori=tol.orientation * A if tol.orientation else 1e-6, restarts=spec.restarts,
+        seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart)
+
+
 def reach_bound(mech: Mechanism) -> float:
     """An upper bound [m] of the distance of any frame from the base: the sum of every stick
     segment at home (constant for revolute joints) plus the largest stroke of every prismatic
@@ -172,6 +202,93 @@ def batch_results(br: Any, k: int) -> list[IkResult]:
         f_history=np.array([br.f[i]]), method="lm") for i in range(k)]
 
 
+def _all_solutions(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
+                   results: list[IkResult], guesses: list[tuple[np.ndarray, np.ndarray]],
+                   far: np.ndarray, opts: IkOptions) -> list[IkSolutions]:
+    """Every distinct verified solution of each target: the closed form when the mechanism
+    has one (declared or recognised), else multi-start lm; the method's answer is a candidate."""
+    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch, recognise_closed_form
+
+    spec: IkSpec = sc.section
+    try:
+        kind = recognise_closed_form(mech)
+    except ClosedFormMismatch:
+        kind = None
+    out: list[IkSolutions] = []
+    for i, (T, w) in enumerate(zip(T_P, W, strict=True)):
+        qv, qw = guesses[i]
+        extra = results[i].q[None] if np.all(np.isfinite(results[i].q)) else None
+        if far[i]:  # beyond the reach bound: no solution, nothing to search
+            n = mech.n
+            out.append(IkSolutions(q=np.zeros((0, n)), q_v=np.zeros((0, len(mech.independent))),
+                                   position_error=np.zeros(0), orientation_error=np.zeros(0),
+                                   distance=np.zeros(0), source="reach bound", starts=0,
+                                   time_s=0.0))
+        elif kind is not None:
+            out.append(closed_form_all(mech, T, kind, q_w0=qw, ref=qv, extra=extra,
+                                       weights=w))
+        else:
+            out.append(multistart_all(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts,
+                                      starts=spec.solution_starts, seed=spec.seed + i,
+                                      extra=extra))
+    return out
+
+
+def _solutions_record(mech: Mechanism, a: IkSolutions) -> dict[str, Any]:
+    sols = []
+    for k in range(a.count):
+        sols.append({
+            "q_v": {n: float(a.q[k, j]) for n, j in zip(mech.independent_names,
+                                                        mech.independent, strict=True)},
+            "q": {n: float(v) for n, v in zip(mech.joint_names, a.q[k], strict=True)},
+            "position_error": float(a.position_error[k]),
+            "orientation_error": float(a.orientation_error[k]),
+            "distance_from_guess": float(a.distance[k]),
+        })
+    return {"n_solutions": a.count, "solutions": sols, "solutions_source": a.source}
+
+
+def _solution_rows(mech: Mechanism, T_P: np.ndarray, labels: list[str],
+                   results: list[IkResult], all_sols: list[IkSolutions], kin: Any,
+                   pe: np.ndarray, oe: np.ndarray, phin: np.ndarray, status: list[str]):
+    """ik.csv rows for ``solutions: all``: one per solution of each target (the method's
+    answer alone, with solution -1, where a target has none)."""
+    rows_q, rows_t, sol_idx, primary, row_status, lab, iters = [], [], [], [], [], [], []
+    iv = mech.independent
+    for i, a in enumerate(all_sols):
+        if a.count == 0:
+            rows_q.append(kin.q[i])
+            rows_t.append(i)
+            sol_idx.append(-1)
+            primary.append(1)
+            row_status.append(status[i])
+            lab.append(labels[i])
+            iters.append(results[i].iterations)
+            continue
+        d = np.abs(wrapped(mech, iv, a.q_v - kin.q[i, iv][None])).max(axis=1)
+        prim = int(np.argmin(d)) if status[i] == "ok" and d.min() < SAME_TOL else -1
+        for k in range(a.count):
+            rows_q.append(a.q[k])
+            rows_t.append(i)
+            sol_idx.append(k)
+            primary.append(int(k == prim))
+            row_status.append("ok")
+            lab.append(labels[i])
+            iters.append(results[i].iterations if k == prim else 0)
+    q = np.array(rows_q)
+    idx = np.array(rows_t, dtype=int)
+    kin = forward_kinematics(mech, q)
+    T_E = kin.frames(mech, [mech.end_effector])[:, 0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        pe, oe = pose_errors(T_E, T_P[idx])
+    pe = np.where(np.isfinite(pe), pe, _safe_norm(T_E[:, :3, 3] - T_P[idx, :3, 3]))
+    phi = closure_residual(mech, kin)
+    phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(q))
+    extra = {"solution": np.array(sol_idx), "primary": np.array(primary), "_T": T_P[idx],
+             "_iterations": iters}
+    return kin, T_E, pe, oe, phin, row_status, lab, extra
+
+
 def _clean(v: float) -> float:
     return float(v) if np.isfinite(v) else 0.0
 
@@ -193,22 +310,18 @@ def run(scenario: Scenario) -> Report:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
     qv0, qw0 = _initial(scenario, mech)
     far = beyond_reach(mech, T_P, W)
-    tol = spec.tolerances
-    L = length_factor(scenario.spec.units.length)
-    A = angle_factor(scenario.spec.units.angle)
-    opts = IkOptions(
-        method="cg-golden" if spec.method == "cg-golden" else "lm", grad_tol=tol.grad,
-        max_iter=tol.max_iter, tol_pos=tol.position * L if tol.position else 1e-6,
-        tol_ori=tol.orientation * A if tol.orientation else 1e-6, restarts=spec.restarts,
-        seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart)
+    opts = ik_options(spec, scenario.spec.units)
     t0 = time.perf_counter()
     results: list[IkResult] = []
+    guesses: list[tuple[np.ndarray, np.ndarray]] = []
     if spec.batch and not far.any():
         br = solve_ik_batch(mech, T_P, q_v0=qv0, q_w0=qw0, weights=W, options=opts)
         results = batch_results(br, len(T_P))
+        guesses = [(qv0, qw0)] * len(T_P)
     else:
         qv, qw = qv0, qw0
         for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
+            guesses.append((qv, qw))
             if far[i]:
                 results.append(_out_of_reach(mech, qv, qw))
                 continue
@@ -220,6 +333,8 @@ def run(scenario: Scenario) -> Report:
             if spec.warm_start and r.status is not IkStatus.SINGULAR:
                 qv, qw = r.q_v, r.q_w
     solve_s = time.perf_counter() - t0
+    all_sols = (_all_solutions(scenario, mech, T_P, W, results, guesses, far, opts)
+                if spec.solutions == "all" else None)
     q = np.array([r.q for r in results])
     q = np.where(np.isfinite(q), q, mech.home)
     kin = forward_kinematics(mech, q)
@@ -257,6 +372,8 @@ def run(scenario: Scenario) -> Report:
         }
         if r.restarts_used:
             rec["restarts_used"] = int(r.restarts_used)
+        if all_sols is not None:
+            rec.update(_solutions_record(mech, all_sols[i]))
         records.append(rec)
     times_s = np.array([r.time_s for r in results])
     summary: dict[str, Any] = {
@@ -274,22 +391,46 @@ def run(scenario: Scenario) -> Report:
         "end_effector": mech.frame_names[mech.end_effector],
         "targets": records,
     }
+    if all_sols is not None:
+        n_sol = [a.count for a in all_sols]
+        summary["solutions"] = {
+            "mode": "all", "source": sorted({a.source for a in all_sols}),
+            "n_solutions": n_sol, "total": int(sum(n_sol)),
+            "time_s": float(sum(a.time_s for a in all_sols)),
+            "time_per_target_s": float(np.mean([a.time_s for a in all_sols])),
+            "tolerances": {"position_m": TOL_POS_ALL, "orientation_rad": TOL_ORI_ALL},
+            # more independent joints than weighted pose components: the solutions form a
+            # continuum and the list is a sample of it
+            "continuum": bool(len(mech.independent) > int((W > 0).sum(axis=1).min())),
+        }
     checks = with_expect(summary, scenario)
-    times = np.arange(len(results), dtype=float)  # one second per precision point
-    snaps = list(range(len(results))) if len(results) <= 8 else list(
-        np.linspace(0, len(results) - 1, 8).round().astype(int))
+    if all_sols is not None:
+        kin, T_E, pe, oe, phin, status, labels_rows, extra_rows = _solution_rows(
+            mech, T_P, labels, results, all_sols, kin, pe, oe, phin, status)
+    else:
+        labels_rows = labels
+        extra_rows = {}
+    m_rows = len(labels_rows)
+    times = np.arange(m_rows, dtype=float)  # one second per precision point (or solution)
+    snaps = list(range(m_rows)) if m_rows <= 8 else list(
+        np.linspace(0, m_rows - 1, 8).round().astype(int))
+    T_rows = T_P if all_sols is None else extra_rows.pop("_T")
+    row_iters = (extra_rows.pop("_iterations") if all_sols is not None
+                 else [r.iterations for r in results])
     extra_cols: dict[str, Any] = {
-        "target": labels,
+        "target": labels_rows,
+        **extra_rows,
         "position_error_m": pe, "orientation_error_rad": oe,
-        "iterations": [r.iterations for r in results],
-        "target_x_m": T_P[:, 0, 3], "target_y_m": T_P[:, 1, 3], "target_z_m": T_P[:, 2, 3],
+        "iterations": row_iters,
+        "target_x_m": T_rows[:, 0, 3], "target_y_m": T_rows[:, 1, 3],
+        "target_z_m": T_rows[:, 2, 3],
     }
     rec = motion_record(
         scenario=scenario, mech=mech, kin=kin, times=times, step_status=status, residual=phin,
         task="ik", extra_columns=extra_cols,
-        extra_state=[{"target": labels[i], "position_error": float(pe[i]),
-                      "orientation_error": float(oe[i])} for i in range(len(results))],
-        snapshots=snaps, snapshot_labels=[labels[k] for k in snaps],
+        extra_state=[{"target": labels_rows[i], "position_error": float(pe[i]),
+                      "orientation_error": float(oe[i])} for i in range(m_rows)],
+        snapshots=snaps, snapshot_labels=[labels_rows[k] for k in snaps],
     )
     rec.convergence = {labels[i]: np.maximum(r.f_history, 0.0)
                        for i, r in enumerate(results[:12]) if len(r.f_history)}
