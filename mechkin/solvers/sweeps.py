@@ -229,7 +229,7 @@ def connect_cluster(address: str) -> Any:
     timeout = _dask_timeout()
     _probe_scheduler(address, shown, timeout)
     try:
-        client = Client(address, timeout=timeout, set_as_default=False)
+        client = Client(address, timeout=timeout)
     except (OSError, TimeoutError, ValueError) as exc:
         raise ClusterError(f"--scheduler {shown}: no Dask scheduler answered within "
                            f"{timeout:g} s ({type(exc).__name__}); is it running at that "
