@@ -438,30 +438,86 @@ def _tol(x: float) -> float:
     return SET_RTOL * max(abs(x), 1.0) if math.isfinite(x) else 0.0
 
 
+def _dominated(v_lo: np.ndarray, v_hi: np.ndarray) -> np.ndarray:
+    """``(K, m)`` mask of lower pieces that another piece of the same stage bounds from above
+    at both ends of ``X_i`` (so on all of it: the pieces are linear); ties keep the first."""
+    a_lo, b_lo = v_lo[:, None, :], v_lo[:, :, None]  # [i, r', r]: candidate r' vs piece r
+    a_hi, b_hi = v_hi[:, None, :], v_hi[:, :, None]
+    m = v_lo.shape[1]
+    first = np.tri(m, m, -1, dtype=bool).T  # [r', r]: r' < r
+    dom = (b_lo >= a_lo) & (b_hi >= a_hi) & ((b_lo > a_lo) | (b_hi > a_hi) | first[None])
+    return np.any(dom, axis=1)
+
+
+def _pruned(vals: tuple[np.ndarray, ...], keep: np.ndarray) -> tuple[list[list[float]], ...]:
+    """Per-stage Python lists of the kept entries of each ``(K, m)`` array in ``vals``: the
+    kept ones first, cut to the widest stage (the extra entries of narrower stages are
+    dominated pieces: redundant, still valid)."""
+    order = np.argsort(~keep, axis=1, kind="stable")
+    width = int(np.max(keep.sum(axis=1), initial=0))
+    order = order[:, :width]
+    return tuple(np.take_along_axis(v, order, axis=1).tolist() for v in vals)
+
+
+@dataclass
+class _StageLists:
+    """The non-dominated pieces of stages ``0..N-1`` as Python lists for the scalar passes:
+    backward ``c x <= max K + e`` (lower pieces) and ``c x >= min K + e`` (upper pieces),
+    forward ``u <= P x + Q``."""
+
+    cL: list[list[float]]
+    dL: list[list[float]]
+    cU: list[list[float]]
+    dU: list[list[float]]
+    P: list[list[float]]
+    Q: list[list[float]]
+
+
+def _stage_lists(pc: _Pieces, X_lo: np.ndarray, X_hi: np.ndarray, d: np.ndarray) -> _StageLists:
+    """Prune the pieces dominated on ``X_i`` (they cannot bind for any ``x`` in ``X_i``, and
+    ``K_i`` and the forward states lie in ``X_i``) and build the coefficient lists, all
+    stages at once. With an unbounded ``X_i`` the slopes stand in for the far end."""
+    N = d.shape[0]
+    xl, xh = X_lo[:N, None], X_hi[:N, None]
+    fin = np.isfinite(xh)
+    xh0 = np.where(fin, xh, 0.0)
+    p, q, P, Q = pc.p[:N], pc.q[:N], pc.P[:N], pc.Q[:N]
+    with np.errstate(invalid="ignore"):
+        lo_l = p * xl + q
+        hi_l = np.where(np.isfinite(q), np.where(fin, p * xh0 + q, p), -np.inf)
+        lo_u = -(P * xl + Q)
+        hi_u = np.where(np.isfinite(Q), np.where(fin, -(P * xh0 + Q), -P), -np.inf)
+    keep_l = ~_dominated(lo_l, hi_l)
+    keep_u = ~_dominated(lo_u, hi_u)
+    dd = 2.0 * d[:, None]
+    with np.errstate(invalid="ignore"):
+        cL, dL = _pruned((1.0 + dd * p, -dd * q), keep_l)  # dL = +inf: absent, vacuous
+        cU, dU, Pl, Ql = _pruned((1.0 + dd * P, -dd * Q, P, Q), keep_u)  # dU = -inf: absent
+    return _StageLists(cL, dL, cU, dU, Pl, Ql)
+
+
 def _backward(
     pc: _Pieces, X_lo: np.ndarray, X_hi: np.ndarray, d: np.ndarray, x_end: float
-) -> tuple[np.ndarray, int | None]:
-    """Controllable sets ``K_i`` (§IV, Algorithm 1, backward pass); returns ``(K, dead)``
-    with ``dead`` the first stage (from the end) whose set is empty, or None.
+) -> tuple[np.ndarray, int | None, _StageLists]:
+    """Controllable sets ``K_i`` (§IV, Algorithm 1, backward pass); returns ``(K, dead,
+    lists)`` with ``dead`` the first stage (from the end) whose set is empty, or None.
 
     Per piece: ``(1 + 2 Δ p_r) x <= max K_{i+1} - 2 Δ q_r`` and
-    ``(1 + 2 Δ P_k) x >= min K_{i+1} - 2 Δ Q_k``; the coefficient arrays are built for all
-    stages at once, the recursion is a scalar loop.
+    ``(1 + 2 Δ P_k) x >= min K_{i+1} - 2 Δ Q_k``; the coefficient lists are built for all
+    stages at once (:func:`_stage_lists`), the recursion is a scalar loop.
     """
     N = d.shape[0]
     K = np.full((N + 1, 2), np.nan)
+    sl = _stage_lists(pc, X_lo, X_hi, d)
     lo, hi = max(X_lo[N], x_end), min(X_hi[N], x_end)
     if lo > hi + _tol(hi):
-        return K, N
-    K[N] = (x_end, x_end)
-    dd = 2.0 * d[:, None]
-    with np.errstate(invalid="ignore"):
-        cL = (1.0 + dd * pc.p[:N]).tolist()
-        dL = (-dd * pc.q[:N]).tolist()  # +inf where the piece is absent (vacuous)
-        cU = (1.0 + dd * pc.P[:N]).tolist()
-        dU = (-dd * pc.Q[:N]).tolist()  # -inf where absent
+        return K, N, sl
     Xl, Xh = X_lo.tolist(), X_hi.tolist()
     Kl, Kh = x_end, x_end
+    out_lo = [0.0] * (N + 1)
+    out_hi = [0.0] * (N + 1)
+    out_lo[N] = out_hi[N] = x_end
+    cL, dL, cU, dU = sl.cL, sl.dL, sl.cU, sl.dU
     for i in range(N - 1, -1, -1):
         lo, hi = Xl[i], Xh[i]
         for c, e in zip(cL[i], dL[i], strict=True):  # c x <= Kh + e
@@ -490,39 +546,43 @@ def _backward(
                 hi = -math.inf
         if lo > hi:
             if lo > hi + _tol(hi) or not math.isfinite(hi):
-                return K, i
+                K[i + 1 :, 0] = out_lo[i + 1 :]
+                K[i + 1 :, 1] = out_hi[i + 1 :]
+                return K, i, sl
             lo = hi
         Kl, Kh = lo, hi
-        K[i, 0] = lo
-        K[i, 1] = hi
-    return K, None
+        out_lo[i] = lo
+        out_hi[i] = hi
+    K[:, 0] = out_lo
+    K[:, 1] = out_hi
+    return K, None, sl
 
 
-def _forward(pc: _Pieces, K: np.ndarray, d: np.ndarray, x0: float) -> np.ndarray:
+def _forward(sl: _StageLists, K: np.ndarray, d: np.ndarray, x0: float) -> np.ndarray:
     """Greedy forward pass (§IV, Algorithm 1): the largest admissible ``u_i`` that keeps
     ``x_{i+1}`` in ``K_{i+1}``; ``x_{i+1}`` is clipped to ``K_{i+1}`` against round-off."""
     N = d.shape[0]
-    x = np.empty(N + 1)
-    x[0] = x0
-    P, Q = pc.P[:N].tolist(), pc.Q[:N].tolist()
+    x = [x0] * (N + 1)
+    P, Q = sl.P, sl.Q
     Kl, Kh = K[:, 0].tolist(), K[:, 1].tolist()
-    dl = d.tolist()
+    dl = (2.0 * d).tolist()
     xi = x0
     for i in range(N):
-        two_d = 2.0 * dl[i]
-        u = (Kh[i + 1] - xi) / two_d
-        for sl, off in zip(P[i], Q[i], strict=True):
-            v = sl * xi + off
+        two_d = dl[i]
+        kh = Kh[i + 1]
+        u = (kh - xi) / two_d
+        for sl_, off in zip(P[i], Q[i], strict=True):
+            v = sl_ * xi + off
             if v < u:
                 u = v
         xn = xi + two_d * u
-        if xn > Kh[i + 1]:
-            xn = Kh[i + 1]
+        if xn > kh:
+            xn = kh
         elif xn < Kl[i + 1]:
             xn = Kl[i + 1]
         x[i + 1] = xn
         xi = xn
-    return x
+    return np.array(x)
 
 
 def _one_step(
@@ -575,7 +635,7 @@ def _blocking_start(pc: _Pieces, d: np.ndarray, x_start: float, x_end: float) ->
     for nm in dict.fromkeys(base):
         keep = np.array([b != nm for b in base], dtype=bool)
         sub = pc.without(keep)
-        K, dead = _backward(sub, *_admissible_x(sub), d, x_end)
+        K, dead, _ = _backward(sub, *_admissible_x(sub), d, x_end)
         if dead is None and K[0, 0] - _tol(K[0, 0]) <= x_start <= K[0, 1] + _tol(K[0, 1]):
             names.append(nm)
     return names
@@ -689,7 +749,7 @@ def solve_topp(
             np.full((K1, 2), np.nan),
         )
     x_end, x_start = sd_end**2, sd_start**2
-    K, dead = _backward(pc, X_lo, X_hi, d, x_end)
+    K, dead, lists = _backward(pc, X_lo, X_hi, d, x_end)
     if dead is not None:
         if dead == N:
             return fail(
@@ -721,7 +781,7 @@ def solve_topp(
             _blocking_start(pc, d, x_start, x_end) or vel_names(0),
             K,
         )
-    x = _forward(pc, K, d, min(max(x_start, K[0, 0]), K[0, 1]))
+    x = _forward(lists, K, d, min(max(x_start, K[0, 0]), K[0, 1]))
     x[0] = x_start
     sd = np.sqrt(np.maximum(x, 0.0))
     u = (x[1:] - x[:-1]) / (2.0 * d)
