@@ -122,8 +122,9 @@ class ToppResult:
         ``[min, max]`` of ``K_i`` in ``x = s_dot^2`` (NaN past a dead stage).
     discretization : str
     limit_usage : dict
-        Largest fraction of each limit used on the realised plan (rows at the grid points,
-        ``x_i`` with ``u_i``, and ``x_N`` with ``u_{N-1}``), by name.
+        Largest fraction of each limit used on the realised plan where the scheme imposes it
+        (rows of ``s_i`` at ``(u_i, x_i)``; with interpolation also rows of ``s_{i+1}`` at
+        ``(u_i, x_{i+1})``; velocity at every grid point), by name.
     limits_ok : bool
         Every limit holds on the realised plan (``SET_RTOL`` slack).
     active_limits : tuple of str
@@ -796,7 +797,7 @@ def solve_topp(
         )
     dt = 2.0 * d / vsum  # exact for constant u on the segment
     t = np.concatenate([[0.0], np.cumsum(dt)])
-    usage, ok = _usage(rows, u, x, x_bounds_j, x_names)
+    usage, ok = _usage(rows, u, x, x_bounds_j, x_names, discretization)
     active = tuple(k for k, v in usage.items() if v >= ACTIVE_FRACTION)
     duration = float(t[-1])
     kind = "rest-to-rest" if sd_start == 0.0 and sd_end == 0.0 else "time-optimal"
@@ -824,15 +825,22 @@ def _usage(
     x: np.ndarray,
     x_bounds_j: tuple[np.ndarray, np.ndarray] | None,
     x_names: tuple[str, ...],
+    scheme: str,
 ) -> tuple[dict[str, float], bool]:
-    """Largest fraction of each limit used: rows at ``(u_i, x_i)``, i < N, and ``(u_{N-1},
-    x_N)``; velocity ``sqrt(x / x_hi_j)``. ``ok`` when none exceeds 1 beyond round-off."""
-    uu = np.concatenate([u, u[-1:]])
-    val = rows.a * uu[:, None] + rows.b * x[:, None] + rows.c
+    """Largest fraction of each limit used where the scheme imposes it: rows of ``s_i`` at
+    ``(u_i, x_i)``, i < N, and, with interpolation, rows of ``s_{i+1}`` at ``(u_i, x_{i+1})``;
+    velocity ``sqrt(x / x_hi_j)`` at every grid point. ``ok``: none exceeds 1 (round-off)."""
+
+    def at(k: slice, xx: np.ndarray) -> tuple[np.ndarray, ...]:
+        lo_k = np.broadcast_to(rows.lo, rows.a.shape)[k]
+        hi_k = np.broadcast_to(rows.hi, rows.a.shape)[k]
+        return rows.a[k] * u[:, None] + rows.b[k] * xx[:, None] + rows.c[k], lo_k, hi_k
+
+    parts = [at(slice(0, -1), x[:-1])]
+    if scheme == "interpolation":
+        parts.append(at(slice(1, None), x[1:]))
+    val, lo, hi = (np.concatenate([pt[j] for pt in parts]) for j in range(3))
     usage: dict[str, float] = {}
-    ok = True
-    lo = np.broadcast_to(rows.lo, val.shape)
-    hi = np.broadcast_to(rows.hi, val.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
         fr = np.maximum(
             np.where(hi > 0, val / hi, np.where(val > hi, np.inf, 0.0)),

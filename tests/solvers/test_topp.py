@@ -75,6 +75,16 @@ def test_double_integrator_profile_is_the_bang_bang_profile(scheme: str) -> None
     assert set(res.active_limits) == {"qd_1", "qdd_1"}
 
 
+def test_asymmetric_limits_as_lo_hi_pairs() -> None:
+    a_up, a_dn, v, length = 0.7, 2.1, 0.8, 1.0
+    s, _, dq, ddq = line(1000, length)
+    res = plan_time_optimal(
+        s, dq, ddq, qd=(np.array([-0.1]), np.array([v])), qdd=(np.array([-a_dn]), np.array([a_up]))
+    )
+    assert res.duration_s == pytest.approx(bang_bang(length, v, a_up, a_dn), rel=1e-3)
+    assert res.limit_usage["qdd_1"] == pytest.approx(1.0, abs=1e-9)
+
+
 @pytest.mark.parametrize("v_end", [0.3, 0.85])
 def test_intercept_rest_to_moving_end_state(v_end: float) -> None:
     a, v, length = 1.3, 0.9, 1.0
@@ -256,6 +266,16 @@ def test_park_arm_matches_the_brute_force_integration(with_va: bool, scheme: str
         assert res.status is Status.OK, res.message
         assert res.limits_ok, res.limit_usage
         errs.append(abs(res.duration_s - T_ref) / T_ref)
+        # the limits on the realised motion, by the inverse dynamics itself (not the rows):
+        # qd = q' s_dot, qdd = q' u + q'' s_dot^2 at s_i with the segment's u_i
+        sd, u = res.sd[:-1, None], res.sdd[:, None]
+        qd_i, qdd_i = dq[:-1] * sd, dq[:-1] * u + ddq[:-1] * sd**2
+        tau = DYN.inverse_dynamics(q[:-1], qd_i, qdd_i)
+        assert np.all(np.abs(tau) <= TORQUE * (1 + 1e-9))
+        assert np.max(np.abs(tau[:, 0])) > 0.999 * TORQUE[0]  # bang-bang on joint 1
+        if with_va:
+            assert np.all(np.abs(dq * res.sd[:, None]) <= QD * (1 + 1e-9))
+            assert np.all(np.abs(qdd_i) <= QDD * (1 + 1e-9))
     assert errs[1] < 2e-3, errs
     assert errs[1] < errs[0], errs
     # the profile itself: s_dot(s) close to the brute force's on the common nodes
