@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from mechkin.errors import ConfigError
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
+from mechkin.solvers.dynamics import PlanarTwoLinkDynamics, SerialChainDynamics
 from mechkin.solvers.path import PlanarTwoLinkLinePath
 from mechkin.solvers.result import Status
 from mechkin.solvers.topp import (
@@ -353,3 +353,109 @@ def test_same_durations_as_toppra_on_the_same_spline(
         d_toppra, d_ours = _toppra_case(N, scheme, with_va, path)
         assert d_ours == pytest.approx(d_toppra, rel=1e-4), (N, d_toppra, d_ours)
     assert abs(d_ours - d_toppra) / d_toppra < 5e-3
+
+
+def _dh(d: float, a: float, alpha: float) -> np.ndarray:
+    """Standard D-H fixed part ``Tz(d) Tx(a) Rx(alpha)``."""
+    c, s = np.cos(alpha), np.sin(alpha)
+    return np.array([[1.0, 0, 0, a], [0, c, -s, 0], [0, s, c, d], [0, 0, 0, 1]])
+
+
+def puma560() -> SerialChainDynamics:
+    """PUMA 560 D-H and inertial parameters (Corke's toolbox, as in test_dynamics), gravity on."""
+    d = [0.67183, 0.0, 0.15005, 0.4318, 0.0, 0.0]
+    a = [0.0, 0.4318, 0.0203, 0.0, 0.0, 0.0]
+    alpha = np.deg2rad([90.0, 0.0, -90.0, 90.0, -90.0, 0.0])
+    coms = [[0, 0, 0], [-0.3638, 0.006, 0.2275], [-0.0203, -0.0141, 0.070], [0, 0.019, 0],
+            [0, 0, 0], [0, 0, 0.032]]  # fmt: skip
+    diag = [[0, 0.35, 0], [0.13, 0.524, 0.539], [0.066, 0.086, 0.0125], [1.8e-3, 1.3e-3, 1.8e-3],
+            [0.3e-3, 0.4e-3, 0.3e-3], [0.15e-3, 0.15e-3, 0.04e-3]]  # fmt: skip
+    return SerialChainDynamics(
+        A=np.broadcast_to(np.eye(4), (6, 4, 4)).copy(),
+        B=np.stack([_dh(d[i], a[i], alpha[i]) for i in range(6)]),
+        kinds=np.zeros(6, dtype=int),
+        masses=np.array([0.0, 17.4, 4.8, 0.82, 0.34, 0.09]),
+        coms=np.array(coms, dtype=float),
+        inertias=np.stack([np.diag(x) for x in diag]),
+        gravity=np.array([0.0, 0.0, -9.81]),
+    )
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_six_joint_arm_with_gravity_same_as_toppra(scheme: str) -> None:
+    """PUMA 560 through a curved joint path, torque (Corke's motor limits scaled to 0.3),
+    velocity and acceleration limits, gravity on: the same duration as toppra's."""
+    pytest.importorskip("toppra")
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint as tc
+
+    toppra.setup_logging("WARNING")
+    dyn = puma560()
+    q0 = np.array([0.0, -0.8, 0.6, 0.0, 0.4, 0.0])
+    q1 = np.array([1.2, 0.3, -0.5, 0.8, -0.6, 1.0])
+    knots = np.linspace(0.0, 1.0, 21)
+    wave = 0.3 * np.sin(np.pi * knots)[:, None] * np.array([1.0, -1.0, 0.5, 1.0, 0.5, -1.0])
+    spline = toppra.SplineInterpolator(knots, q0 + knots[:, None] * (q1 - q0) + wave)
+    tau_max = 0.3 * np.array([97.6, 186.4, 89.4, 24.2, 20.1, 21.3])
+    qd_max = np.array([2.0, 2.0, 2.5, 4.0, 4.0, 4.0])
+    qdd_max = np.array([20.0, 20.0, 20.0, 40.0, 40.0, 40.0])
+    kind = (
+        tc.DiscretizationType.Interpolation
+        if scheme == "interpolation"
+        else tc.DiscretizationType.Collocation
+    )
+
+    def inv_dyn(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        return dyn.inverse_dynamics(q[None], qd[None], qdd[None])[0]
+
+    grid = np.linspace(0.0, 1.0, 301)
+    cons = [
+        tc.JointTorqueConstraint(
+            inv_dyn, np.stack([-tau_max, tau_max], 1), np.zeros(6), discretization_scheme=kind
+        ),
+        tc.JointVelocityConstraint(np.stack([-qd_max, qd_max], 1)),
+        tc.JointAccelerationConstraint(np.stack([-qdd_max, qdd_max], 1), kind),
+    ]
+    algo = toppra.algorithm.TOPPRA(cons, spline, gridpoints=grid, solver_wrapper="seidel")
+    traj = algo.compute_trajectory(0.0, 0.0)
+    res = plan_time_optimal(
+        grid, spline(grid, 1), spline(grid, 2), q=spline(grid), torque=tau_max,
+        inverse_dynamics=dyn.inverse_dynamics, qd=qd_max, qdd=qdd_max, discretization=scheme,
+    )  # fmt: skip
+    assert res.status is Status.OK, res.message
+    assert res.limits_ok
+    assert {"torque_1", "torque_2", "qd_1", "qdd_2"} <= set(res.active_limits), res.limit_usage
+    assert res.duration_s == pytest.approx(float(traj.duration), rel=1e-4)
+
+
+def test_intercept_on_the_arm_same_as_toppra() -> None:
+    """Rest to a moving end state (s_dot_end = 0.3 /s) on park's line, torque limits."""
+    pytest.importorskip("toppra")
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint as tc
+
+    toppra.setup_logging("WARNING")
+    knots = np.linspace(0.0, 1.0, 41)
+    spline = toppra.SplineInterpolator(knots, PATH.q(knots))
+    grid = np.linspace(0.0, 1.0, 501)
+
+    def inv_dyn(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        return DYN.inverse_dynamics(q[None], qd[None], qdd[None])[0]
+
+    cons = [tc.JointTorqueConstraint(inv_dyn, np.stack([-TORQUE, TORQUE], 1), np.zeros(2))]
+    algo = toppra.algorithm.TOPPRA(cons, spline, gridpoints=grid, solver_wrapper="seidel")
+    traj = algo.compute_trajectory(0.0, 0.3)
+    res = plan_time_optimal(
+        grid, spline(grid, 1), spline(grid, 2), q=spline(grid), torque=TORQUE,
+        inverse_dynamics=DYN.inverse_dynamics, sd_end=0.3, discretization="collocation",
+    )  # fmt: skip
+    assert res.status is Status.OK, res.message
+    assert res.sd[-1] == pytest.approx(0.3, rel=1e-12)
+    assert res.duration_s == pytest.approx(float(traj.duration), rel=1e-4)
+    rest = plan_time_optimal(
+        grid, spline(grid, 1), spline(grid, 2), q=spline(grid), torque=TORQUE,
+        inverse_dynamics=DYN.inverse_dynamics, discretization="collocation",
+    )  # fmt: skip
+    assert res.duration_s < rest.duration_s  # arriving moving is faster than stopping
