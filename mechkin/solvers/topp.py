@@ -22,7 +22,9 @@ dynamics) and the segment time is exactly ``2 Δ_i / (s_dot_i + s_dot_{i+1})``.
 
 Discretisation (§VI). ``"collocation"`` imposes stage i's rows at ``s_i`` only; the default
 ``"interpolation"`` adds the rows of ``s_{i+1}`` evaluated at ``(u_i, x_i + 2 Δ_i u_i)``, which
-is how toppra's ``DiscretizationType.Interpolation`` builds them (more accurate at equal N).
+is how toppra's ``DiscretizationType.Interpolation`` builds them: each segment's constant ``u``
+then meets the limits at both of its ends, where collocation may exceed them slightly at
+``s_{i+1}`` (both converge to the same duration as N grows).
 
 Algorithm (§IV, Algorithm 1). Backward pass: the controllable sets ``K_N = {s_dot_end^2}``,
 ``K_i = {x in X_i : exists u, (u, x) admissible at i, x + 2 Δ_i u in K_{i+1}}``; forward pass:
@@ -698,10 +700,25 @@ def solve_topp(
             f"discretization: expected 'interpolation' or 'collocation', got {discretization!r}"
         )
     K1 = s.shape[0]
-    for nm in ("a", "b", "c"):
-        arr = getattr(rows, nm)
-        if arr.ndim != 2 or arr.shape[0] != K1:
+    shape = np.shape(rows.a)
+    for nm in ("a", "b", "c", "lo", "hi"):
+        arr = np.asarray(getattr(rows, nm), dtype=np.float64)
+        try:
+            ok = (
+                arr.shape if nm in ("a", "b", "c") else np.broadcast_shapes(arr.shape, shape)
+            ) == shape
+        except ValueError:  # not broadcastable
+            ok = False
+        if len(shape) != 2 or shape[0] != K1 or not ok:
             raise ConfigError(f"rows.{nm}: expected shape ({K1}, m), got {arr.shape}")
+    if len(rows.names) != shape[1]:
+        raise ConfigError(f"rows.names: expected {shape[1]} names, got {len(rows.names)}")
+    rows = ConstraintRows(
+        *(np.asarray(getattr(rows, nm), dtype=np.float64) for nm in ("a", "b", "c")),
+        *(np.broadcast_to(np.asarray(getattr(rows, nm), dtype=np.float64), shape)
+          for nm in ("lo", "hi")),
+        names=tuple(rows.names),
+    )  # fmt: skip
     for nm, v in (("sd_start", sd_start), ("sd_end", sd_end)):
         if not (math.isfinite(v) and v >= 0.0):
             raise ConfigError(f"{nm}: expected a path speed >= 0, got {v}")
@@ -731,12 +748,18 @@ def solve_topp(
             blocking_limits=tuple(names),
         )
 
-    def vel_names(i: int) -> list[str]:
+    def vel_names(i: int, x_out: float | None = None) -> list[str]:
+        """Velocity limits that exclude ``x_out`` at s_i, or (None) that bound X_i."""
         if x_bounds_j is None or not x_names:
             return []
-        lo_j, hi_j = x_bounds_j
-        tight = (hi_j[i] <= X_hi[i] * (1 + SET_RTOL)) | (lo_j[i] >= X_lo[i] * (1 - SET_RTOL))
-        return [x_names[j] for j in np.flatnonzero(tight & np.isfinite(hi_j[i]))]
+        lo_j, hi_j = x_bounds_j[0][i], x_bounds_j[1][i]
+        if x_out is not None:
+            bad = (hi_j < x_out - _tol(x_out)) | (lo_j > x_out + _tol(x_out))
+        else:
+            bad = (np.isfinite(hi_j) & (hi_j <= X_hi[i] * (1 + SET_RTOL))) | (
+                (lo_j > 0) & (lo_j >= X_lo[i] * (1 - SET_RTOL))
+            )
+        return [x_names[j] for j in np.flatnonzero(bad)]
 
     slack = np.where(np.isfinite(X_hi), SET_RTOL * np.maximum(np.abs(X_hi), 1.0), 0.0)
     empty = X_lo > X_hi + slack
@@ -757,7 +780,7 @@ def solve_topp(
                 f"the end speed s_dot = {sd_end:.6g} is not admissible at s = {s[N]:.6g} "
                 f"(admissible s_dot^2 in [{X_lo[N]:.6g}, {X_hi[N]:.6g}])",
                 N,
-                _blocking(pc, N, None, x_end) or vel_names(N),
+                vel_names(N, x_end) + _blocking(pc, N, None, x_end),
                 K,
             )
         nxt = (float(K[dead + 1, 0]), float(K[dead + 1, 1]))

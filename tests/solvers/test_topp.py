@@ -20,7 +20,9 @@ from mechkin.solvers.dynamics import PlanarTwoLinkDynamics, SerialChainDynamics
 from mechkin.solvers.path import PlanarTwoLinkLinePath
 from mechkin.solvers.result import Status
 from mechkin.solvers.topp import (
+    ConstraintRows,
     plan_time_optimal,
+    solve_topp,
     torque_coefficients,
 )
 
@@ -151,6 +153,33 @@ def test_infeasible_cases_have_a_status_and_say_why() -> None:
     assert dead.status is Status.INFEASIBLE and "cannot be reached" in dead.message
     assert dead.blocked_at_s == pytest.approx((0.945, 0.95))
     assert dead.blocking_limits == ("qdd_1",)
+
+
+def test_canonical_rows_with_an_x_only_row_equal_a_velocity_limit() -> None:
+    """solve_topp on hand-made rows: ``|u| <= a`` and an x-only row ``0 u + 1 x <= v^2``
+    (a = 0: it bounds x alone) give the same plan as ``qdd`` and ``qd`` limits."""
+    a, v, N = 1.3, 0.9, 500
+    s, _, dq, ddq = line(N, 1.0)
+    one, zero = np.ones((N + 1, 1)), np.zeros((N + 1, 1))
+    rows = ConstraintRows(
+        a=np.hstack([one, zero]), b=np.hstack([zero, one]), c=np.zeros((N + 1, 2)),
+        lo=np.array([-a, -np.inf]), hi=np.array([a, v**2]), names=("acc", "speed"),
+    )  # fmt: skip
+    res = solve_topp(s, rows)
+    ref = plan_time_optimal(s, dq, ddq, qd=[v], qdd=[a])
+    np.testing.assert_allclose(res.sd, ref.sd, rtol=1e-12, atol=1e-12)
+    assert res.limit_usage["speed"] == pytest.approx(1.0)
+    blocked = solve_topp(s, rows, sd_end=1.0)  # above the x-only row's bound at the end
+    assert blocked.status is Status.INFEASIBLE and blocked.blocking_limits == ("speed",)
+    with pytest.raises(ConfigError, match="rows.lo"):
+        solve_topp(s, ConstraintRows(rows.a, rows.b, rows.c, np.zeros(3), rows.hi, rows.names))
+
+
+def test_the_blocking_velocity_limit_is_named_among_several() -> None:
+    s = np.linspace(0.0, 1.0, 101)
+    dq = np.tile([1.0, 0.5], (101, 1))  # joint 1 is the faster one along the path
+    res = plan_time_optimal(s, dq, np.zeros_like(dq), qd=[1.0, 1.0], qdd=[1.0, 1.0], sd_end=1.5)
+    assert res.status is Status.INFEASIBLE and res.blocking_limits == ("qd_1",)
 
 
 def test_bad_input_is_a_config_error() -> None:
