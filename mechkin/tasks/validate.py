@@ -382,25 +382,27 @@ def _lee_problems(sc: Any, mech: Any | None) -> list[str]:
 
 _FK_KEYS = {"scenario", "task", "mechanism", "status", "n_steps", "steps", "first_failure_step",
             "closure", "joints_outside_limits", "solve_time_s", "time_per_step_s", "t_s",
-            "final"}
+            "final", "singularity", "rates_time_s", "assembly_modes", "n_assembly_modes",
+            "n_assembly_modes_within_limits", "assembly_mode_followed", "assembly_search",
+            "assembly_at"}
 _FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_mean",
                           "iterations_max", "max_condition"},
               "steps": {"converged", "not converged", "singular"},
               "final": {"q", "end_effector"}}
 _IK_KEYS = {"scenario", "task", "mechanism", "method", "status", "n_targets", "counts",
             "max_position_error", "max_orientation_error", "solve_time_s",
-            "median_time_per_target_s", "end_effector", "targets"}
+            "median_time_per_target_s", "end_effector", "targets", "solutions"}
 _IK_TARGET_KEYS = {"name", "status", "q", "q_v", "position_error", "orientation_error",
                    "weights", "f", "grad_norm", "iterations", "evaluations", "time_s",
                    "closure_residual", "joints_at_limit", "target", "end_effector",
-                   "restarts_used"}
+                   "restarts_used", "solutions", "n_solutions", "solutions_source"}
 _BIPED_KEYS = {"scenario", "task", "section", "mechanism", "method", "status", "n_steps", "n_ok",
-               "n_frames", "geometry", "steps"}
+               "n_frames", "geometry", "steps", "motion"}
 _TRACK_KEYS = {"scenario", "task", "mechanism", "dynamics", "status", "message", "objective",
                "t_a_s", "t_start_s", "duration_s", "peak_torque", "limits_ok", "active_limits",
                "limit_usage", "grid", "cost", "solve_time_s", "blocked_at_r",
                "blocking_limits", "peak_torque_by_joint", "path", "reference", "limits_si",
-               "grid_study", "n_samples", "csv_notes"}
+               "grid_study", "n_samples", "csv_notes", "time_penalty"}
 _HEAD = {"scenario", "task", "kind", "status"}
 _LEE_KEYS = _HEAD | {"design_source", "mechanism", "r", "R", "center", "stroke", "threshold",
                      "definition", "isotropy", "gamma_range", "compute_time_s"}
@@ -411,12 +413,13 @@ _TASK_SPACE_KEYS = _HEAD | {"mechanism", "method", "seed", "frame", "restarts", 
                             "isotropy_position", "condition_number", "manipulability",
                             "iterations", "max_position_error_m", "max_orientation_error_rad",
                             "reachable_bounding_box", "definition", "execution",
-                            "compute_time_s"}
+                            "compute_time_s", "characteristic_length", "isotropy_normalized"}
 _JOINT_SWEEP_KEYS = _HEAD | {"mechanism", "method", "seed", "swept_joints", "frame",
                              "closed_chain", "n_samples", "n_reachable", "reachable_fraction",
                              "n_not_converged", "n_outside_limits", "bounding_box", "volume",
                              "definition", "manipulability", "isotropy", "compute_time_s",
-                             "sample"}
+                             "sample", "characteristic_length", "continuation",
+                             "isotropy_normalized", "isotropy_position"}
 
 
 def summary_top_keys(sc: Any) -> set[str]:
