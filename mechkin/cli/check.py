@@ -15,7 +15,6 @@ from pathlib import Path
 import typer
 
 from mechkin.cli.common import handle_errors
-from mechkin.config.load import read_yaml, short_str
 from mechkin.errors import MechkinError
 
 
@@ -61,10 +60,13 @@ def check_file_status(path: Path) -> tuple[list[str], bool]:
         return [f"{path}: internal error: RecursionError (nesting too deep)"], True
     except Exception as exc:  # noqa: BLE001 - check must never show a traceback
         logging.getLogger("mechkin").debug("internal error", exc_info=True)
+        from mechkin.config.load import short_str
+
         return [f"{path}: internal error: {type(exc).__name__}: {short_str(exc, 200)}"], True
 
 
 def _problems(path: Path) -> list[str]:
+    from mechkin.config.load import read_yaml
     from mechkin.config.mechanism_file import read_mechanism_spec
     from mechkin.config.scenario import load_scenario
     from mechkin.model.build import build_mechanism
