@@ -31,6 +31,9 @@ MaxMemoryOption = Annotated[str | None, typer.Option(
     "--max-memory", metavar="SIZE",
     help="Memory budget of the job, e.g. 8G or 512M [default: MECHKIN_MAX_MEMORY, else half "
          "of this machine's memory]")]
+ProgressOption = Annotated[bool | None, typer.Option(
+    "--progress/--no-progress",
+    help="Progress bar on stderr for long runs [default: when stderr is a terminal]")]
 ForceOption = Annotated[bool, typer.Option(
     "--force", help="Replace an output folder that holds another scenario's results")]
 
@@ -48,9 +51,10 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
         plots: PlotsOption = True,
         force: ForceOption = False,
         max_memory: MaxMemoryOption = None,
+        progress: ProgressOption = None,
     ) -> None:
         raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force,
-                                 max_memory=max_memory))
+                                 max_memory=max_memory, progress=progress))
 
     command.__doc__ = doc
     command.__name__ = f"{task}_cli"

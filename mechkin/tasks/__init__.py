@@ -41,7 +41,10 @@ def run(scenario: Any, **options: Any) -> Report:
         mech = load_mechanism(scenario.mechanism_path)
     validate_scenario(scenario, mech)  # everything short of solving, as `mechkin check` does
     mod = importlib.import_module(f"mechkin.tasks.{task_module_name(scenario)}")
-    return mod.run(scenario, **options)
+    import inspect
+
+    accepted = inspect.signature(mod.run).parameters
+    return mod.run(scenario, **{k: v for k, v in options.items() if k in accepted})
 
 
 def run_file(path: str | Path, task: str | None = None, **options: Any) -> Report:

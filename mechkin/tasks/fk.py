@@ -181,7 +181,40 @@ def initial_dependent(sc: Scenario, mech: Mechanism) -> np.ndarray:
     return q_w0
 
 
-def run(scenario: Scenario) -> Report:
+#: Steps per loop-closure chunk of a long motion (progress and Ctrl-C between chunks).
+CHUNK_STEPS = 20_000
+
+
+def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any,
+                     progress: bool | None) -> Any:
+    """solve_trajectory over the whole motion; a motion longer than :data:`CHUNK_STEPS` is
+    solved chunk by chunk, each warm-started from the previous chunk's last solution, with a
+    progress bar (stderr) when asked."""
+    from dataclasses import fields
+
+    from mechkin.tasks.progress import progress_bar
+
+    kw = dict(tol_phi=tol.phi, tol_dq=tol.dq, max_iter=tol.max_iter)
+    m = len(qv)
+    if m <= CHUNK_STEPS:
+        return solve_trajectory(mech, qv, q_w0, **kw)
+    parts = []
+    with progress_bar(progress, f"fk: {m} steps") as update:
+        start_w = q_w0
+        for k in range(0, m, CHUNK_STEPS):
+            r = solve_trajectory(mech, qv[k:k + CHUNK_STEPS], start_w, **kw)
+            parts.append(r)
+            last = r.q[-1, mech.dependent]
+            if np.all(np.isfinite(last)):
+                start_w = last
+            if update is not None:
+                update(min(k + CHUNK_STEPS, m), m)
+    first = parts[0]
+    return type(first)(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
+                          for f in fields(first)})
+
+
+def run(scenario: Scenario, progress: bool | None = None) -> Report:
     """Solve the loop closure along the scenario's motion.
 
     Returns the report: summary (status per step, closure statistics, final pose), expect
@@ -196,8 +229,7 @@ def run(scenario: Scenario) -> Report:
     tol = scenario.section.tolerances
     t0 = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        res = solve_trajectory(mech, qv, q_w0, tol_phi=tol.phi, tol_dq=tol.dq,
-                               max_iter=tol.max_iter)
+        res = _solve_in_chunks(mech, qv, q_w0, tol, progress)
         res = _finite_closure(mech, res, q_w0)
         solve_s = time.perf_counter() - t0
         kin = forward_kinematics(mech, res.q)

@@ -293,7 +293,7 @@ def _clean(v: float) -> float:
     return float(v) if np.isfinite(v) else 0.0
 
 
-def run(scenario: Scenario) -> Report:
+def run(scenario: Scenario, progress: bool | None = None) -> Report:
     """Solve every precision point in order (each warm-started from the previous solution,
     kim1995 §5.2 Step 2), or all at once with ``batch: true``; verify each by forward
     kinematics. Returns the report (summary, expect results, motion record with the
@@ -319,19 +319,25 @@ def run(scenario: Scenario) -> Report:
         results = batch_results(br, len(T_P))
         guesses = [(qv0, qw0)] * len(T_P)
     else:
+        from mechkin.tasks.progress import progress_bar
+
         qv, qw = qv0, qw0
-        for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
-            guesses.append((qv, qw))
-            if far[i]:
-                results.append(_out_of_reach(mech, qv, qw))
-                continue
-            if spec.method == "closed-form":
-                r = _closed_form(mech, T, qw, kind)
-            else:
-                r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
-            results.append(r)
-            if spec.warm_start and r.status is not IkStatus.SINGULAR:
-                qv, qw = r.q_v, r.q_w
+        show = progress if progress is not None or len(T_P) >= 1000 else False
+        with progress_bar(show, f"ik: {len(T_P)} targets") as update:
+            for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
+                guesses.append((qv, qw))
+                if far[i]:
+                    results.append(_out_of_reach(mech, qv, qw))
+                    continue
+                if spec.method == "closed-form":
+                    r = _closed_form(mech, T, qw, kind)
+                else:
+                    r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
+                results.append(r)
+                if spec.warm_start and r.status is not IkStatus.SINGULAR:
+                    qv, qw = r.q_v, r.q_w
+                if update is not None and (i % 50 == 49 or i == len(T_P) - 1):
+                    update(i + 1, len(T_P))
     solve_s = time.perf_counter() - t0
     all_sols = (_all_solutions(scenario, mech, T_P, W, results, guesses, far, opts)
                 if spec.solutions == "all" else None)

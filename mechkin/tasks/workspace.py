@@ -27,11 +27,9 @@ Imports: config, model, solvers, spatial, records, tasks.common (never io/ or cl
 
 from __future__ import annotations
 
-import contextlib
 import math
 import sys
 import time
-from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -150,25 +148,12 @@ def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
             "progress": show, "force_terminal": progress is True}
 
 
-@contextlib.contextmanager
-def _progress_bar(ex: dict[str, Any], description: str
-                  ) -> Iterator[Callable[[int, int], None] | None]:
-    """A rich progress bar on stderr (never stdout) when enabled, as a progress callback."""
-    if not ex["progress"]:
-        yield None
-        return
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+def _progress_bar(ex: dict[str, Any], description: str) -> Any:
+    """The shared progress bar (:mod:`mechkin.tasks.progress`) for the resolved options."""
+    from mechkin.tasks.progress import progress_bar
 
-    console = Console(stderr=True, force_terminal=ex["force_terminal"] or None)
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TimeElapsedColumn(), console=console, transient=False) as bar:
-        task = bar.add_task(description, total=None)
-
-        def update(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
-
-        yield update
+    flag = False if not ex["progress"] else (True if ex["force_terminal"] else None)
+    return progress_bar(flag, description)
 
 
 def _head(sc: Scenario, kind: str) -> dict[str, Any]:

@@ -1,0 +1,42 @@
+"""Progress of long runs on stderr (never stdout), shared by the tasks.
+
+:func:`progress_bar` yields a callback ``update(done, total)`` (or None when disabled): a rich
+progress bar when ``enabled`` is True, or None (the default: only when stderr is a terminal).
+
+Imports: the standard library; rich inside.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+from collections.abc import Callable, Iterator
+
+
+def resolve(progress: bool | None) -> tuple[bool, bool]:
+    """(show, force_terminal): ``None`` shows a bar only when stderr is a terminal."""
+    if progress is None:
+        return bool(getattr(sys.stderr, "isatty", lambda: False)()), False
+    return bool(progress), bool(progress)
+
+
+@contextlib.contextmanager
+def progress_bar(progress: bool | None, description: str
+                 ) -> Iterator[Callable[[int, int], None] | None]:
+    """A rich progress bar on stderr as a callback ``update(done, total)``; None when off."""
+    show, force = resolve(progress)
+    if not show:
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True, force_terminal=force or None)
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), console=console, transient=False) as bar:
+        task = bar.add_task(description, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
