@@ -100,15 +100,20 @@ def _leftovers(root: Path) -> list[str]:
     return sorted(str(p.relative_to(root)) for p in root.rglob(".mechkin-*"))
 
 
+TRACK = ROOT / "scenarios" / "park_conveyor_torque.yaml"
+
+
+@pytest.mark.parametrize("task,scenario", [("fk", PUMA), ("track", TRACK)])
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_signal_at_random_moments_leaves_previous_or_complete_outputs(tmp_path, sig):
+def test_signal_at_random_moments_leaves_previous_or_complete_outputs(tmp_path, sig, task,
+                                                                      scenario):
     out = tmp_path / "o"
-    r = _mechkin(tmp_path, "fk", str(PUMA), "--out", str(out))
+    r = _mechkin(tmp_path, task, str(scenario), "--out", str(out))
     assert r.returncode == 0, r.stderr
     old = {p.name: p.read_bytes() for p in out.iterdir()}
     rng = random.Random(sig)
     for _ in range(3):
-        proc = subprocess.Popen([sys.executable, "-m", "mechkin", "fk", str(PUMA), "--out",
+        proc = subprocess.Popen([sys.executable, "-m", "mechkin", task, str(scenario), "--out",
                                  str(out)], cwd=tmp_path, env=_env(tmp_path),
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(rng.uniform(0.5, 6.0))
