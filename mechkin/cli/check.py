@@ -80,6 +80,9 @@ def _problems(path: Path) -> list[str]:
             spec, mdoc = read_mechanism_spec(sc.mechanism_path)
             mech = build_mechanism(spec, mdoc)
         validate_scenario(sc, mech)
+        from mechkin.tasks import check_budget
+
+        check_budget(sc)  # the run's memory budget, before any work
     else:
         spec, mdoc = read_mechanism_spec(path, doc=doc)
         build_mechanism(spec, mdoc)

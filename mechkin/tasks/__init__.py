@@ -59,3 +59,12 @@ def run_file(path: str | Path, task: str | None = None, **options: Any) -> Repor
 
         sc = load_task_scenario(path, task)
     return run(sc, **options)
+
+
+def check_budget(scenario: Any) -> None:
+    """The memory-budget checks the run makes before any work (``mechkin check`` calls them,
+    so a file that checks ok is not refused by the run's budget on this machine)."""
+    mod = importlib.import_module(f"mechkin.tasks.{task_module_name(scenario)}")
+    fn = getattr(mod, "check_budget", None)
+    if fn is not None:
+        fn(scenario)

@@ -181,6 +181,14 @@ def initial_dependent(sc: Scenario, mech: Mechanism) -> np.ndarray:
     return q_w0
 
 
+def check_budget(scenario: Scenario) -> None:
+    """The run's memory budget check, without solving."""
+    mech = load_mechanism(scenario.mechanism_path)
+    t, *_ = independent_motion_rates(scenario, mech)
+    check_motion_budget(scenario, mech, len(t), ("fk",), "fk steps", extra_per_item=
+                        8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
+
+
 #: Steps per loop-closure chunk of a long motion (progress and Ctrl-C between chunks).
 CHUNK_STEPS = 20_000
 

@@ -293,6 +293,16 @@ def _clean(v: float) -> float:
     return float(v) if np.isfinite(v) else 0.0
 
 
+def check_budget(scenario: Scenario) -> None:
+    """The run's memory budget check (random targets), without solving."""
+    rt = scenario.section.random_targets
+    if rt is not None:
+        mech = load_mechanism(scenario.mechanism_path)
+        check_motion_budget(scenario, mech, rt.count + len(scenario.section.targets),
+                            ("ik", "random_targets", "count"), "ik targets",
+                            extra_per_item=4000.0)
+
+
 def run(scenario: Scenario, progress: bool | None = None) -> Report:
     """Solve every precision point in order (each warm-started from the previous solution,
     kim1995 §5.2 Step 2), or all at once with ``batch: true``; verify each by forward

@@ -136,6 +136,11 @@ def _check_budget(scenario: Scenario, mech: Any) -> None:
                      f"a {g.N1} x {g.N2} DP grid for {mech.n} joints")
 
 
+def check_budget(scenario: Scenario) -> None:
+    """The run's memory budget check, without solving."""
+    _check_budget(scenario, load_mechanism(scenario.mechanism_path))
+
+
 def run(scenario: Scenario) -> Report:
     """Plan the scenario's tracking (or minimum-time) motion.
 

@@ -76,6 +76,12 @@ def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = 
     return _run_joint_sweep(scenario, ex)
 
 
+def check_budget(scenario: Scenario) -> None:
+    """The run's budget checks (memory, worker count) with the scenario's own execution
+    settings, without solving."""
+    check_workspace_budget(scenario, _execution(scenario, None, None, False))
+
+
 def _grid_size(axes: list[Any]) -> int:
     n = 1
     for a in axes:

@@ -94,6 +94,10 @@ def test_oversized_job_is_refused_before_any_work(tmp_path, case):
     cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     assert cpu < 10.0 and wall < 60, (cpu, wall)  # refused at once (imports dominate)
     assert after.ru_maxrss < 400 * 1024, after.ru_maxrss  # peak RSS of the child [KiB]
+    # mechkin check makes the same refusal (check-ok means the run will not refuse it)
+    c = subprocess.run([sys.executable, "-m", "mechkin", "check", str(p)], capture_output=True,
+                       text=True, timeout=120, env=env)
+    assert c.returncode == 2 and key in c.stderr, c.stderr[-300:]
 
 
 def test_budget_message_says_how_to_raise_it(tmp_path):
