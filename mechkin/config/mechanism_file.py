@@ -1,4 +1,9 @@
-"""Read and validate a mechanism file -> (SI spec, YamlDoc)."""
+"""Read and validate a mechanism file -> (SI spec, YamlDoc).
+
+The suffix picks the reader: ``.urdf`` (or ``.xml`` with a ``<robot>`` root) -> the URDF
+importer, ``.xml`` with a ``<mujoco>`` root or ``.mjcf`` -> the MJCF importer, anything else
+-> mechanism YAML. Importers produce the same spec; their sidecar is ``ROBOT.mechkin.yaml``.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +16,17 @@ from mechkin.config.units import mechanism_to_si
 
 def read_mechanism_spec(path: str | Path) -> tuple[MechanismSpec, YamlDoc]:
     """Parse, validate (unknown keys, types, finiteness) and convert to SI."""
+    suffix = Path(path).suffix.lower()
+    if suffix in (".urdf", ".xml", ".mjcf"):
+        from mechkin.config.urdf import is_urdf
+
+        if is_urdf(path):
+            from mechkin.config.urdf import read_urdf_spec
+
+            return read_urdf_spec(path)
+        from mechkin.config.mjcf import read_mjcf_spec
+
+        return read_mjcf_spec(path)
     doc = read_yaml(path)
     spec = validate_model(doc, MechanismSpec, doc.data)
     return mechanism_to_si(spec), doc
