@@ -224,7 +224,8 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
                             f"{root!r} (it lies on a cycle of joints)")
     if problems:
         raise ConfigError(problems)
-    mech_links = [n for n in order if owner[n][0] == n]
+    doc_order = [root] + [lk.name for lk in tree.links if lk.name != root]  # the file's order
+    mech_links = [n for n in doc_order if owner[n][0] == n]
     frames: dict[str, list[dict]] = {n: [] for n in mech_links}
     lines: dict[tuple, int] = {(): 1}
     for n in order:
@@ -264,9 +265,6 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         spec_links.append(d)
         lines[("links", i)] = links[n].line
     moving = [j for j in tree.joints if j.kind != "fixed"]
-    # joints in tree order (parents before children)
-    rank = {n: k for k, n in enumerate(order)}
-    moving.sort(key=lambda j: rank[j.child])
     spec_joints = []
     jnames = set()
     for i, j in enumerate(moving):
