@@ -231,7 +231,8 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     for n in order:
         ob, T = owner[n]
         if ob != n:
-            frames[ob].append({"name": n, "xyz": _clean(T[:3, 3]), "rpy": _clean(rpy_of(T[:3, :3]))})
+            frames[ob].append({"name": n, "xyz": _clean(T[:3, 3]),
+                               "rpy": _clean(rpy_of(T[:3, :3]))})
     for fname, body, Tf, _line in tree.frames:
         if body not in owner:
             problems.append(f"{path}:{_line}: frame[{fname}]: unknown body {body!r}")

@@ -82,12 +82,12 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
     for li, name in enumerate(mech.link_names):
         inert = ""
         m = float(mech.mass[li])
-        I = mech.inertia[li]
-        if m > 0 or np.any(I != 0):
+        Ii = mech.inertia[li]
+        if m > 0 or np.any(Ii != 0):
             inert = (f"<inertial><origin xyz=\"{_vec(mech.com[li])}\" rpy=\"0 0 0\"/>"
-                     f"<mass value=\"{_num(m)}\"/><inertia ixx=\"{_num(I[0, 0])}\" "
-                     f"ixy=\"{_num(I[0, 1])}\" ixz=\"{_num(I[0, 2])}\" iyy=\"{_num(I[1, 1])}\" "
-                     f"iyz=\"{_num(I[1, 2])}\" izz=\"{_num(I[2, 2])}\"/></inertial>")
+                     f"<mass value=\"{_num(m)}\"/><inertia ixx=\"{_num(Ii[0, 0])}\" "
+                     f"ixy=\"{_num(Ii[0, 1])}\" ixz=\"{_num(Ii[0, 2])}\" iyy=\"{_num(Ii[1, 1])}\" "
+                     f"iyz=\"{_num(Ii[1, 2])}\" izz=\"{_num(Ii[2, 2])}\"/></inertial>")
         link_xml.append(f"  <link name={quoteattr(name)}>{inert}</link>" if inert
                         else f"  <link name={quoteattr(name)}/>")
     ext: list[str] = []
@@ -139,7 +139,8 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
     out += link_xml + joint_xml
     attrs = f"name={quoteattr(mech.name)}"
     if len(mech.cuts) or len(mech.independent) != mech.n:
-        attrs += f" independent={quoteattr(' '.join(mech.joint_names[i] for i in mech.independent))}"
+        ind = " ".join(mech.joint_names[i] for i in mech.independent)
+        attrs += f" independent={quoteattr(ind)}"
     if mech.end_effector is not None:
         attrs += f" end_effector={quoteattr(mech.frame_names[mech.end_effector])}"
     if mech.description:
@@ -150,7 +151,7 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
     if len(mech.cuts):
         out.append("  <!-- closed loops (mechkin cuts): these frame pairs must coincide;")
         for c in mech.cuts:
-            axes = " ".join(a for a, on in zip(AXIS_NAMES, c.mask) if on)
+            axes = " ".join(a for a, on in zip(AXIS_NAMES, c.mask, strict=True) if on)
             out.append(f"       {c.name}: {mech.frame_names[c.a]} == {mech.frame_names[c.b]}"
                        f" in {axes} -->" if c is mech.cuts[-1] else
                        f"       {c.name}: {mech.frame_names[c.a]} == {mech.frame_names[c.b]}"
@@ -159,7 +160,7 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
     for c in mech.cuts:
         frames = f"{mech.frame_names[c.a]} {mech.frame_names[c.b]}"
         mask = "" if bool(np.all(c.mask)) else (
-            f' mask="{" ".join(a for a, on in zip(AXIS_NAMES, c.mask) if on)}"')
+            f' mask="{" ".join(a for a, on in zip(AXIS_NAMES, c.mask, strict=True) if on)}"')
         out.append(f"  <mechkin:cut name={quoteattr(c.name)} frames={quoteattr(frames)}{mask}/>")
     out += ext
     out.append("</robot>")

@@ -11,8 +11,8 @@ contacts off (the capsules at a shared pin would otherwise push back and leave a
 gap), give the held joints a huge armature (constraint forces then move only the passive
 joints), zero the velocities every step (a heavily damped projection) and hold the actuated
 qpos, and switch off the solver's early exit (``opt.tolerance``; at the default 1e-8 the
-violation stalls near 1e-6); r then shrinks about 25 % per step, so after 600 steps it is at MuJoCo's solver floor
-(~1e-11 here). The test allows 1e-8 rad and m: three orders above that floor, far below any
+violation stalls near 1e-6); r then shrinks about 25 % per step, so after 600 steps it is at
+MuJoCo's solver floor (~1e-11 here; the weld's rotation part needs 2000). The test allows 1e-8 rad and m: three orders above that floor, far below any
 modelling error (a wrong anchor or axis would show at 1e-3).
 """
 
@@ -94,7 +94,8 @@ WELD = """<mujoco model="weld_chain">
   <worldbody>
     <body name="anchor" pos="1.0 0.3 0" euler="0 0 30"/>
     <body name="l1"><joint name="j1" axis="0 0 1"/><geom fromto="0 0 0 0.3 0 0"/>
-      <body name="l2" pos="0.3 0 0" euler="0 0 50"><joint name="j2" axis="0 0 1"/><geom fromto="0 0 0 0.3 0 0"/>
+      <body name="l2" pos="0.3 0 0" euler="0 0 50"><joint name="j2" axis="0 0 1"/>
+        <geom fromto="0 0 0 0.3 0 0"/>
         <body name="l3" pos="0.3 0 0" euler="0 0 -70"><joint name="j3" axis="0 0 1" pos="0.05 0 0"/>
           <geom fromto="0 0 0 0.3 0 0"/>
           <body name="tip" pos="0.3 0 0" euler="0 0 10"><joint name="j4" axis="0 0 1"/>
@@ -112,8 +113,9 @@ WELD = """<mujoco model="weld_chain">
 
 def test_weld_is_a_full_cut_and_matches_mujoco(tmp_path):
     """A planar RRRR chain (bent at qpos0: a straight one is a constraint singularity) welded
-    to a body in the world: MuJoCo's compiler sets the relative pose from qpos0 (body1's relpos/relquat, the anchor on body2); a hinge off its body origin
-    (j3 at pos 0.05) exercises the anchor-offset frames."""
+    to a body in the world: MuJoCo's compiler sets the relative pose from qpos0 (body1's
+    relpos/relquat, the anchor on body2); a hinge off its body origin (j3 at pos 0.05)
+    exercises the anchor-offset frames."""
     p = tmp_path / "weld.xml"
     p.write_text(WELD)
     mech = load_mechanism(p)

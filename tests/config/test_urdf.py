@@ -155,7 +155,7 @@ def test_roundtrip_yaml_urdf_yaml_same_kinematics(path, tmp_path):
     mech, back, _ = _roundtrip(path, tmp_path)
     assert set(mech.joint_names) == set(back.joint_names)
     assert [c.name for c in back.cuts] == [c.name for c in mech.cuts]
-    for c, c2 in zip(mech.cuts, back.cuts):
+    for c, c2 in zip(mech.cuts, back.cuts, strict=True):
         assert np.array_equal(c.mask, c2.mask)
         assert back.frame_names[c2.a] == mech.frame_names[c.a]
         assert back.frame_names[c2.b] == mech.frame_names[c.b]
