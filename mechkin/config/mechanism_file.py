@@ -14,10 +14,17 @@ from mechkin.config.schema import MechanismSpec, validate_model
 from mechkin.config.units import mechanism_to_si
 
 
+ROBOT_SUFFIXES = (".urdf", ".xml", ".mjcf")
+
+
+def is_robot_file(path: str | Path) -> bool:
+    """True for a URDF or MJCF mechanism (read by an importer, not as YAML)."""
+    return Path(path).suffix.lower() in ROBOT_SUFFIXES
+
+
 def read_mechanism_spec(path: str | Path) -> tuple[MechanismSpec, YamlDoc]:
     """Parse, validate (unknown keys, types, finiteness) and convert to SI."""
-    suffix = Path(path).suffix.lower()
-    if suffix in (".urdf", ".xml", ".mjcf"):
+    if is_robot_file(path):
         from mechkin.config.urdf import is_urdf
 
         if is_urdf(path):
