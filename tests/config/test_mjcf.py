@@ -12,8 +12,9 @@ gap), give the held joints a huge armature (constraint forces then move only the
 joints), zero the velocities every step (a heavily damped projection) and hold the actuated
 qpos, and switch off the solver's early exit (``opt.tolerance``; at the default 1e-8 the
 violation stalls near 1e-6); r then shrinks about 25 % per step, so after 600 steps it is at
-MuJoCo's solver floor (~1e-11 here; the weld's rotation part needs 2000). The test allows 1e-8 rad and m: three orders above that floor, far below any
-modelling error (a wrong anchor or axis would show at 1e-3).
+MuJoCo's solver floor (~1e-11 here; the weld's rotation part needs 2000 steps). The test
+allows 1e-8 rad and m: three orders above that floor, far below any modelling error (a wrong
+anchor or axis would show at 1e-3).
 """
 
 from __future__ import annotations
@@ -149,3 +150,25 @@ def test_unsupported_mjcf_is_a_config_error(tmp_path):
                                     '<joint name="c" joint1="j1" joint2="j2"/>'))
     with pytest.raises(ConfigError, match=r"equality\[c\]: only <connect> and <weld>"):
         load_mechanism(coupled)
+
+
+def test_cli_import_mjcf_with_sidecar(tmp_path):
+    """``mechkin import`` of the MJCF five-bar, end effector from a sidecar: the YAML written
+    has the same loop-closure FK as the MJCF itself."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    side = tmp_path / "side.yaml"
+    side.write_text("end_effector: P\nname: five_bar_from_mjcf\n")
+    out = tmp_path / "fb.yaml"
+    run = subprocess.run([sys.executable, "-m", "mechkin", "import",
+                          str(DATA / "five_bar_mjcf.xml"), "--sidecar", str(side), "-o", str(out)],
+                         capture_output=True, text=True, timeout=120,
+                         env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"})
+    assert run.returncode == 0, run.stderr
+    a, b = load_mechanism(DATA / "five_bar_mjcf.xml"), load_mechanism(out)
+    assert b.name == "five_bar_from_mjcf" and b.frame_names[b.end_effector] == "P"
+    qv = np.radians([[135.0, 45.0], [120.0, 50.0]])
+    ra, rb = mechkin.fk(a, qv, frames=["P"]), mechkin.fk(b, qv, frames=["P"])
+    assert np.abs(ra.poses["P"] - rb.poses["P"]).max() < 1e-12
