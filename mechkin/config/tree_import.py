@@ -350,6 +350,9 @@ def spec_to_yaml_text(spec: MechanismSpec, header: str = "") -> str:
     d = spec.model_dump(exclude_none=True, exclude_defaults=True)
     d = {"name": spec.name} | d
     d["units"] = {"length": "m", "angle": "rad"}
+    for j in d.get("joints", []):
+        if j.get("origin") == {}:
+            del j["origin"]
     order = ["name", "description", "notes", "units", "dh_convention", "base", "links", "joints",
              "cuts", "independent", "end_effector", "gravity", "closed_form"]
     d = {k: d[k] for k in order if k in d}
@@ -361,6 +364,14 @@ def spec_to_yaml_text(spec: MechanismSpec, header: str = "") -> str:
         flow = all(not isinstance(x, (dict, list)) for x in data)
         return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flow)
 
+    def _repr_dict(dumper, data):
+        flat = all(not isinstance(v, dict) and not (isinstance(v, list) and v and
+                                                    isinstance(v[0], (dict, list)))
+                   for v in data.values())
+        return dumper.represent_mapping("tag:yaml.org,2002:map", data,
+                                        flow_style=flat and len(data) <= 4)
+
     _Dumper.add_representer(list, _repr_list)
+    _Dumper.add_representer(dict, _repr_dict)
     body = yaml.dump(d, Dumper=_Dumper, sort_keys=False, width=100)
     return header + body
