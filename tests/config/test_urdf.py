@@ -23,6 +23,7 @@ installed) loads every exported URDF with the same spanning-tree FK.
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -269,6 +270,12 @@ def test_closed_chain_from_sidecar_matches_yaml_fourbar(tmp_path, capsys):
     r1, r2 = mechkin.fk(ref, qv, frames=names), mechkin.fk(mech, qv, frames=names)
     assert all(s == "converged" for s in r2.status)
     assert max(float(np.abs(r1.poses[n] - r2.poses[n]).max()) for n in names) < 1e-12
+    # an edited sidecar is read again (load_mechanism's cache keys on it too)
+    side = tmp_path / "fourbar.mechkin.yaml"
+    side.write_text(FOURBAR_SIDECAR.replace("end_effector: coupler_end", "end_effector: rocker"))
+    os.utime(side, ns=(side.stat().st_atime_ns, side.stat().st_mtime_ns + 10**9))
+    again = load_mechanism(tmp_path / "fourbar.urdf")
+    assert again.frame_names[again.end_effector] == "rocker"
     # --sidecar FILE: the same from elsewhere; a bad frame name is file:line of the sidecar
     bad = tmp_path / "bad.yaml"
     bad.write_text(FOURBAR_SIDECAR.replace("rocker_end]", "rocker_tip]"))
