@@ -13,6 +13,7 @@ from mechkin import __version__
 from mechkin.cli.check import check_cli
 from mechkin.cli.fk import fk_cli
 from mechkin.cli.ik import ik_cli
+from mechkin.cli.import_export import export_cli, import_cli
 from mechkin.cli.info import info_cli
 from mechkin.cli.track import track_cli
 from mechkin.cli.workspace import workspace_cli
@@ -45,6 +46,8 @@ app.command("track")(track_cli)
 app.command("workspace")(workspace_cli)
 app.command("info")(info_cli)
 app.command("check")(check_cli)
+app.command("import")(import_cli)
+app.command("export")(export_cli)
 
 
 @app.command("schema")

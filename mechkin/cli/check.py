@@ -67,11 +67,15 @@ def check_file_status(path: Path) -> tuple[list[str], bool]:
 
 def _problems(path: Path) -> list[str]:
     from mechkin.config.load import read_yaml
-    from mechkin.config.mechanism_file import read_mechanism_spec
+    from mechkin.config.mechanism_file import is_robot_file, read_mechanism_spec
     from mechkin.config.scenario import load_scenario
     from mechkin.model.build import build_mechanism
     from mechkin.tasks.validate import validate_scenario
 
+    if is_robot_file(path):  # URDF / MJCF: import and build
+        spec, mdoc = read_mechanism_spec(path)
+        build_mechanism(spec, mdoc)
+        return []
     doc = read_yaml(path)
     if isinstance(doc.data, dict) and "task" in doc.data:
         sc = load_scenario(path, doc=doc)

@@ -47,6 +47,12 @@ def _info(mechanism: Path, json_out: bool) -> None:
 
 
 def run_info(*, mechanism: Path) -> dict[str, Any]:
+    from mechkin.config.mechanism_file import is_robot_file, read_mechanism_spec
+    from mechkin.model.build import build_mechanism
+
+    if is_robot_file(mechanism):  # URDF / MJCF through the importers
+        spec, doc = read_mechanism_spec(mechanism)
+        return mechanism_info(build_mechanism(spec, doc))
     from mechkin.config.load import read_yaml
     from mechkin.errors import ConfigError
 
@@ -54,9 +60,6 @@ def run_info(*, mechanism: Path) -> dict[str, Any]:
     if isinstance(doc.data, dict) and "task" in doc.data and "links" not in doc.data:
         raise ConfigError(f"{doc.where(('task',))}: this is a scenario file; 'mechkin info' "
                           "takes a mechanism file (its 'mechanism:' key names one)")
-    from mechkin.config.mechanism_file import read_mechanism_spec
-    from mechkin.model.build import build_mechanism
-
     spec, doc = read_mechanism_spec(mechanism, doc=doc)  # parsed once
     return mechanism_info(build_mechanism(spec, doc))
 

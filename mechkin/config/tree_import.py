@@ -1,0 +1,377 @@
+"""A kinematic tree read from a robot file (URDF, MJCF) -> MechanismSpec (DESIGN.md: config/).
+
+Importers (``mechkin.config.urdf``, ``mechkin.config.mjcf``) read their format into the plain
+``Tree`` below -- bodies, joints (revolute, prismatic, spherical or fixed) with 4x4 origins in the
+parent body frame, extra frames (sites, anchors) -- and this module turns it into the same frozen
+``MechanismSpec`` the YAML reader produces:
+
+- a body attached by a ``fixed`` joint is not a mechkin link: it becomes a named frame (the body's
+  name) on the nearest moving ancestor, with the composed transform; joints hung on it use the
+  frame as their parent, and its inertial is lumped into that link (parallel axes);
+- a moving joint becomes an ``origin: {xyz, rpy}`` + ``axis`` joint, so the child link frame is
+  ``T_origin @ Rot(axis, q)`` (or ``Trans(axis q)``), exactly the URDF joint convention;
+- the sidecar (cuts, independent, end_effector, home) is merged in and checked by name here, with
+  ``file:line`` of the sidecar.
+
+Every line number of the source file is kept in a ``YamlDoc`` so the model builder reports
+topology problems as ``robot.urdf:LINE: joints[3].child: ...``. May import: config, spatial,
+errors, numpy.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from mechkin.config.load import YamlDoc, read_yaml
+from mechkin.config.schema import CutSpec, MechanismSpec, Name, Num, Spec, validate_model
+from mechkin.errors import ConfigError
+
+_NAME_OK = r"^[A-Za-z_][A-Za-z0-9_.\-]*$"
+
+
+@dataclass
+class TreeLink:
+    """A rigid body: name, inertial (mass, com (3,), inertia about the com (3, 3), both in the
+    body frame) or None, and the source line."""
+
+    name: str
+    line: int = 1
+    mass: float = 0.0
+    com: np.ndarray | None = None
+    inertia: np.ndarray | None = None
+
+
+@dataclass
+class TreeJoint:
+    """A joint: ``kind`` revolute | prismatic | spherical | fixed; ``T`` (4, 4) the pose of the
+    joint frame in the parent body frame; ``axis`` in the joint frame; ``limits`` (lo, hi) or
+    None; ``offset`` added to q (rad | m)."""
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    T: np.ndarray
+    axis: np.ndarray | None = None
+    limits: tuple[float, float] | None = None
+    offset: float = 0.0
+    line: int = 1
+
+
+@dataclass
+class Tree:
+    """What an importer read: bodies, joints, extra frames (name, body, T_body_frame, line)."""
+
+    name: str
+    path: Path
+    links: list[TreeLink]
+    joints: list[TreeJoint]
+    frames: list[tuple[str, str, np.ndarray, int]] = field(default_factory=list)
+    cuts: list[dict] = field(default_factory=list)
+    independent: list[str] | None = None
+    end_effector: str | None = None
+    home: dict[str, float] = field(default_factory=dict)
+    description: str | None = None
+    gravity: list[float] | None = None
+    ignored: dict[str, int] = field(default_factory=dict)
+
+
+class Sidecar(Spec):
+    """``ROBOT.mechkin.yaml`` beside a URDF/MJCF file: what the robot file cannot say.
+
+    ``home`` values are SI (rad, m), like the robot file.
+    """
+
+    name: Name | None = None
+    description: str | None = None
+    cuts: list[CutSpec] = Field(default_factory=list)
+    independent: list[Name] | None = None
+    end_effector: Name | None = None
+    home: dict[str, Num] | None = None
+
+
+def rpy_of(R: np.ndarray) -> list[float]:
+    """URDF roll-pitch-yaw of a rotation (``R = Rz(y) Ry(p) Rx(r)``), accurate at the poles.
+
+    The pitch is ``atan2(-R20, hypot(R00, R10))`` (``asin`` loses half the digits near +-pi/2),
+    the yaw ``atan2(R10, R00)``, and the roll is read from ``Ry(p)^T Rz(y)^T R`` so that an
+    inaccurate yaw near gimbal lock is absorbed by the roll: ``matrix_from_rpy`` of the result
+    reproduces R to rounding error everywhere.
+    """
+    R = np.asarray(R, dtype=np.float64)
+    c = math.hypot(R[0, 0], R[1, 0])
+    pitch = math.atan2(-R[2, 0], c)
+    yaw = math.atan2(R[1, 0], R[0, 0]) if c > 0 else 0.0
+    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    M = Ry.T @ Rz.T @ R
+    return [math.atan2(M[2, 1], M[1, 1]), pitch, yaw]
+
+
+def _clean(v) -> list[float]:
+    return [0.0 if abs(float(x)) < 1e-300 else float(x) for x in v]
+
+
+def find_sidecar(path: Path, sidecar: str | Path | None) -> Path | None:
+    """``--sidecar FILE`` or ``ROBOT.mechkin.yaml`` beside the robot file (None if neither)."""
+    if sidecar is not None:
+        p = Path(sidecar)
+        if not p.exists():
+            raise ConfigError(f"{p}: sidecar file not found")
+        return p
+    cand = path.with_name(path.stem + ".mechkin.yaml")
+    return cand if cand.exists() else None
+
+
+def merge_sidecar(tree: Tree, sidecar: Path | None) -> tuple[Tree, YamlDoc | None]:
+    """Merge the sidecar into ``tree`` (the sidecar wins over the robot file's own entries)."""
+    if sidecar is None:
+        return tree, None
+    doc = read_yaml(sidecar)
+    data = doc.data if doc.data is not None else {}
+    sc = validate_model(doc, Sidecar, data)
+    if sc.name:
+        tree.name = sc.name
+    if sc.description:
+        tree.description = sc.description
+    if "cuts" in data:
+        tree.cuts = [c.model_dump(exclude_none=True) | {"_line": doc.line_of(("cuts", i)),
+                                                         "_file": str(sidecar)}
+                     for i, c in enumerate(sc.cuts)]
+    if sc.independent is not None:
+        tree.independent = list(sc.independent)
+        tree.__dict__["_independent_where"] = doc.where(("independent",))
+    if sc.end_effector is not None:
+        tree.end_effector = sc.end_effector
+        tree.__dict__["_ee_where"] = doc.where(("end_effector",))
+    if sc.home:
+        for k, v in sc.home.items():
+            tree.home[k] = float(v)
+        tree.__dict__["_home_where"] = doc.where(("home",))
+    return tree, doc
+
+
+def _inertia_sum(parts: list[tuple[float, np.ndarray, np.ndarray]]):
+    """Lump bodies (mass, com, inertia about own com, all in one frame): parallel-axis theorem."""
+    m = sum(p[0] for p in parts)
+    if m <= 0:
+        return 0.0, np.zeros(3), sum((p[2] for p in parts), np.zeros((3, 3)))
+    c = sum(p[0] * p[1] for p in parts) / m
+    inertia = np.zeros((3, 3))
+    for mi, ci, Ii in parts:
+        d = ci - c
+        inertia += Ii + mi * (d @ d * np.eye(3) - np.outer(d, d))
+    return m, c, inertia
+
+
+def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[MechanismSpec, YamlDoc]:
+    """Collapse fixed joints into named frames and build the SI MechanismSpec (see module doc).
+
+    Raises ConfigError with ``file:line: ...`` lines for a missing or repeated root, a body with
+    two parent joints (a loop: declare it as a cut in the sidecar instead), unknown names in the
+    sidecar.
+    """
+    path = tree.path
+    problems: list[str] = []
+    links = {lk.name: lk for lk in tree.links}
+    parent_joint: dict[str, TreeJoint] = {}
+    for j in tree.joints:
+        for end in (j.parent, j.child):
+            if end not in links:
+                problems.append(f"{path}:{j.line}: joint[{j.name}]: unknown link {end!r}")
+        if j.child in parent_joint:
+            problems.append(
+                f"{path}:{j.line}: joint[{j.name}].child: link {j.child!r} is already the "
+                f"child of joint {parent_joint[j.child].name!r}: a closed loop is declared as a "
+                "cut in the sidecar (ROBOT.mechkin.yaml: cuts:), not as a second parent")
+        parent_joint.setdefault(j.child, j)
+    roots = [lk.name for lk in tree.links if lk.name not in parent_joint]
+    if len(roots) != 1 and not problems:
+        problems.append(f"{path}:1: robot: expected one root link (a link that is no joint's "
+                        f"child), found {len(roots)}: {', '.join(roots[:10])}")
+    if problems:
+        raise ConfigError(problems)
+    root = roots[0]
+    children: dict[str, list[TreeJoint]] = {n: [] for n in links}
+    for j in tree.joints:
+        children[j.parent].append(j)
+    # owner link and pose in it, breadth first from the root
+    owner: dict[str, tuple[str, np.ndarray]] = {root: (root, np.eye(4))}
+    order = [root]
+    queue = [root]
+    while queue:
+        b = queue.pop(0)
+        for j in children[b]:
+            if j.kind == "fixed":
+                ob, T = owner[b]
+                owner[j.child] = (ob, T @ j.T)
+            else:
+                owner[j.child] = (j.child, np.eye(4))
+            order.append(j.child)
+            queue.append(j.child)
+    for name in links:
+        if name not in owner:
+            lk = links[name]
+            problems.append(f"{path}:{lk.line}: link[{name}]: not connected to the root "
+                            f"{root!r} (it lies on a cycle of joints)")
+    if problems:
+        raise ConfigError(problems)
+    doc_order = [root] + [lk.name for lk in tree.links if lk.name != root]  # the file's order
+    mech_links = [n for n in doc_order if owner[n][0] == n]
+    frames: dict[str, list[dict]] = {n: [] for n in mech_links}
+    lines: dict[tuple, int] = {(): 1}
+    for n in order:
+        ob, T = owner[n]
+        if ob != n:
+            frames[ob].append({"name": n, "xyz": _clean(T[:3, 3]),
+                               "rpy": _clean(rpy_of(T[:3, :3]))})
+    for fname, body, Tf, _line in tree.frames:
+        if body not in owner:
+            problems.append(f"{path}:{_line}: frame[{fname}]: unknown body {body!r}")
+            continue
+        ob, T = owner[body]
+        T = T @ Tf
+        frames[ob].append({"name": fname, "xyz": _clean(T[:3, 3]),
+                           "rpy": _clean(rpy_of(T[:3, :3]))})
+    if problems:
+        raise ConfigError(problems)
+    # inertials lumped into owners
+    parts: dict[str, list] = {n: [] for n in mech_links}
+    for n in order:
+        lk = links[n]
+        if lk.com is None and lk.mass == 0 and lk.inertia is None:
+            continue
+        ob, T = owner[n]
+        com = T[:3, :3] @ (lk.com if lk.com is not None else np.zeros(3)) + T[:3, 3]
+        inertia = lk.inertia if lk.inertia is not None else np.zeros((3, 3))
+        parts[ob].append((lk.mass, com, T[:3, :3] @ inertia @ T[:3, :3].T))
+    spec_links = []
+    for i, n in enumerate(mech_links):
+        d: dict[str, Any] = {"name": n}
+        if frames[n]:
+            d["frames"] = frames[n]
+        if parts[n]:
+            m, c, inertia = _inertia_sum(parts[n]) if len(parts[n]) > 1 else parts[n][0]
+            d["inertial"] = {"mass": float(m), "com": _clean(c),
+                             "inertia": _clean([inertia[0, 0], inertia[1, 1], inertia[2, 2],
+                                                inertia[0, 1], inertia[0, 2], inertia[1, 2]])}
+        spec_links.append(d)
+        lines[("links", i)] = links[n].line
+    moving = [j for j in tree.joints if j.kind != "fixed"]
+    spec_joints = []
+    jnames = set()
+    for i, j in enumerate(moving):
+        d = {"name": j.name, "type": j.kind, "parent": j.parent, "child": j.child,
+             "origin": {"xyz": _clean(j.T[:3, 3]), "rpy": _clean(rpy_of(j.T[:3, :3]))}}
+        if j.kind == "spherical":  # x-y-z body axes of the joint frame
+            d["axes"] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        else:
+            d["axis"] = _clean(j.axis)
+        if j.offset:
+            d["offset"] = float(j.offset)
+        if j.limits is not None:
+            d["limits"] = [float(j.limits[0]), float(j.limits[1])]
+        home = tree.home.get(j.name)
+        if home is None:
+            home = 0.0
+            if j.limits is not None and not j.limits[0] <= 0.0 <= j.limits[1]:
+                home = 0.5 * (j.limits[0] + j.limits[1])
+        d["home"] = float(home)
+        spec_joints.append(d)
+        jnames.add(j.name)
+        lines[("joints", i)] = j.line
+    for k in tree.home:
+        if k not in jnames:
+            problems.append(f"{tree.__dict__.get('_home_where', str(path) + ':1: home')}: "
+                            f"unknown joint {k!r} (moving joints: {', '.join(sorted(jnames))})")
+    all_frames = set(mech_links) | {f["name"] for fl in frames.values() for f in fl}
+    cuts = []
+    for i, c in enumerate(tree.cuts):
+        where = f"{c.get('_file', path)}:{c.get('_line', 1)}: cuts[{i}]"
+        for f in c["frames"]:
+            if f not in all_frames:
+                problems.append(f"{where}.frames: unknown frame {f!r} (links and frames of "
+                                f"{path.name}: {', '.join(sorted(all_frames)[:30])})")
+        cuts.append({k: v for k, v in c.items() if not k.startswith("_")})
+    if tree.independent is not None:
+        for k in tree.independent:
+            if k not in jnames:
+                problems.append(f"{tree.__dict__.get('_independent_where', str(path) + ':1')}: "
+                                f"unknown joint {k!r} (moving joints: {', '.join(sorted(jnames))})")
+    ee = tree.end_effector
+    if ee is not None and ee not in all_frames:
+        problems.append(f"{tree.__dict__.get('_ee_where', str(path) + ':1: end_effector')}: "
+                        f"unknown frame {ee!r}")
+    if ee is None:
+        leaves = [n for n in order if not children[n]] + [f[0] for f in tree.frames]
+        if len(leaves) == 1 and not tree.cuts:
+            ee = leaves[0]
+    if problems:
+        raise ConfigError(problems)
+    data: dict[str, Any] = {"name": _safe_name(tree.name), "units": {"length": "m", "angle": "rad"},
+                            "links": spec_links, "joints": spec_joints}
+    if tree.description:
+        data["description"] = tree.description
+    if cuts:
+        data["cuts"] = cuts
+    if tree.independent is not None:
+        data["independent"] = list(tree.independent)
+    if ee is not None:
+        data["end_effector"] = ee
+    if tree.gravity is not None:
+        data["gravity"] = [float(g) for g in tree.gravity]
+    doc = YamlDoc(path=path, data=data, lines=lines | (source_lines or {}))
+    spec = validate_model(doc, MechanismSpec, data)
+    if tree.ignored:
+        what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
+        sys.stderr.write(f"{path.name}: note: ignored {what} (not kinematics)\n")
+    return spec, doc
+
+
+def _safe_name(name: str) -> str:
+    import re
+
+    s = re.sub(r"[^A-Za-z0-9_.\-]", "_", name or "robot")
+    return s if re.match(_NAME_OK, s) else "_" + s
+
+
+def spec_to_yaml_text(spec: MechanismSpec, header: str = "") -> str:
+    """The spec as a mechanism YAML file (SI units; the importer's output)."""
+    import yaml
+
+    d = spec.model_dump(exclude_none=True, exclude_defaults=True)
+    d = {"name": spec.name} | d
+    d["units"] = {"length": "m", "angle": "rad"}
+    for j in d.get("joints", []):
+        if j.get("origin") == {}:
+            del j["origin"]
+    order = ["name", "description", "notes", "units", "dh_convention", "base", "links", "joints",
+             "cuts", "independent", "end_effector", "gravity", "closed_form"]
+    d = {k: d[k] for k in order if k in d}
+
+    class _Dumper(yaml.SafeDumper):
+        pass
+
+    def _repr_list(dumper, data):
+        flow = all(not isinstance(x, (dict, list)) for x in data)
+        return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flow)
+
+    def _repr_dict(dumper, data):
+        flat = all(not isinstance(v, dict) and not (isinstance(v, list) and v and
+                                                    isinstance(v[0], (dict, list)))
+                   for v in data.values())
+        return dumper.represent_mapping("tag:yaml.org,2002:map", data,
+                                        flow_style=flat and len(data) <= 4)
+
+    _Dumper.add_representer(list, _repr_list)
+    _Dumper.add_representer(dict, _repr_dict)
+    body = yaml.dump(d, Dumper=_Dumper, sort_keys=False, width=100)
+    return header + body

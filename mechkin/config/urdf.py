@@ -1,0 +1,204 @@
+"""URDF robot file -> MechanismSpec (DESIGN.md: config/; "importers produce the same specs").
+
+Parsed by yourdfpy (any xacro-expanded URDF); the raw XML is read once more with lxml for the
+line numbers of the problems and for mechkin's own extension elements. The mapping:
+
+- ``<link>`` -> a link; ``<inertial>`` (origin xyz + rpy, mass, inertia about the com in the
+  *inertial* frame) -> mechkin's inertial (com in the link frame, inertia about the com in the
+  *link* axes: ``R I R^T`` with R the inertial origin's rotation);
+- ``revolute`` (limits), ``continuous`` (no limits), ``prismatic`` -> origin + axis joints (the
+  child link frame is ``T_origin Rot(axis, q)``, the URDF convention); ``fixed`` -> the child
+  link becomes a named frame on the parent link (``mechkin.config.tree_import``);
+- ``<mimic>``, ``floating`` and ``planar`` joints are refused (mechkin has no joint coupling and
+  no 6-DOF or planar joint): one ``file:line`` message naming the joint;
+- ``<gazebo>``, ``<transmission>`` and other extensions are ignored with one note on stderr;
+  ``<visual>``, ``<collision>``, ``<material>`` carry no kinematics and are skipped silently;
+- closed chains: cuts, independent joints, end effector and home come from the sidecar
+  (``ROBOT.mechkin.yaml`` beside the file, or ``sidecar=``), or from the extension elements
+  written by ``mechkin export`` (namespace ``urn:mechkin:urdf``)::
+
+      <mechkin:mechanism name="five_bar" independent="q1 q2" end_effector="P"/>
+      <mechkin:cut name="pin_P" frames="P P2" mask="x y"/>
+      <mechkin:joint name="r1" home="-1.69"/>
+
+May import: config, spatial, errors, numpy, yourdfpy, lxml.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mechkin.config.load import YamlDoc
+from mechkin.config.schema import MechanismSpec
+from mechkin.config.tree_import import (
+    Tree,
+    TreeJoint,
+    TreeLink,
+    find_sidecar,
+    merge_sidecar,
+    tree_to_spec,
+)
+from mechkin.errors import ConfigError
+
+NS = "urn:mechkin:urdf"
+_KNOWN = {"link", "joint", "material"}
+
+
+def is_urdf(path: str | Path) -> bool:
+    """A ``.urdf`` file, or an ``.xml`` file whose root element is ``<robot>``."""
+    p = Path(path)
+    if p.suffix.lower() == ".urdf":
+        return True
+    if p.suffix.lower() != ".xml":
+        return False
+    try:
+        head = p.read_text(encoding="utf-8", errors="replace")[:4096]
+    except OSError:
+        return False
+    import re
+
+    m = re.search(r"<\s*([A-Za-z_][\w:.-]*)", re.sub(r"<\?.*?\?>|<!--.*?-->", "", head, flags=re.S))
+    return bool(m) and m.group(1) == "robot"
+
+
+def _parse_xml(path: Path):
+    try:
+        from lxml import etree
+    except ImportError:  # pragma: no cover - lxml comes with yourdfpy
+        raise ConfigError(f"{path}: reading URDF needs yourdfpy (pip install "
+                          "'mechkin[urdf]')") from None
+    try:
+        return etree.parse(str(path)).getroot()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc}") from None
+    except etree.XMLSyntaxError as exc:
+        line = exc.lineno or 1
+        raise ConfigError(f"{path}:{line}: XML syntax error: {exc.msg}") from None
+
+
+def _floats(s: str | None, n: int, where: str) -> list[float]:
+    try:
+        v = [float(x) for x in (s or "").split()]
+    except ValueError:
+        raise ConfigError(f"{where}: expected {n} numbers, got {s!r}") from None
+    if len(v) != n or not all(np.isfinite(v)):
+        raise ConfigError(f"{where}: expected {n} finite numbers, got {s!r}")
+    return v
+
+
+def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
+                   ) -> tuple[MechanismSpec, YamlDoc]:
+    """Read a URDF (+ sidecar) into an SI MechanismSpec and a YamlDoc with the XML lines.
+
+    Raises ConfigError (``file:line: element[name].key: message``) for unsupported joints,
+    mimic joints, loops without a cut and unknown names in the sidecar.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ConfigError(f"{path}: file not found")
+    root = _parse_xml(path)
+    if root.tag != "robot":
+        raise ConfigError(f"{path}:{root.sourceline}: expected a <robot> root element (URDF), "
+                          f"got <{root.tag}>")
+    try:
+        import yourdfpy
+    except ImportError:
+        raise ConfigError(f"{path}: reading URDF needs yourdfpy (pip install "
+                          "'mechkin[urdf]')") from None
+    link_line = {e.get("name"): e.sourceline for e in root.findall("link")}
+    joint_el = {e.get("name"): e for e in root.findall("joint")}
+    problems = []
+    for name, e in joint_el.items():
+        m = e.find("mimic")
+        typ = e.get("type")
+        if m is not None:
+            problems.append(
+                f"{path}:{m.sourceline}: joint[{name}].mimic: mimic joints are not supported "
+                f"({name} = {m.get('multiplier', '1')} * {m.get('joint')} + "
+                f"{m.get('offset', '0')}): mechkin has no joint coupling; remove the <mimic> "
+                "(the joint becomes independent) or model the coupling as a closed chain "
+                "(sidecar cuts:)")
+        if typ in ("floating", "planar"):
+            problems.append(f"{path}:{e.sourceline}: joint[{name}].type: {typ} joints are not "
+                            "supported (mechkin joints: revolute, continuous, prismatic, fixed)")
+    if problems:
+        raise ConfigError(problems)
+    try:
+        robot = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+                                   build_collision_scene_graph=False,
+                                   load_collision_meshes=False).robot
+    except Exception as exc:  # yourdfpy raises assorted errors on malformed files
+        raise ConfigError(f"{path}:1: robot: not a valid URDF: {exc}") from None
+    links = []
+    for lk in robot.links:
+        tl = TreeLink(lk.name, line=link_line.get(lk.name, 1))
+        if lk.inertial is not None:
+            T = np.asarray(lk.inertial.origin if lk.inertial.origin is not None else np.eye(4))
+            inertia = np.asarray(lk.inertial.inertia if lk.inertial.inertia is not None
+                                 else np.zeros((3, 3)), dtype=float)
+            tl.mass = float(lk.inertial.mass or 0.0)
+            tl.com = T[:3, 3].copy()
+            tl.inertia = T[:3, :3] @ inertia @ T[:3, :3].T  # inertial axes -> link axes
+        links.append(tl)
+    joints = []
+    for j in robot.joints:
+        line = joint_el[j.name].sourceline if j.name in joint_el else 1
+        T = np.asarray(j.origin if j.origin is not None else np.eye(4), dtype=float)
+        kind = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic",
+                "fixed": "fixed"}[j.type]
+        axis = np.asarray(j.axis if j.axis is not None else [1.0, 0.0, 0.0], dtype=float)
+        if kind != "fixed" and not np.linalg.norm(axis) > 0:
+            raise ConfigError(f"{path}:{line}: joint[{j.name}].axis: zero axis")
+        limits = None
+        if j.type in ("revolute", "prismatic") and j.limit is not None:
+            lo, hi = j.limit.lower, j.limit.upper
+            if lo is not None and hi is not None and lo < hi:
+                limits = (float(lo), float(hi))
+        joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line))
+    tree = Tree(name=robot.name or path.stem, path=path, links=links, joints=joints)
+    _read_extensions(root, tree, path)
+    tree, _ = merge_sidecar(tree, find_sidecar(path, sidecar))
+    return tree_to_spec(tree)
+
+
+def _read_extensions(root, tree: Tree, path: Path) -> None:
+    """mechkin's elements (cuts, independent, end effector, home); count the ignored ones."""
+    for e in root:
+        if not isinstance(e.tag, str):  # comments, processing instructions
+            continue
+        if e.tag.startswith("{" + NS + "}"):
+            tag = e.tag[len(NS) + 2:]
+            where = f"{path}:{e.sourceline}: mechkin:{tag}"
+            if tag == "cut":
+                d = {"name": e.get("name"), "frames": (e.get("frames") or "").split(),
+                     "_line": e.sourceline, "_file": str(path)}
+                if e.get("mask"):
+                    d["mask"] = e.get("mask").split()
+                if len(d["frames"]) != 2 or not d["name"]:
+                    raise ConfigError(f"{where}: expected name= and frames=\"A B\"")
+                tree.cuts.append(d)
+            elif tag == "mechanism":
+                if e.get("independent") is not None:
+                    tree.independent = e.get("independent").split()
+                if e.get("end_effector"):
+                    tree.end_effector = e.get("end_effector")
+                if e.get("name"):
+                    tree.name = e.get("name")
+                if e.get("description"):
+                    tree.description = e.get("description")
+                if e.get("gravity"):
+                    tree.gravity = _floats(e.get("gravity"), 3, where + ".gravity")
+            elif tag == "joint":
+                if e.get("home") is not None:
+                    tree.home[e.get("name")] = _floats(e.get("home"), 1, where + ".home")[0]
+                if e.get("unlimited") == "true":
+                    for j in tree.joints:
+                        if j.name == e.get("name"):
+                            j.limits = None
+            else:
+                tree.ignored[f"mechkin:{tag}"] = tree.ignored.get(f"mechkin:{tag}", 0) + 1
+        elif e.tag not in _KNOWN:
+            tag = e.tag.split("}")[-1]
+            tree.ignored[tag] = tree.ignored.get(tag, 0) + 1

@@ -1,0 +1,167 @@
+"""Mechanism -> URDF text: the spanning tree, valid for Foxglove, RViz and Pinocchio.
+
+Every 1-DOF joint of the built mechanism (``T_parent_child(q) = A Z(q) B``, mechkin.model.
+mechanism) becomes one URDF joint, so universal and spherical joints appear as their 2 or 3
+revolute joints ``<name>_1..3`` with their inner links ``<name>_link1..2``:
+
+- ``B`` a rotation, or a translation along z for a revolute joint (every origin + axis joint,
+  modified D-H, standard D-H with a = 0): ``A Z(q) B = (A B) Z'(q)`` with the axis ``R_B^T z``,
+  one URDF joint with origin ``A B`` whose child is the mechkin link itself;
+- otherwise (standard D-H with a != 0): the URDF joint (origin ``A``, axis z) moves an
+  intermediate link ``<link>_dh`` and a fixed joint ``<link>_dh_fixed`` (origin ``B``) carries
+  the mechkin link, so every mechkin link frame keeps its name and pose;
+- named frames become massless links on fixed joints ``<frame>_fixed``; inertials are written
+  with the com as origin and the tensor in the link axes (rpy 0);
+- unlimited revolute joints are ``continuous``; an unlimited prismatic joint gets limits
+  +-1e6 m (URDF requires them) and ``unlimited="true"`` in its extension element.
+
+Cuts (and the independent joints, end effector, home values) do not exist in URDF: they are
+written twice, as an XML comment for the reader and as elements in the namespace
+``urn:mechkin:urdf`` that URDF parsers ignore and ``mechkin.config.urdf`` reads back.
+May import: spatial, numpy (duck-typed Mechanism; io sees no model code).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from mechkin.model import Mechanism
+
+NS = "urn:mechkin:urdf"
+AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def _rpy(R: np.ndarray) -> list[float]:
+    """URDF rpy of R, accurate at the poles (same as mechkin.config.tree_import.rpy_of)."""
+    c = math.hypot(R[0, 0], R[1, 0])
+    pitch = math.atan2(-R[2, 0], c)
+    yaw = math.atan2(R[1, 0], R[0, 0]) if c > 0 else 0.0
+    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    M = Ry.T @ Rz.T @ R
+    return [math.atan2(M[2, 1], M[1, 1]), pitch, yaw]
+
+
+def _num(x: float) -> str:
+    x = float(x)
+    return "0" if x == 0 else repr(x)
+
+
+def _vec(v) -> str:
+    return " ".join(_num(x) for x in v)
+
+
+def _origin(T: np.ndarray) -> str:
+    return f'<origin xyz="{_vec(T[:3, 3])}" rpy="{_vec(_rpy(T[:3, :3]))}"/>'
+
+
+def mechanism_to_urdf(mech: Mechanism) -> str:
+    """The URDF text of ``mech`` (SI: m, rad, kg); see the module docstring for the mapping."""
+    used: set[str] = set(mech.link_names) | set(mech.frame_names) | set(mech.joint_names)
+
+    def fresh(base: str) -> str:
+        name = base
+        while name in used:
+            name += "_"
+        used.add(name)
+        return name
+
+    out = ['<?xml version="1.0"?>',
+           f'<robot name={quoteattr(mech.name)} xmlns:mechkin="{NS}">',
+           f"  <!-- written by mechkin export from {mech.source.name if mech.source else 'a'}"
+           " mechanism: the spanning tree; loop closures below -->"]
+    nl = len(mech.link_names)
+    link_xml: list[str] = []
+    joint_xml: list[str] = []
+    for li, name in enumerate(mech.link_names):
+        inert = ""
+        m = float(mech.mass[li])
+        Ii = mech.inertia[li]
+        if m > 0 or np.any(Ii != 0):
+            inert = (f"<inertial><origin xyz=\"{_vec(mech.com[li])}\" rpy=\"0 0 0\"/>"
+                     f"<mass value=\"{_num(m)}\"/><inertia ixx=\"{_num(Ii[0, 0])}\" "
+                     f"ixy=\"{_num(Ii[0, 1])}\" ixz=\"{_num(Ii[0, 2])}\" iyy=\"{_num(Ii[1, 1])}\" "
+                     f"iyz=\"{_num(Ii[1, 2])}\" izz=\"{_num(Ii[2, 2])}\"/></inertial>")
+        link_xml.append(f"  <link name={quoteattr(name)}>{inert}</link>" if inert
+                        else f"  <link name={quoteattr(name)}/>")
+    ext: list[str] = []
+    for k, jname in enumerate(mech.joint_names):
+        prism = bool(mech.s[k])
+        parent = mech.link_names[mech.joint_parent_link[k]]
+        child = mech.link_names[mech.joint_child_link[k]]
+        A, B = mech.A[k], mech.B[k]
+        p_B = B[:3, 3]
+        lo, hi = float(mech.lower[k]), float(mech.upper[k])
+        unlimited = not (np.isfinite(lo) and np.isfinite(hi))
+        if prism or (abs(p_B[0]) == 0 and abs(p_B[1]) == 0):
+            # A Z(q) Trans(p) R_B = (A Trans(p) R_B) Z'(q): Trans(p) commutes with Z(q)
+            origin, axis, target = A @ B, B[:3, :3].T @ np.array([0.0, 0.0, 1.0]), child
+            extra = None
+        else:
+            origin, axis = A, np.array([0.0, 0.0, 1.0])
+            target = fresh(f"{child}_dh")
+            extra = (target, child, B)
+        if prism:
+            typ = "prismatic"
+            lim = (-1e6, 1e6) if unlimited else (lo, hi)
+        else:
+            typ = "continuous" if unlimited else "revolute"
+            lim = None if unlimited else (lo, hi)
+        limit = (f'<limit lower="{_num(lim[0])}" upper="{_num(lim[1])}" effort="0" '
+                 'velocity="0"/>') if lim else ""
+        joint_xml.append(
+            f'  <joint name={quoteattr(jname)} type="{typ}"><parent link={quoteattr(parent)}/>'
+            f"<child link={quoteattr(target)}/>{_origin(origin)}<axis xyz=\"{_vec(axis)}\"/>"
+            f"{limit}</joint>")
+        if extra is not None:
+            link_xml.append(f"  <link name={quoteattr(extra[0])}/>")
+            joint_xml.append(
+                f'  <joint name={quoteattr(fresh(extra[0] + "_fixed"))} type="fixed">'
+                f"<parent link={quoteattr(extra[0])}/><child link={quoteattr(extra[1])}/>"
+                f"{_origin(extra[2])}</joint>")
+        attrs = f'name={quoteattr(jname)} home="{_num(mech.home[k])}"'
+        if prism and unlimited:
+            attrs += ' unlimited="true"'
+        ext.append(f"  <mechkin:joint {attrs}/>")
+    for f in range(nl, len(mech.frame_names)):
+        fname = mech.frame_names[f]
+        link_xml.append(f"  <link name={quoteattr(fname)}/>")
+        joint_xml.append(
+            f'  <joint name={quoteattr(fresh(fname + "_fixed"))} type="fixed">'
+            f"<parent link={quoteattr(mech.link_names[mech.frame_link[f]])}/>"
+            f"<child link={quoteattr(fname)}/>{_origin(mech.frame_offset[f])}</joint>")
+    out += link_xml + joint_xml
+    attrs = f"name={quoteattr(mech.name)}"
+    if len(mech.cuts) or len(mech.independent) != mech.n:
+        ind = " ".join(mech.joint_names[i] for i in mech.independent)
+        attrs += f" independent={quoteattr(ind)}"
+    if mech.end_effector is not None:
+        attrs += f" end_effector={quoteattr(mech.frame_names[mech.end_effector])}"
+    if mech.description:
+        attrs += f" description={quoteattr(mech.description)}"
+    g = np.asarray(mech.gravity, dtype=float)
+    if not np.array_equal(g, [0.0, 0.0, -9.81]):
+        attrs += f' gravity="{_vec(g)}"'
+    if len(mech.cuts):
+        out.append("  <!-- closed loops (mechkin cuts): these frame pairs must coincide;")
+        for c in mech.cuts:
+            axes = " ".join(a for a, on in zip(AXIS_NAMES, c.mask, strict=True) if on)
+            out.append(f"       {c.name}: {mech.frame_names[c.a]} == {mech.frame_names[c.b]}"
+                       f" in {axes} -->" if c is mech.cuts[-1] else
+                       f"       {c.name}: {mech.frame_names[c.a]} == {mech.frame_names[c.b]}"
+                       f" in {axes}")
+    out.append(f"  <mechkin:mechanism {attrs}/>")
+    for c in mech.cuts:
+        frames = f"{mech.frame_names[c.a]} {mech.frame_names[c.b]}"
+        mask = "" if bool(np.all(c.mask)) else (
+            f' mask="{" ".join(a for a, on in zip(AXIS_NAMES, c.mask, strict=True) if on)}"')
+        out.append(f"  <mechkin:cut name={quoteattr(c.name)} frames={quoteattr(frames)}{mask}/>")
+    out += ext
+    out.append("</robot>")
+    return "\n".join(out) + "\n"
