@@ -120,6 +120,13 @@ def terminate_cleanly() -> Iterator[None]:
     import signal
 
     def on_signal(signum: int, frame: Any) -> None:
+        if frame is not None and _unraisable_context(frame):
+            # an exception raised in a weakref callback or __del__ is printed and dropped:
+            # deliver the signal again a moment later, from ordinary code
+            import threading
+
+            threading.Timer(0.02, os.kill, (os.getpid(), signum)).start()
+            return
         _SIGNALLED.append(signum)
         _stop_children()
         raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
@@ -147,6 +154,21 @@ def terminate_cleanly() -> Iterator[None]:
 
 
 _SIGNALLED: list[int] = []
+
+
+def _unraisable_context(frame: Any) -> bool:
+    """Is ``frame`` (or a caller within 3 levels) a weakref callback, a finaliser or the GC,
+    where a raised exception would be reported as 'Exception ignored' instead of unwinding?"""
+    f = frame
+    for _ in range(3):
+        if f is None:
+            return False
+        code = f.f_code
+        if code.co_name in ("__del__", "remove", "_remove_dead_weakref", "__exit__") or \
+                code.co_filename.endswith(("weakref.py", "_weakrefset.py")):
+            return True
+        f = f.f_back
+    return False
 
 
 def _stop_children() -> None:
