@@ -8,8 +8,9 @@ import pytest
 os.environ.setdefault("MPLBACKEND", "Agg")
 # numba caches go to a temporary folder (kept between runs), never into the package directory;
 # set before numba is imported, and inherited by the subprocesses the CLI tests start
-os.environ.setdefault("NUMBA_CACHE_DIR", os.path.join(tempfile.gettempdir(),
-                                                      f"mechkin-numba-cache-{getattr(os, 'getuid', lambda: 0)()}"))
+_UID = getattr(os, "getuid", lambda: 0)()
+os.environ.setdefault("NUMBA_CACHE_DIR",
+                      os.path.join(tempfile.gettempdir(), f"mechkin-numba-cache-{_UID}"))
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
