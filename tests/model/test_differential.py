@@ -24,7 +24,7 @@ from mechkin.model.kinematics import closure_jacobian, forward_kinematics, frame
 
 ROOT = Path(__file__).resolve().parents[2]
 MECHS = ["kim1995_direct_drive", "kim1995_stewart", "kim1995_end_effector_robot", "puma560",
-         "lee_spherical_rrps", "data/fourbar", "data/fourbar_ground_cut"]
+         "lee_spherical_rrps", "data/fourbar", "data/fourbar_ground_cut", "delta", "five_bar"]
 H_TRAJ = 2.5e-4  # time step of the central differences along the trajectory [s]
 H_JAC = 1e-5  # step of the Jacobian differences for gamma
 # central differences are O(h^2) ~ 6e-8 times the fourth derivative; closure round-off
@@ -125,7 +125,7 @@ def test_twists_are_jacobian_times_rates(name):
 
 @pytest.mark.parametrize("name", ["kim1995_direct_drive", "kim1995_stewart",
                                   "kim1995_end_effector_robot", "lee_spherical_rrps",
-                                  "data/fourbar_ground_cut"])
+                                  "data/fourbar_ground_cut", "delta"])
 @pytest.mark.parametrize("closed", [True, False])
 def test_gamma_is_derivative_of_jacobian_times_rates(name, closed):
     """gamma(q, qd) = (d/dt dphi/dq) qd by central differences of the analytic Jacobian."""
