@@ -34,6 +34,9 @@ def _info(mechanism: Path, json_out: bool) -> None:
     typer.echo(f"  cuts                      {info['n_cuts']}")
     typer.echo(f"  constraint equations (NE) {info['n_equations']} "
                f"(rank {info['constraint_rank']} at home)")
+    ab = info["absolute"]
+    typer.echo(f"  absolute coordinates      NC {ab['n_coordinates']}, NE {ab['n_equations']} "
+               f"({ab['formulation']}; kim1995 Table 10 after Haug 1989)")
     typer.echo(f"  degrees of freedom        {info['dof']}")
     typer.echo(f"  Grubler-Kutzbach mobility {info['mobility']}")
     if info.get("mobility_note"):
@@ -89,6 +92,7 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
                 "a planar or spherical loop, or an overconstrained mechanism; the degrees of "
                 "freedom come from the rank")
     n_bodies = mech.n_links - mech.n_cuts - len(mech.virtual_links)
+    kin0 = forward_kinematics(mech, q0)
     return {
         "name": mech.name,
         "description": mech.description,
@@ -118,5 +122,46 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
              "equations": int(c.mask.sum())}
             for c in mech.cuts
         ],
+        "absolute": absolute_counts(mech, kin0.axes()[0][0], n_bodies, J[0]),
         "singularity_at_home": mechanism_singularity_at_home(mech),
     }
+
+
+# Equations per joint in Haug's absolute coordinates (kim1995 ref. 13): spatial R and P 5, U 4,
+# S 3; planar R and P 2.
+_SPATIAL_EQ = {"revolute": 5, "prismatic": 5, "universal": 4, "spherical": 3}
+
+
+def absolute_counts(mech: Mechanism, axes: Any, n_bodies: int, J: Any) -> dict[str, Any]:
+    """NC and NE of the same mechanism in absolute (Cartesian) coordinates, as kim1995 Table 10
+    counts them after Haug (1989).
+
+    Spatial: every body including the ground has 7 coordinates (position and 4 Euler
+    parameters), with one normalisation equation per body, 6 equations fixing the ground, and
+    5 / 4 / 3 equations per revolute or prismatic / universal / spherical joint. Planar: 3
+    coordinates per body, 3 fixing the ground, 2 per revolute or prismatic joint. A cut link is
+    one body, so the joints are the joint groups of the tree.
+
+    kim1995 counts a mechanism whose loops are planar (every joint of a loop, i.e. every
+    column of the closure Jacobian ``J`` (NE, n) at home that is not zero, about one axis
+    direction, revolute or prismatic) in planar coordinates: the direct-drive arm's 18 / 15. The
+    spatial counts are given too (``spatial``).
+    """
+    import numpy as np
+
+    types = [g.type for g in mech.groups]
+    spatial = {"n_coordinates": 7 * n_bodies,
+               "n_equations": n_bodies + 6 + sum(_SPATIAL_EQ[t] for t in types)}
+    planar = None
+    z = np.asarray(axes, dtype=float).reshape(-1, 3)
+    J = np.asarray(J, dtype=float)
+    in_loop = np.flatnonzero(np.linalg.norm(J, axis=0) > 1e-12) if J.size else np.zeros(0, int)
+    if in_loop.size and np.all(mech.s[in_loop] <= 1):
+        zl = z[in_loop]
+        if np.all(np.linalg.norm(np.cross(zl, zl[0]), axis=1) < 1e-9) and all(
+                t in ("revolute", "prismatic") for t in types):
+            planar = {"n_coordinates": 3 * n_bodies, "n_equations": 3 + 2 * len(types)}
+    main = planar if planar is not None else spatial
+    return {**main, "formulation": "planar (3 per body)" if planar is not None else
+            "spatial (7 per body: position and Euler parameters)",
+            "spatial": spatial, "planar": planar, "n_bodies_with_ground": n_bodies}

@@ -20,6 +20,13 @@ TABLE10 = {
     "kim1995_end_effector_robot.yaml": (18, 12, 6),
 }
 
+# kim1995 Table 10, "Absolute (13)" row (Haug 1989): (NC, NE)
+TABLE10_ABSOLUTE = {
+    "kim1995_direct_drive.yaml": (18, 15),
+    "kim1995_stewart.yaml": (98, 92),
+    "kim1995_end_effector_robot.yaml": (63, 57),
+}
+
 
 @pytest.mark.parametrize("name", sorted(TABLE10))
 def test_info_reproduces_table10(name):
@@ -28,6 +35,8 @@ def test_info_reproduces_table10(name):
     info = json.loads(res.stdout)
     assert (info["n_coordinates"], info["n_equations"], info["dof"]) == TABLE10[name]
     assert len(info["independent"]) == info["dof"]
+    ab = info["absolute"]
+    assert (ab["n_coordinates"], ab["n_equations"]) == TABLE10_ABSOLUTE[name]
 
 
 def test_info_lee_mobility_3():
