@@ -280,7 +280,18 @@ class _Composer:
         root: Any = None
         n_docs = 0
         while True:
-            ev = p.get_event()
+            try:
+                ev = p.get_event()
+            except yaml.YAMLError as exc:
+                # newer libyaml refuses deep nesting itself: the same refusal, with the key path
+                if "nesting depth" not in str(getattr(exc, "problem", None) or exc):
+                    raise
+                mark = getattr(exc, "problem_mark", None)
+                top = stack[-1] if stack else None
+                kp = None if top is None else (
+                    top.path if top.kind == "map" and top.key is _NO_KEY else top.child_path())
+                raise self.fail(mark.line + 1 if mark is not None else 1, kp,
+                                f"nesting deeper than {MAX_DEPTH} levels") from None
             line = ev.start_mark.line + 1 if ev.start_mark is not None else 1
             if isinstance(ev, yaml.StreamEndEvent):
                 break
