@@ -482,6 +482,16 @@ def _when(key: str, values: list, then: dict) -> dict:
     return {"if": {"required": [key], "properties": {key: {"enum": values}}}, "then": then}
 
 
+def _given_none(*keys: str) -> dict:
+    """Subschema: none of ``keys`` is written at all (not even as null)."""
+    return {"not": {"anyOf": [{"required": [k]} for k in keys]}}
+
+
+# the key groups of WorkspaceSpec._check (written keys count, as pydantic's model_fields_set)
+_WS_LEE = ("parameters", "alpha", "beta", "isotropy_maps", "gamma_range", "design")
+_WS_SWEEP = ("joints", "samples", "frame", "voxel", "slices", "seed_from", "mode_jump")
+_WS_TASK = ("positions", "orientation", "weights", "restarts", "max_iter")
+
 # Cross-field rules that JSON Schema can express, mirroring the pydantic validators.
 RULES: dict[str, list[dict]] = {
     "JointSpec": [
@@ -525,13 +535,27 @@ RULES: dict[str, list[dict]] = {
         {"if": _present("sequence"), "then": {"not": {"anyOf": [_present("legs"),
                                                                 _present("name")]}}},
     ],
-    "WorkspaceSpec": [_not_both("poses", "poses_csv")],
+    "WorkspaceSpec": [
+        _not_both("poses", "poses_csv"),
+        _when("kind", ["lee_spherical"], {"allOf": [
+            _given_none(*_WS_SWEEP, *_WS_TASK, "characteristic_length"),
+            {"properties": {"method": {"enum": ["closed_form", "svd", None]}}}]}),
+        _when("kind", ["joint_sweep"], {"allOf": [
+            _given_none(*_WS_LEE, *_WS_TASK),
+            {"not": {"anyOf": [_present("poses"), _present("poses_csv")]}},
+            {"required": ["method"], "properties": {"method": {"enum": ["grid",
+                                                                        "monte_carlo"]}}},
+            _when("method", ["monte_carlo"], _present("samples")),
+            _when("method", ["grid"], {"not": _present("samples")})]}),
+        _when("kind", ["task_space"], _given_none(*_WS_LEE, "joints", "voxel", "slices",
+                                                  "manipulability", "seed_from", "mode_jump")),
+    ],
     "ScenarioSpec": [
         _when("task", ["fk"], _present("fk")),
         _when("task", ["ik"], {"oneOf": [_present("ik"), _present("biped")]}),
         _when("task", ["track"], _present("track")),
         _when("task", ["workspace"], _present("workspace")),
-        _when("task", ["fk", "ik"], {"required": ["mechanism"]}),
+        _when("task", ["fk", "ik"], _present("mechanism")),
     ] + [
         _when("task", [t], {"not": {"anyOf": [_present(s) for s in
                                               ("fk", "ik", "biped", "track", "workspace")
