@@ -244,3 +244,38 @@ def test_schema_rules_never_reject_what_pydantic_accepts(tmp_path):
             rejected += 1
             assert _scenario_rejected(data, where), f"{path.name} {what}: schema-only rejection"
     assert rejected > 500
+
+
+def _mechanism_rejected(data: dict, where: Path) -> bool:
+    from mechkin.config.load import read_yaml
+    from mechkin.config.schema import MechanismSpec, validate_model
+
+    where.write_text(yaml.safe_dump(data, sort_keys=False))
+    doc = read_yaml(where)
+    try:
+        validate_model(doc, MechanismSpec, doc.data)
+    except ConfigError:
+        return True
+    return False
+
+
+def test_mechanism_rules_never_reject_what_pydantic_accepts(tmp_path):
+    """Mutated bundled mechanisms (a joint's key deleted or nulled, dh and origin swapped in):
+    whatever jsonschema rejects, MechanismSpec rejects too."""
+    validator = _validator("mechanism")
+    where = tmp_path / "mutated.yaml"
+    rejected = 0
+    for path in MECHANISMS:
+        base = yaml.safe_load(path.read_text())
+        for i, joint in enumerate(base.get("joints", [])[:4]):
+            variants = [{k: v for k, v in joint.items() if k != key} for key in joint]
+            variants += [{**joint, key: None} for key in joint]
+            variants += [{**joint, "origin": {"xyz": [0, 0, 0]}}, {**joint, "dh": {"a": 0.0}},
+                         {**joint, "axes": [[1, 0, 0], [0, 1, 0]]}, {**joint, "axis": [0, 0, 1]}]
+            for j in variants:
+                data = {**base, "joints": [*base["joints"][:i], j, *base["joints"][i + 1:]]}
+                if next(validator.iter_errors(data), None) is None:
+                    continue
+                rejected += 1
+                assert _mechanism_rejected(data, where), f"{path.name} joint {i}: {sorted(j)}"
+    assert rejected > 50
