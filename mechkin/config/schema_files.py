@@ -92,10 +92,11 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "cuts": "Cut links (kim1995 §2): pairs of frames that must coincide, closing the loops "
                 "of a closed or complex chain.",
         "independent": "The independent (actuated) joints q_v (kim1995 §2); every other joint "
-                       "is dependent (q_u, solved by loop closure). Default: every joint (an "
-                       "open chain).",
+                       "is dependent (q_u, solved by loop closure). Required with cuts; default "
+                       "(open chain): every joint.",
         "end_effector": "Frame whose pose is the hand {H}: the pose that meets the precision "
-                        "points (kim1995 §5). Default: the last link's frame.",
+                        "points (kim1995 §5); needed by ik, track and workspace (unless they "
+                        "name a frame).",
         "gravity": f"Gravity vector in the base frame {_L} per s^2; default [0, 0, -9.81] m/s^2.",
         "closed_form": "Closed-form inverse kinematics that fits this structure (kim1995 "
                        "stewart / direct_drive, lee_spherical); parameters read from the "
