@@ -279,3 +279,20 @@ def test_mechanism_rules_never_reject_what_pydantic_accepts(tmp_path):
                 rejected += 1
                 assert _mechanism_rejected(data, where), f"{path.name} joint {i}: {sorted(j)}"
     assert rejected > 50
+
+
+def test_schema_write_imports_no_numpy(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom mechkin.cli.app import app\n"
+            f"sys.argv = ['mechkin', 'schema', '--write', {str(tmp_path / 'out')!r}]\n"
+            "try:\n    app()\nexcept SystemExit:\n    pass\n"
+            "print('numpy' in sys.modules, 'mechkin.config.schema' in sys.modules)\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split()[-2:] == ["False", "False"], res.stdout
+    assert (tmp_path / "out" / "scenario.schema.json").is_file()
