@@ -52,11 +52,28 @@ app.command("export")(export_cli)
 
 @app.command("schema")
 def schema_cli(
-    kind: str = typer.Argument(..., help="mechanism or scenario"),
+    kind: str = typer.Argument(None, help="mechanism or scenario (omit with --write)"),
+    write: str = typer.Option(None, "--write", metavar="DIR",
+                              help="Write mechanism.schema.json and scenario.schema.json into "
+                                   "DIR instead of printing one."),
 ) -> None:
     """Print the JSON Schema of mechanism or scenario files (for editor validation)."""
     from mechkin.config.schema_files import schema_text
+    from mechkin.config.schema_files import write as write_schemas
 
+    if write is not None:
+        if kind is not None:
+            typer.echo("error: schema: give a kind or --write DIR, not both", err=True)
+            raise typer.Exit(2)
+        try:
+            paths = write_schemas(write, fresh=False)
+        except OSError as exc:
+            typer.echo(f"error: schema: cannot write into {write}: {exc.strerror or exc}",
+                       err=True)
+            raise typer.Exit(1) from None
+        for p in paths:
+            typer.echo(str(p))
+        return
     if kind not in ("mechanism", "scenario"):
         typer.echo(f"error: schema: expected 'mechanism' or 'scenario', got {kind!r}", err=True)
         raise typer.Exit(2)
