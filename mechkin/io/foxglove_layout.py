@@ -118,7 +118,8 @@ def layout(
         "configById": config,
         "globalVariables": {},
         "userNodes": {},
-        "playbackConfig": {"speed": 1.0},
+        "linkedGlobalVariables": [],
+        "playbackConfig": {"speed": 1.0, "messageOrder": "receiveTime"},
         "layout": tree,
     }
 
