@@ -56,7 +56,8 @@ def state_schema(rec: TrackRecord) -> dict[str, Any]:
         "r": {**num, "description": "path parameter r [-] (park Eq. (1))"},
         "rd_1_s": {**num, "description": "r' [1/s]"},
         "rdd_1_s2": {**num, "description": "r'' [1/s^2]"},
-        "phase": {"type": "string", "enum": ["waiting", "transient", "tracking", "moving"]},
+        "phase": {"type": "string", "enum": ["waiting", "transient", "tracking", "moving"],
+                  "description": "waiting for the part, transient, tracking, or moving"},
     }
     if rec.trajectory.tracking_error is not None:
         props["tracking_error_m"] = {**num, "description": "|hand - part| [m]"}

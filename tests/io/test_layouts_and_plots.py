@@ -163,15 +163,19 @@ def test_state_schema_is_explicit_and_covers_every_message(runs, task):
         jsonschema.validate(doc, strict)  # every key declared, every value of its type
 
 
-def test_explicit_schemas_do_not_depend_on_the_values():
-    """The fk/ik schemas are fixed tables: built with no record at all."""
-    from mechkin.io.motion_out import state_schema
+@pytest.mark.parametrize("task", ["fk", "ik", "track"])
+def test_the_mcap_carries_the_explicit_schema_not_an_inferred_one(runs, task):
+    """The written schema is the task's fixed table (plus the timestamp), field for field."""
+    from mechkin.io import motion_out, track_out
 
-    for task in ("fk", "ik"):
-        assert state_schema(task) == state_schema(task)
-        props = state_schema(task)["properties"]
-        assert {"status", "closure_residual"} <= set(props)
-    assert "position_error" in state_schema("ik")["properties"]
+    report, folder = runs[task]
+    written = _read_mcap(folder / f"{task}.mcap")["schema"]
+    table = (track_out.state_schema(report.data) if task == "track"
+             else motion_out.state_schema(task))
+    props = dict(written["properties"])
+    assert set(props.pop("timestamp")["properties"]) == {"sec", "nsec"}
+    assert props == table["properties"]
+    assert all("description" in v for v in props.values())
 
 
 # ---- plots ------------------------------------------------------------------------------------
