@@ -2,15 +2,17 @@
 ``frames.csv`` (one row per frame: joint values and rates), ``biped.png`` (the biped standing
 on its plane, like hwang2023 Figs. 7/8) and ``biped.mcap``
 (/tf, /scene with the planes, body, legs, feet or blades and the phase, /joint_states with
-position and velocity, /mechkin/state).
+position and velocity, /mechkin/state) with its Foxglove layout ``biped.layout.json`` (3D on
+``world``, joint positions, each leg's forward-kinematics position error and foot angle).
 
-Imports: records (types), io.atomic, io.mcap_out, io.plots (lazily).
+Imports: records (types), io.atomic, io.mcap_out, io.foxglove_layout, io.plots (lazily).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from mechkin.io.foxglove_layout import layout, state_path
 from mechkin.io.mcap_out import Box, Label, Lines, MotionLog, Scene, Spheres, write_mcap
 from mechkin.io.output_dir import OutputDir
 from mechkin.records import Report
@@ -31,6 +33,20 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
         plot_biped(od.path_for("biped.png"), rec)
     if outs.mcap:
         write_mcap(od.path_for("biped.mcap"), biped_log(rec))
+        od.write_json("biped.layout.json", biped_layout(rec))
+
+
+def biped_layout(rec: BipedRecord) -> dict:
+    """Foxglove layout of ``biped.mcap``: 3D on ``world``, joints, the legs' key figures
+    (fields of the record's state schema only, so every plotted path exists)."""
+    props = (rec.state_schema or {}).get("properties", {})
+    def series(field: str, what: str) -> list[tuple[str, str]]:
+        return [(state_path(field.format(s=s)), f"{s} {what}") for s in SIDES
+                if field.format(s=s) in props]
+
+    return layout("world", list(rec.joint_names),
+                  [("legs: FK position error [m]", series("position_error_{s}_m", "error")),
+                   ("legs: foot angle beta [deg]", series("beta_{s}_deg", "beta"))])
 
 
 def plot_biped(path, rec: BipedRecord) -> None:

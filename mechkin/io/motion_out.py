@@ -1,7 +1,12 @@
 """The files of a motion record (fk steps, ik targets): ``<task>.csv``, ``joints.png``,
-``stick.png``, ``convergence.png`` (ik) and ``<task>.mcap``.
+``stick.png``, ``convergence.png`` (ik), ``<task>.mcap`` and its Foxglove layout
+``<task>.layout.json``.
 
-Imports: records (types), io.mcap_out, io.plots (lazily).
+fk's ``joints.png`` draws the joints against time; ik's draws them per target (a dot plot on
+the target names, with the position and orientation errors below), since ik targets are not a
+trajectory. ``/mechkin/state`` has one fixed JSON schema per task (:func:`state_schema`).
+
+Imports: records (types), io.mcap_out, io.foxglove_layout, io.plots (lazily).
 """
 
 from __future__ import annotations
@@ -10,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from mechkin.io.foxglove_layout import layout, state_path
 from mechkin.io.mcap_out import Lines, MotionLog, Scene, Spheres, write_mcap
 from mechkin.io.output_dir import OutputDir
 from mechkin.records import MotionRecord, Report
@@ -28,13 +34,52 @@ def motion_scene(rec: MotionRecord) -> Scene:
     )
 
 
+_NUM, _STR = {"type": "number"}, {"type": "string"}
+STATE_FIELDS: dict[str, dict[str, tuple[dict[str, str], str]]] = {
+    "fk": {
+        "status": (_STR, "ok, or why the step failed"),
+        "closure_residual": (_NUM, "norm of the loop-closure residual [m | rad]"),
+        "singularity": (_STR, "singularity class of the step (none, actuator, end effector)"),
+        "cond_constraint": (_NUM, "condition number of the constraint Jacobian (-1: rank lost)"),
+        "cond_reduced": (_NUM, "condition number of the reduced Jacobian (-1: rank lost)"),
+    },
+    "ik": {
+        "status": (_STR, "ok, or why the target failed"),
+        "closure_residual": (_NUM, "norm of the loop-closure residual [m | rad]"),
+        "target": (_STR, "target name"),
+        "position_error": (_NUM, "end-effector position error [m]"),
+        "orientation_error": (_NUM, "end-effector orientation error [rad]"),
+    },
+}
+
+
+def state_schema(task: str) -> dict[str, Any]:
+    """The fixed JSON schema of ``/mechkin/state`` for ``task`` (fk, ik): every field one
+    explicit type, never ``null`` (no type inferred from the values)."""
+    fields = STATE_FIELDS[task]
+    return {"type": "object", "title": f"mechkin.{task}.State",
+            "properties": {k: {**t, "description": d} for k, (t, d) in fields.items()},
+            "required": ["status", "closure_residual"]}
+
+
+def motion_layout(rec: MotionRecord) -> dict[str, Any]:
+    """Foxglove layout of ``<task>.mcap``: 3D, joint positions, the key residuals."""
+    key = [(state_path("closure_residual"), "closure residual [m | rad]")]
+    if rec.task == "ik":
+        key.append((state_path("position_error"), "position error [m]"))
+    return layout(rec.frame_root or "world", list(rec.joint_names),
+                  [(f"{rec.task}: residuals", key)])
+
+
 def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog:
     times = rec.times
     return MotionLog(
         times=times - min(0.0, float(times[0])), root_frame=rec.frame_root,
         frame_names=rec.frame_names, frame_parents=rec.frame_parents,
         T_parent_child=rec.T_parent_child, joint_names=list(rec.joint_names), q=rec.q, qd=rec.qd,
-        effort=effort, scene=motion_scene(rec), state=rec.state, metadata=rec.metadata,
+        effort=effort, scene=motion_scene(rec), state=rec.state,
+        state_schema=state_schema(rec.task) if rec.task in STATE_FIELDS else None,
+        metadata=rec.metadata,
     )
 
 
@@ -44,20 +89,43 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
     if outs.csv:
         od.write_csv(f"{rec.task}.csv", rec.columns)
     if plots and outs.plots:
-        from mechkin.io.plots import plot_convergence, plot_series, plot_stick_3d
-
-        n = len(rec.joint_names)
-        plot_series(od.path_for("joints.png"), rec.times, rec.q,
-                    [f"{nm} [{u}]" for nm, u in zip(rec.joint_names, rec.joint_units,
-                                                    strict=True)]
-                    if n <= 12 else [""] * n,
-                    "t [s]", "q [rad | m]", f"{rec.title}: joint trajectories")
-        seg = rec.segments
-        snaps: list[Any] = [[s for s in seg[k]] for k in rec.snapshots]
-        plot_stick_3d(od.path_for("stick.png"), snaps, f"{rec.title} ({rec.mechanism})",
-                      labels=rec.snapshot_labels)
-        if rec.convergence:
-            plot_convergence(od.path_for("convergence.png"), rec.convergence,
-                             rec.convergence_ylabel, title=rec.convergence_title)
+        write_plots(od, rec)
     if outs.mcap:
         write_mcap(od.path_for(f"{rec.task}.mcap"), motion_log(rec))
+        od.write_json(f"{rec.task}.layout.json", motion_layout(rec))
+
+
+def write_plots(od: OutputDir, rec: MotionRecord) -> None:
+    """``joints.png`` (over time for fk, per target for ik), ``stick.png``, ``convergence.png``."""
+    from mechkin.io.plots import (
+        Stick,
+        plot_by_target,
+        plot_convergence,
+        plot_series,
+        plot_stick_3d,
+    )
+
+    n = len(rec.joint_names)
+    labels = [f"{nm} [{u}]" for nm, u in zip(rec.joint_names, rec.joint_units, strict=True)]
+    if rec.task == "ik":
+        cols = rec.columns
+        names = [str(v) for v in cols.get("target", [f"#{k}" for k in range(len(rec.times))])]
+        errors = {k: np.asarray(cols[c], float) for k, c in
+                  (("position error [m]", "position_error_m"),
+                   ("orientation error [rad]", "orientation_error_rad")) if c in cols}
+        plot_by_target(od.path_for("joints.png"), names, rec.q, labels if n <= 12 else
+                       [""] * n, "q [rad | m]", f"{rec.title}: joint values per target",
+                       errors=errors)
+    else:
+        plot_series(od.path_for("joints.png"), rec.times, rec.q,
+                    labels if n <= 12 else [""] * n,
+                    "t [s]", "q [rad | m]", f"{rec.title}: joint trajectories")
+    seg = rec.segments
+    snaps: list[Any] = [[Stick(s, color="C0", label="links" if j == 0 else "")
+                         for j, s in enumerate(seg[k])] for k in rec.snapshots]
+    markers = ([rec.targets[k] for k in rec.snapshots] if rec.targets is not None else None)
+    plot_stick_3d(od.path_for("stick.png"), snaps, f"{rec.title} ({rec.mechanism})",
+                  labels=rec.snapshot_labels, markers=markers)
+    if rec.convergence:
+        plot_convergence(od.path_for("convergence.png"), rec.convergence,
+                         rec.convergence_ylabel, title=rec.convergence_title)

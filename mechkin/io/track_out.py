@@ -1,10 +1,14 @@
 """The files of a track run (park §2-§5): ``track.csv``, plots like park Figs. 4-8
 (``phase.png``, ``hand_part.png``, ``joint_velocities.png``, ``joint_accelerations.png``,
-``joint_jerks.png``, ``torques.png``) and ``track.mcap`` (the arm following the part).
+``joint_jerks.png``, ``torques.png``), ``track.mcap`` (the arm following the part) and its
+Foxglove layout ``track.layout.json`` (3D, joint positions, torques against their limits and
+the tracking error). ``/mechkin/state`` has a fixed JSON schema (:func:`state_schema`); the
+torque limits are in it as ``torque_max_<joint>`` / ``torque_min_<joint>`` so a plot shows
+them beside the ``/joint_states`` efforts.
 
 An infeasible plan has no record (``report.data is None``): only summary.json is written.
 
-Imports: records (types), io.atomic, io.mcap_out, matplotlib (lazily).
+Imports: records (types), io.atomic, io.mcap_out, io.foxglove_layout, matplotlib (lazily).
 """
 
 from __future__ import annotations
@@ -30,6 +34,54 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
         _plots(od, rec)
     if outs.mcap:
         _write_mcap(od, rec)
+        od.write_json("track.layout.json", track_layout(rec))
+
+
+# ---- state schema and Foxglove layout ---------------------------------------------------------
+
+
+def _torque_limits(rec: TrackRecord) -> list[tuple[str, float, float]]:
+    """(joint, lower, upper) of the joints with a finite torque limit [N m | N]."""
+    lim = rec.limits.get("torque")
+    if lim is None:
+        return []
+    return [(j, float(lim[0][k]), float(lim[1][k])) for k, j in enumerate(rec.joint_names)
+            if np.isfinite(lim[0][k]) and np.isfinite(lim[1][k])]
+
+
+def state_schema(rec: TrackRecord) -> dict[str, Any]:
+    """The fixed JSON schema of track's ``/mechkin/state``: every field one explicit type."""
+    num = {"type": "number"}
+    props: dict[str, Any] = {
+        "r": {**num, "description": "path parameter r [-] (park Eq. (1))"},
+        "rd_1_s": {**num, "description": "r' [1/s]"},
+        "rdd_1_s2": {**num, "description": "r'' [1/s^2]"},
+        "phase": {"type": "string", "enum": ["waiting", "transient", "tracking", "moving"],
+                  "description": "waiting for the part, transient, tracking, or moving"},
+    }
+    if rec.trajectory.tracking_error is not None:
+        props["tracking_error_m"] = {**num, "description": "|hand - part| [m]"}
+        for a in "xyz":
+            props[f"tracking_error_{a}_m"] = {**num, "description": f"hand - part, {a} [m]"}
+    for j, _, _ in _torque_limits(rec):
+        props[f"torque_min_{j}"] = {**num, "description": f"lower torque limit of {j} [N m | N]"}
+        props[f"torque_max_{j}"] = {**num, "description": f"upper torque limit of {j} [N m | N]"}
+    return {"type": "object", "title": "mechkin.track.State", "properties": props,
+            "required": ["r", "rd_1_s", "rdd_1_s2", "phase"]}
+
+
+def track_layout(rec: TrackRecord) -> dict[str, Any]:
+    """Foxglove layout of ``track.mcap``: 3D, joint positions, torques vs limits, error."""
+    from mechkin.io.foxglove_layout import joint_path, layout, state_path
+
+    key = [(joint_path(j, "effort"), f"u {j}") for j in rec.joint_names[:6]]
+    for j, _, _ in _torque_limits(rec)[:6]:
+        key += [(state_path(f"torque_max_{j}"), f"max {j}"),
+                (state_path(f"torque_min_{j}"), f"min {j}")]
+    err = ([(state_path("tracking_error_m"), "|hand - part| [m]")]
+           if rec.trajectory.tracking_error is not None else [])
+    return layout(rec.frame_root, list(rec.joint_names),
+                  [("torques [N m | N] vs limits", key), ("tracking error [m]", err)])
 
 
 # ---- CSV --------------------------------------------------------------------------------------
@@ -120,6 +172,8 @@ def _write_mcap(od: OutputDir, rec: TrackRecord) -> None:
             e = traj.tracking_error[k]
             st["tracking_error_m"] = float(np.linalg.norm(e))
             st.update({f"tracking_error_{a}_m": float(e[i]) for i, a in enumerate("xyz")})
+        for j, lo, hi in _torque_limits(rec):
+            st[f"torque_min_{j}"], st[f"torque_max_{j}"] = lo, hi
         state.append(st)
     qdd_f, _ = _filled(traj.qdd)
     log = MotionLog(
@@ -128,7 +182,7 @@ def _write_mcap(od: OutputDir, rec: TrackRecord) -> None:
         joint_names=list(rec.joint_names), q=traj.q, qd=traj.qd, qdd=qdd_f, effort=traj.torque,
         scene=Scene(lines=tuple(lines), spheres=(Spheres(rec.axis_points, radius=0.015 * size),),
                     boxes=tuple(boxes), entity_id="track"),
-        state=state,
+        state=state, state_schema=state_schema(rec),
         metadata=dict(rec.metadata),
     )
     write_mcap(od.path_for("track.mcap"), log)
@@ -146,7 +200,7 @@ def _panels(path: Path, t: np.ndarray, ys: np.ndarray, labels: list[str], ylabel
     from matplotlib.figure import Figure
 
     n = ys.shape[1]
-    fig = Figure(figsize=(7.0, 2.4 * n + 0.6))
+    fig = Figure(figsize=(7.0, 2.4 * n + 0.6), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     for k, ax in enumerate(axes):
@@ -160,7 +214,6 @@ def _panels(path: Path, t: np.ndarray, ys: np.ndarray, labels: list[str], ylabel
         ax.grid(True, alpha=0.3)
     axes[0].set_title(title)
     axes[-1].set_xlabel("t [s]")
-    fig.tight_layout()
     fig.savefig(path, dpi=110, format="png")
 
 
@@ -172,7 +225,7 @@ def _plots(od: OutputDir, rec: TrackRecord) -> None:
     name = rec.title
     N1, N2 = rec.grid
     # park Fig. 4 / 5: phase plane with the part's reference, and r(t) against the part's r~(t)
-    fig = Figure(figsize=(11.0, 4.2))
+    fig = Figure(figsize=(11.0, 4.2), layout="constrained")
     FigureCanvasAgg(fig)
     ax1, ax2 = fig.subplots(1, 2)
     for other in rec.study:
@@ -191,10 +244,9 @@ def _plots(od: OutputDir, rec: TrackRecord) -> None:
     for ax in (ax1, ax2):
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small")
-    fig.tight_layout()
     fig.savefig(od.path_for("phase.png"), dpi=110, format="png")
     # park Fig. 5/6: hand vs part positions and the tracking error
-    fig = Figure(figsize=(7.0, 6.0))
+    fig = Figure(figsize=(7.0, 6.0), layout="constrained")
     FigureCanvasAgg(fig)
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     for i, a in enumerate("xyz"):
@@ -211,7 +263,6 @@ def _plots(od: OutputDir, rec: TrackRecord) -> None:
     for ax in (ax1, ax2):
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small")
-    fig.tight_layout()
     fig.savefig(od.path_for("hand_part.png"), dpi=110, format="png")
     # park Figs. 6-8: joint velocities, accelerations and jerks, torques, with their limits
     units = ["m" if p else "rad" for p in rec.prismatic]

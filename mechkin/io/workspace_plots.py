@@ -224,6 +224,12 @@ def plot_gamma_range(
             )
             ax2.clabel(cs, fmt="%.0f", fontsize=7)
             fig.colorbar(cf, ax=ax2, label=label, shrink=0.9)
+        else:  # nothing defined: say so instead of two empty panels
+            for ax in (ax2, ax3):
+                ax.set_axis_off()
+            ax2.text(0.5, 0.5, f"$\\gamma_{{{which}}}$ undefined on the whole grid",
+                     ha="center", va="center", transform=ax2.transAxes)
+        ax3.set_box_aspect(None, zoom=0.85)  # room for the z label under constrained layout
         ax3.set_xlabel(r"$\alpha$ [deg]")
         ax3.set_ylabel(r"$\beta$ [deg]")
         ax3.set_zlabel(label)

@@ -46,6 +46,8 @@ class MotionRecord:
         ik: objective history per target label for ``convergence.png``.
     convergence_ylabel, convergence_title : str
         Labels of that plot.
+    targets : array (m, 3), optional
+        ik: the target position of each row in the base frame [m] (stick-plot markers).
     """
 
     task: str
@@ -70,3 +72,4 @@ class MotionRecord:
     convergence: dict[str, np.ndarray] | None = None
     convergence_ylabel: str = ""
     convergence_title: str = ""
+    targets: np.ndarray | None = None
