@@ -51,7 +51,7 @@ def test_run_returns_a_report_and_writes_nothing_until_asked(tmp_path, monkeypat
     assert rep.summary["n_steps"] == 13
     assert not any(tmp_path.iterdir())  # nothing written yet
     summary = rep.write(tmp_path / "out", plots=False)
-    assert set(summary["files"]) == {"fk.csv", "fk.mcap", "summary.json"}
+    assert set(summary["files"]) == {"fk.csv", "fk.layout.json", "fk.mcap", "summary.json"}
     on_disk = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert on_disk["status"] == "ok" and on_disk["files"] == summary["files"]
 

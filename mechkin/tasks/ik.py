@@ -449,7 +449,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         snapshots=snaps, snapshot_labels=[labels_rows[k] for k in snaps],
     )
     rec.convergence = {labels[i]: np.maximum(r.f_history, 0.0)
-                       for i, r in enumerate(results[:12]) if len(r.f_history)}
+                       for i, r in enumerate(results) if len(r.f_history)}
     rec.targets = np.asarray(T_rows[:, :3, 3], dtype=float)
     rec.convergence_ylabel = "f = 1/2 x^T W x"
     rec.convergence_title = f"{scenario.name}: {spec.method} (kim1995 Eq. (9))"

@@ -42,7 +42,7 @@ def test_rerun_without_plots_replaces_the_folder(tmp_path):
     assert "stick.png" in _visible(out)
     r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
     assert r.returncode == 0, r.stderr
-    assert _visible(out) == ["fk.csv", "fk.mcap", "summary.json"]
+    assert _visible(out) == ["fk.csv", "fk.layout.json", "fk.mcap", "summary.json"]
 
 
 def test_another_scenarios_folder_is_refused_unless_forced(tmp_path):
@@ -148,7 +148,7 @@ def test_out_on_a_mount_point_works(tmp_path):
     try:
         r = _mechkin(tmp_path, "fk", str(FK), "--out", str(mnt), "--no-plots")
         assert r.returncode == 0, r.stderr
-        assert _visible(mnt) == ["fk.csv", "fk.mcap", "summary.json"]
+        assert _visible(mnt) == ["fk.csv", "fk.layout.json", "fk.mcap", "summary.json"]
     finally:
         subprocess.run(["umount", str(mnt)], capture_output=True, timeout=20)
 
