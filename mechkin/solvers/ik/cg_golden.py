@@ -331,67 +331,87 @@ def golden_section(F, f0: float, delta: float, tol: float, max_eval: int = 10_00
     return 0.5 * (a_l + a_u), nev
 
 
-def cg_golden_printed(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
-                      w: np.ndarray, opts: IkOptions):
-    r"""kim1995 §5.2 Steps 3-8 as printed, for one precision point.
+def fletcher_reeves(point, line, x0: np.ndarray, grad_tol: float, line_tol: float,
+                    max_iter: int):
+    r"""kim1995 §5.2 Steps 4-8 on any smooth f: Fletcher-Reeves conjugate gradient with the
+    golden-section line search :func:`golden_section`, as printed.
 
-    Step 3 closes the loops at :math:`q_v^{(k)}`; Step 4 :math:`\nabla f^{(k)} = J_r^T W x`
-    (Eq. (10)); Step 5 :math:`d^{(k)} = -\nabla f^{(k)} + \beta_k d^{(k-1)}`,
-    :math:`\beta_k = (\|\nabla f^{(k)}\| / \|\nabla f^{(k-1)}\|)^2` (Fletcher-Reeves, never
-    reset: the text has no restart); Step 6 stop when :math:`\|\nabla f^{(k)}\| <
-    \epsilon_v` (``opts.grad_tol``, the only convergence test); Step 7 :math:`\alpha^*` by
-    :func:`golden_section`, each trial (Steps 7.1-7.3) a loop closure warm-started from
-    :math:`q_w^{(k)}` (a trial whose loops do not close has f = inf); Step 8 update. The
-    interval length is ``opts.line_tol`` as a joint change (``line_tol / ||d||`` in alpha).
-    Independent joints are projected onto their limits; passive limits are not enforced.
+    ``point(x) -> (f, grad) | None`` evaluates the iterate (None: it cannot be evaluated, e.g.
+    the loops do not close); ``line(x, d) -> F`` gives :math:`F(\alpha) = f(x + \alpha d)` for
+    the search from x (inf where f cannot be evaluated). Step 5:
+    :math:`d^{(k)} = -\nabla f^{(k)} + \beta_k d^{(k-1)}`, :math:`\beta_k = (\|\nabla
+    f^{(k)}\| / \|\nabla f^{(k-1)}\|)^2`, never reset; Step 6: stop when :math:`\|\nabla
+    f^{(k)}\| <` ``grad_tol``; Step 7: the interval is ``line_tol`` as a change of x, the first
+    bracketing step ``DELTA_PRINTED`` (both divided by ``||d||`` in alpha).
+
+    Returns a dict: x, f, g, iters, nev, converged, ok (False: ``point`` failed), hist.
     """
-    max_iter = opts.max_iter or MAX_ITER_CG
-    nev = 0
-    evaluate_at = _point_evaluator(kern, opts)
-
-    qv = kern.project(q_v0)
-    closed_e, x, Jr, q_e, _ = evaluate_at(qv, q_w0, T_P, True)  # Step 3
-    nev += 1
-    if not closed_e:
-        return dict(qv=qv, qw=q_w0, f=np.inf, iters=0, nev=nev, gnorm=np.inf, closed=False,
-                    converged=False, hist=[np.inf])
-    qw = q_e[kern.iw]
-    f = 0.5 * float(x @ (w * x))
-    g = Jr.T @ (w * x)  # Step 4
+    x = np.asarray(x0, dtype=float)
+    e = point(x)
+    nev = 1
+    if e is None:
+        return dict(x=x, f=np.inf, g=np.full_like(x, np.inf), iters=0, nev=nev,
+                    converged=False, ok=False, hist=[np.inf])
+    f, g = e
     hist = [f]
     d = -g
     g2_prev = float(g @ g)
-    converged = False
     k = 0
     for k in range(max_iter):  # noqa: B007 - k is reported
         g2 = float(g @ g)
         if k > 0:  # Step 5
             d = -g + (g2 / g2_prev) * d
         g2_prev = g2
-        if np.sqrt(g2) < opts.grad_tol:  # Step 6
-            converged = True
-            break
+        if np.sqrt(g2) < grad_tol:  # Step 6
+            return dict(x=x, f=f, g=g, iters=k, nev=nev, converged=True, ok=True, hist=hist)
         dn = float(np.linalg.norm(d))
-        qv_k, qw_k = qv, qw
+        alpha, n_ls = golden_section(line(x, d), f, DELTA_PRINTED / dn, line_tol / dn)  # Step 7
+        nev += n_ls + 1
+        x = x + alpha * d  # Step 8 (then Steps 3-4 at the new point)
+        e = point(x)
+        if e is None:
+            return dict(x=x, f=np.inf, g=g, iters=k + 1, nev=nev, converged=False, ok=False,
+                        hist=hist + [np.inf])
+        f, g = e
+        hist.append(f)
+    gn = float(np.sqrt(g @ g))
+    return dict(x=x, f=f, g=g, iters=max_iter, nev=nev, converged=gn < grad_tol, ok=True,
+                hist=hist)
 
-        def F(a: float, qv_k=qv_k, qw_k=qw_k, d=d) -> float:  # Steps 7.1-7.3
-            ok, xa, _, _, _ = evaluate_at(kern.project(qv_k + a * d), qw_k, T_P, False)
+
+def cg_golden_printed(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+                      w: np.ndarray, opts: IkOptions):
+    r"""kim1995 §5.2 Steps 3-8 as printed, for one precision point (:func:`fletcher_reeves`).
+
+    Step 3 closes the loops at :math:`q_v^{(k)}` warm-started from the previous dependent
+    joints; Step 4 :math:`\nabla f^{(k)} = J_r^T W x` (Eq. (10)); Steps 5-8 by
+    :func:`fletcher_reeves`, each line-search trial (Steps 7.1-7.3) a loop closure
+    warm-started from :math:`q_w^{(k)}` (a trial whose loops do not close has f = inf).
+    Step 6 with ``opts.grad_tol`` is the only convergence test. Independent joints are
+    projected onto their limits; passive limits are not enforced.
+    """
+    evaluate_at = _point_evaluator(kern, opts)
+    state = {"qw": np.asarray(q_w0, dtype=float)}
+
+    def point(qv):  # Steps 3-4
+        ok, x, Jr, q_e, _ = evaluate_at(kern.project(qv), state["qw"], T_P, True)
+        if not ok:
+            return None
+        state["qw"] = q_e[kern.iw]
+        return 0.5 * float(x @ (w * x)), Jr.T @ (w * x)
+
+    def line(qv, d):  # Steps 7.1-7.3, warm-started from q_w^(k)
+        qw_k = state["qw"]
+
+        def F(a: float) -> float:
+            ok, xa, _, _, _ = evaluate_at(kern.project(qv + a * d), qw_k, T_P, False)
             return 0.5 * float(xa @ (w * xa)) if ok else np.inf
 
-        alpha, n_ls = golden_section(F, f, DELTA_PRINTED / dn, opts.line_tol / dn)  # Step 7
-        nev += n_ls
-        qv = kern.project(qv + alpha * d)  # Step 8, then Step 3
-        closed_e, x, Jr, q_e, _ = evaluate_at(qv, qw, T_P, True)
-        nev += 1
-        if not closed_e:
-            return dict(qv=qv, qw=qw, f=np.inf, iters=k + 1, nev=nev, gnorm=np.inf,
-                        closed=False, converged=False, hist=hist + [np.inf])
-        qw = q_e[kern.iw]
-        f = 0.5 * float(x @ (w * x))
-        g = Jr.T @ (w * x)  # Step 4
-        hist.append(f)
-    else:
-        k = max_iter
-    gn = float(np.sqrt(g @ g))
-    return dict(qv=qv, qw=qw, f=f, iters=k, nev=nev, gnorm=gn, closed=True,
-                converged=converged or gn < opts.grad_tol, hist=hist)
+        return F
+
+    r = fletcher_reeves(point, line, kern.project(q_v0), opts.grad_tol, opts.line_tol,
+                        opts.max_iter or MAX_ITER_CG)
+    gn = float(np.sqrt(r["g"] @ r["g"]))
+    return dict(qv=kern.project(r["x"]), qw=state["qw"], f=r["f"], iters=r["iters"],
+                nev=r["nev"], gnorm=gn if r["ok"] else np.inf, closed=r["ok"],
+                converged=r["converged"], hist=r["hist"])
