@@ -115,7 +115,8 @@ class IkSpec(Spec):
     optionally dependent) joints by name; ``method`` lm (default), cg-golden (kim1995 §5.2) or
     closed-form; ``variant`` (cg-golden only): ``robust`` (default) or ``printed`` (kim1995
     §5.2 exactly as printed: no restarts, Arora's golden section without a step cap, no
-    passive-limit projection; ``cg_restart`` does not apply); ``warm_start`` each point from the previous solution (kim1995 §5.2);
+    passive-limit projection; ``cg_restart`` does not apply); ``warm_start`` each point from
+    the previous solution (kim1995 §5.2);
     ``restarts`` re-solves of a target the (warm) start does not reach, from the nearest poses
     of a seeded codebook, then seeded random joints (default 50: >= 99.5 % of random reachable
     PUMA 560 / Panda poses verified; 0 turns them off); ``batch`` solve all targets at once
