@@ -10,18 +10,20 @@ directions (Step 5) that are never reset, Arora's (1989 §8.2) three-phase golde
 stated length, take its midpoint), and Step 6 (``||grad f|| < epsilon``) as the only
 convergence test.
 
-``robust`` (:func:`cg_golden`, the default) differs, each difference for a measured reason:
+``robust`` (:func:`cg_golden`, the default) differs:
 
 1. the direction is reset to -grad every ``cg_restart`` (default n_v) iterations and whenever
-   it is not a descent direction (the golden section is inexact, so FR directions drift off
-   descent on the curved reduced objective of closed chains);
-2. each bracket is capped at a joint change of ``max_step = 0.1`` (keeps trials within the
-   region where the warm-started loop closure converges to the same assembly mode);
+   it is not a descent direction (a safeguard: the golden section is inexact and the reduced
+   objective of closed chains is not quadratic, so FR directions can lose descent);
+2. each bracket is capped at a joint change of ``max_step = 0.1`` (a safeguard keeping the
+   trials near the assembly the warm-started loop closure is in; it also means a minimum
+   farther away takes several iterations: on (alpha - 0.3)^2 the search returns 0.1309);
 3. the line search returns the best point it evaluated, not the interval's midpoint (never
-   worse than the start of the search, which the midpoint can be);
+   worse than the start of the search, which the midpoint need not be);
 4. the passive joints' limits are kept by Rosen's gradient projection (Arora 1989 §11), and
-   the Step 6 test uses the projected gradient (without it, the kim1995 end-effector robot's
-   3-RPS stage runs into the gimbal lock of a spherical joint, beyond its limit);
+   the Step 6 test uses the projected gradient (measured: without it, the kim1995
+   end-effector robot's 3-RPS stage runs into the gimbal lock of a spherical joint, beyond
+   its limit);
 5. the search also stops when neither the direction nor -grad decreases f (a numerical
    stationary point) instead of running to ``max_iter``.
 
