@@ -148,7 +148,8 @@ def ik_options(spec: IkSpec, units: Any) -> IkOptions:
         max_iter=tol.max_iter, tol_pos=tol.position * L if tol.position else 1e-6,
         tol_ori=tol.orientation * A if tol.orientation else 1e-6, restarts=spec.restarts,
         seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart,
-        cg_variant=spec.variant)
+        cg_variant=spec.variant,
+        lm_grad_tol=tol.grad if "grad" in tol.model_fields_set else 0.0)
 
 
 def reach_bound(mech: Mechanism) -> float:

@@ -155,8 +155,8 @@ def test_lm_stops_at_grad_tol(name, lm_backend):
         kw = dict(q_v0=q_goal + 0.3)
     else:
         T, kw = TABLE5[0], {}
-    fine = solve_ik(mech, T, options=IkOptions(grad_tol=1e-12), **kw)
-    coarse = solve_ik(mech, T, options=IkOptions(grad_tol=1e-2), **kw)
+    fine = solve_ik(mech, T, options=IkOptions(lm_grad_tol=1e-12), **kw)
+    coarse = solve_ik(mech, T, options=IkOptions(lm_grad_tol=1e-2), **kw)
     assert fine.ok
     assert coarse.grad_norm < 1e-2
     assert coarse.iterations < fine.iterations
