@@ -129,6 +129,9 @@ def test_variant_key_config(tmp_path):
     assert ik_options(spec, U).cg_variant == "printed"
     assert ik_options(IkSpec.model_validate({"method": "cg-golden", "targets": tgt}),
                       U).cg_variant == "robust"
+    lm = IkSpec.model_validate({"targets": tgt, "tolerances": {"grad": 1e-6}})
+    assert ik_options(lm, U).lm_grad_tol == 1e-6  # an explicit tolerances.grad reaches lm
+    assert ik_options(IkSpec.model_validate({"targets": tgt}), U).lm_grad_tol == 0.0
     with pytest.raises(ValueError, match="variant"):
         IkSpec.model_validate({"method": "lm", "variant": "printed", "targets": tgt})
     with pytest.raises(ValueError, match="cg_restart"):
