@@ -113,7 +113,10 @@ class IkSpec(Spec):
     ``targets`` (a list of precision points, solved in order) and/or ``random_targets``;
     ``weights`` the default diagonal of W (kim1995 Eq. (9)); ``initial_guess`` independent (and
     optionally dependent) joints by name; ``method`` lm (default), cg-golden (kim1995 §5.2) or
-    closed-form; ``warm_start`` each point from the previous solution (kim1995 §5.2);
+    closed-form; ``variant`` (cg-golden only): ``robust`` (default) or ``printed`` (kim1995
+    §5.2 exactly as printed: no restarts, Arora's golden section without a step cap, no
+    passive-limit projection; ``cg_restart`` does not apply); ``warm_start`` each point from
+    the previous solution (kim1995 §5.2);
     ``restarts`` re-solves of a target the (warm) start does not reach, from the nearest poses
     of a seeded codebook, then seeded random joints (default 50: >= 99.5 % of random reachable
     PUMA 560 / Panda poses verified; 0 turns them off); ``batch`` solve all targets at once
@@ -134,6 +137,7 @@ class IkSpec(Spec):
     warm_start: bool = True
     batch: bool = False
     cg_restart: Annotated[int, Field(strict=True, ge=0)] | None = None
+    variant: Literal["robust", "printed"] = "robust"
     solutions: Literal["one", "all"] = "one"
     solution_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
 
@@ -141,6 +145,12 @@ class IkSpec(Spec):
     def _check(self) -> IkSpec:
         if not self.targets and self.random_targets is None:
             raise ValueError("give targets (a list of precision points) or random_targets")
+        if "variant" in self.model_fields_set and self.method != "cg-golden":
+            raise ValueError(f"variant: applies to method cg-golden only (method is "
+                             f"{self.method})")
+        if self.variant == "printed" and self.cg_restart is not None:
+            raise ValueError("cg_restart: the printed variant never restarts (kim1995 §5.2); "
+                             "use variant robust")
         if self.batch and self.method != "lm":
             raise ValueError("batch: only method lm solves targets in a batch")
         uses_default = self.random_targets is not None or any(

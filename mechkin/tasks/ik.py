@@ -147,7 +147,9 @@ def ik_options(spec: IkSpec, units: Any) -> IkOptions:
         method="cg-golden" if spec.method == "cg-golden" else "lm", grad_tol=tol.grad,
         max_iter=tol.max_iter, tol_pos=tol.position * L if tol.position else 1e-6,
         tol_ori=tol.orientation * A if tol.orientation else 1e-6, restarts=spec.restarts,
-        seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart)
+        seed=spec.seed, tol_phi=tol.closure, line_tol=tol.line, cg_restart=spec.cg_restart,
+        cg_variant=spec.variant,
+        lm_grad_tol=tol.grad if "grad" in tol.model_fields_set else 0.0)
 
 
 def reach_bound(mech: Mechanism) -> float:

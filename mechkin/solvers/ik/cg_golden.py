@@ -1,10 +1,34 @@
-r"""kim1995 §5.2 as printed: Fletcher-Reeves conjugate gradient with a golden-section line search.
+r"""kim1995 §5.2: Fletcher-Reeves conjugate gradient with a golden-section line search, in two
+variants (``IkOptions.cg_variant``).
 
 Every function evaluation runs the §5.1 loop closure warm-started from the current dependent
-joints (the compiled closed-chain evaluation when available). Independent joints are projected
-onto their limits; the passive joints' limits are kept by Rosen's gradient projection (Arora
-1989 §11). The line search brackets with steps growing by the golden ratio, then shrinks the
-interval (Arora 1989 §8.2).
+joints (the compiled closed-chain evaluation when available).
+
+``printed`` (:func:`cg_golden_printed`) is §5.2 Steps 3-8 as printed: Fletcher-Reeves
+directions (Step 5) that are never reset, Arora's (1989 §8.2) three-phase golden section
+(bracket with steps growing by the golden ratio without a cap, reduce the interval below the
+stated length, take its midpoint), and Step 6 (``||grad f|| < epsilon``) as the only
+convergence test.
+
+``robust`` (:func:`cg_golden`, the default) differs:
+
+1. the direction is reset to -grad every ``cg_restart`` (default n_v) iterations and whenever
+   it is not a descent direction (a safeguard: the golden section is inexact and the reduced
+   objective of closed chains is not quadratic, so FR directions can lose descent);
+2. each bracket is capped at a joint change of ``max_step = 0.1`` (a safeguard keeping the
+   trials near the assembly the warm-started loop closure is in; it also means a minimum
+   farther away takes several iterations: on (alpha - 0.3)^2 the search returns 0.1309);
+3. the line search returns the best point it evaluated, not the interval's midpoint (never
+   worse than the start of the search, which the midpoint need not be);
+4. the passive joints' limits are kept by Rosen's gradient projection (Arora 1989 §11), and
+   the Step 6 test uses the projected gradient (measured: without it, the kim1995
+   end-effector robot's 3-RPS stage runs into the gimbal lock of a spherical joint, beyond
+   its limit);
+5. the search also stops when neither the direction nor -grad decreases f (a numerical
+   stationary point) instead of running to ``max_iter``.
+
+Both project the independent joints onto their limits (the mechanism file's limits; §5.2
+states none, and the kim1995 examples do not reach them).
 
 Design
 ------
@@ -15,7 +39,8 @@ Part of the IK solver family :mod:`mechkin.solvers.ik`. May import
 
 References
 ----------
-kim1995_complex_chain_ik §5.2 Steps 1-8; Arora 1989 §8.2 (golden section), §11 (projection).
+kim1995_complex_chain_ik §5.2 Steps 1-8; Arora, *Introduction to Optimum Design* (1989)
+§8.2 (golden section), §8.3 (Fletcher-Reeves), §11 (projection).
 """
 
 from __future__ import annotations
@@ -55,7 +80,9 @@ def _point_evaluator(kern: IkKernel, opts: IkOptions):
 
 def cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
                w: np.ndarray, opts: IkOptions):
-    """kim1995 §5.2 Steps 3-8 for one precision point (arrays (n_v,), (n_w,), (4, 4), (6,)).
+    """kim1995 §5.2 Steps 3-8 for one precision point (arrays (n_v,), (n_w,), (4, 4), (6,)),
+    ``robust`` variant (see the module docstring for its differences from the printed text;
+    ``opts.cg_variant == "printed"`` hands over to :func:`cg_golden_printed`).
 
     §5.2 has no constraints. Independent joints are projected onto their limits (as in lm);
     the dependent (passive) joints' limits, which are nonlinear constraints on q_v, are kept by
@@ -67,6 +94,8 @@ def cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
     it, steepest descent on the kim1995 end-effector robot drives the 3-RPS stage into the
     gimbal lock of a spherical joint (s1_2 = 90 deg, beyond its 80 deg limit) and stops.
     """
+    if opts.cg_variant == "printed":
+        return cg_golden_printed(kern, q_v0, q_w0, T_P, w, opts)
     max_iter = opts.max_iter or MAX_ITER_CG
     nv = q_v0.size
     restart = nv if opts.cg_restart is None else opts.cg_restart
@@ -184,8 +213,9 @@ def cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
 
 def golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float, delta: float,
                  project, tol: float, max_step: float = 0.1):
-    """Golden-section search of min_alpha f(q_v + alpha d) (Arora 1989 §8.2): bracket with
-    steps growing by the golden ratio, then shrink the interval until shorter than ``tol``."""
+    """Golden-section search of min_alpha f(q_v + alpha d) (Arora 1989 §8.2), robust variant:
+    bracket with steps growing by the golden ratio up to a joint change of ``max_step``, shrink
+    the interval until shorter than ``tol``, return the best point evaluated."""
     cache: dict[float, tuple[float, np.ndarray, np.ndarray]] = {}
 
     def F(a: float) -> float:
@@ -237,3 +267,153 @@ def golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float, 
     best = min(cache, key=lambda t: cache[t][0])
     return best, *cache[best]
 
+
+
+# ---- the printed variant -------------------------------------------------------------------------
+
+DELTA_PRINTED = 1e-3  # printed: Arora's first bracketing step delta, as a joint change
+
+
+def golden_section(F, f0: float, delta: float, tol: float, max_eval: int = 10_000
+                   ) -> tuple[float, int]:
+    r"""Arora (1989) §8.2 golden-section search of :math:`\min_{\alpha \ge 0} F(\alpha)` with
+    ``F(0) = f0``, the three phases of kim1995 §5.2 Step 7.
+
+    Phase 1 (initial interval): trial points :math:`\alpha_q = \sum_{j=0}^{q} \delta\,
+    1.618^j` until :math:`F(\alpha_{q-1}) < F(\alpha_q)`; the minimum lies in
+    :math:`[\alpha_{q-2}, \alpha_q]` (``[0, delta]`` when ``F(delta) >= f0``). No cap.
+    Phase 2 (reduction): :math:`\alpha_a = \alpha_l + 0.382 I`, :math:`\alpha_b = \alpha_l +
+    0.618 I`; keep :math:`[\alpha_l, \alpha_b]` if :math:`F(\alpha_a) < F(\alpha_b)`,
+    :math:`[\alpha_a, \alpha_u]` if greater, :math:`[\alpha_a, \alpha_b]` if equal, until
+    :math:`I = \alpha_u - \alpha_l < ` ``tol``. Phase 3: :math:`\alpha^* = (\alpha_l +
+    \alpha_u) / 2`.
+
+    Returns ``(alpha*, number of evaluations of F)``. ``max_eval`` only guards against an F
+    that decreases without bound (then the last trial is returned).
+    """
+    nev = 0
+    # phase 1
+    a_l, a_m, f_m = 0.0, 0.0, f0  # alpha_{q-2}, alpha_{q-1}
+    step = delta
+    a = delta
+    fa = F(a)
+    nev += 1
+    while fa <= f_m:
+        if nev >= max_eval or not np.isfinite(a):
+            return a, nev
+        a_l, a_m, f_m = a_m, a, fa
+        step /= GOLDEN  # x 1.618
+        a = a + step
+        fa = F(a)
+        nev += 1
+    a_u = a
+    # phase 2
+    ln = a_u - a_l
+    aa, ab = a_l + (1.0 - GOLDEN) * ln, a_l + GOLDEN * ln
+    fa_, fb_ = F(aa), F(ab)
+    nev += 2
+    while a_u - a_l >= tol and nev < max_eval:
+        if fa_ < fb_:
+            a_u, ab, fb_ = ab, aa, fa_
+            aa = a_l + (1.0 - GOLDEN) * (a_u - a_l)
+            fa_ = F(aa)
+            nev += 1
+        elif fa_ > fb_:
+            a_l, aa, fa_ = aa, ab, fb_
+            ab = a_l + GOLDEN * (a_u - a_l)
+            fb_ = F(ab)
+            nev += 1
+        else:
+            a_l, a_u = aa, ab
+            ln = a_u - a_l
+            aa, ab = a_l + (1.0 - GOLDEN) * ln, a_l + GOLDEN * ln
+            fa_, fb_ = F(aa), F(ab)
+            nev += 2
+    # phase 3
+    return 0.5 * (a_l + a_u), nev
+
+
+def fletcher_reeves(point, line, x0: np.ndarray, grad_tol: float, line_tol: float,
+                    max_iter: int):
+    r"""kim1995 §5.2 Steps 4-8 on any smooth f: Fletcher-Reeves conjugate gradient with the
+    golden-section line search :func:`golden_section`, as printed.
+
+    ``point(x) -> (f, grad) | None`` evaluates the iterate (None: it cannot be evaluated, e.g.
+    the loops do not close); ``line(x, d) -> F`` gives :math:`F(\alpha) = f(x + \alpha d)` for
+    the search from x (inf where f cannot be evaluated). Step 5:
+    :math:`d^{(k)} = -\nabla f^{(k)} + \beta_k d^{(k-1)}`, :math:`\beta_k = (\|\nabla
+    f^{(k)}\| / \|\nabla f^{(k-1)}\|)^2`, never reset; Step 6: stop when :math:`\|\nabla
+    f^{(k)}\| <` ``grad_tol``; Step 7: the interval is ``line_tol`` as a change of x, the first
+    bracketing step ``DELTA_PRINTED`` (both divided by ``||d||`` in alpha).
+
+    Returns a dict: x, f, g, iters, nev, converged, ok (False: ``point`` failed), hist.
+    """
+    x = np.asarray(x0, dtype=float)
+    e = point(x)
+    nev = 1
+    if e is None:
+        return dict(x=x, f=np.inf, g=np.full_like(x, np.inf), iters=0, nev=nev,
+                    converged=False, ok=False, hist=[np.inf])
+    f, g = e
+    hist = [f]
+    d = -g
+    g2_prev = float(g @ g)
+    k = 0
+    for k in range(max_iter):  # noqa: B007 - k is reported
+        g2 = float(g @ g)
+        if k > 0:  # Step 5
+            d = -g + (g2 / g2_prev) * d
+        g2_prev = g2
+        if np.sqrt(g2) < grad_tol:  # Step 6
+            return dict(x=x, f=f, g=g, iters=k, nev=nev, converged=True, ok=True, hist=hist)
+        dn = float(np.linalg.norm(d))
+        alpha, n_ls = golden_section(line(x, d), f, DELTA_PRINTED / dn, line_tol / dn)  # Step 7
+        nev += n_ls + 1
+        x = x + alpha * d  # Step 8 (then Steps 3-4 at the new point)
+        e = point(x)
+        if e is None:
+            return dict(x=x, f=np.inf, g=g, iters=k + 1, nev=nev, converged=False, ok=False,
+                        hist=hist + [np.inf])
+        f, g = e
+        hist.append(f)
+    gn = float(np.sqrt(g @ g))
+    return dict(x=x, f=f, g=g, iters=max_iter, nev=nev, converged=gn < grad_tol, ok=True,
+                hist=hist)
+
+
+def cg_golden_printed(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+                      w: np.ndarray, opts: IkOptions):
+    r"""kim1995 §5.2 Steps 3-8 as printed, for one precision point (:func:`fletcher_reeves`).
+
+    Step 3 closes the loops at :math:`q_v^{(k)}` warm-started from the previous dependent
+    joints; Step 4 :math:`\nabla f^{(k)} = J_r^T W x` (Eq. (10)); Steps 5-8 by
+    :func:`fletcher_reeves`, each line-search trial (Steps 7.1-7.3) a loop closure
+    warm-started from :math:`q_w^{(k)}` (a trial whose loops do not close has f = inf).
+    Step 6 with ``opts.grad_tol`` is the only convergence test. Independent joints are
+    projected onto their limits; passive limits are not enforced.
+    """
+    evaluate_at = _point_evaluator(kern, opts)
+    state = {"qw": np.asarray(q_w0, dtype=float)}
+
+    def point(qv):  # Steps 3-4
+        ok, x, Jr, q_e, _ = evaluate_at(kern.project(qv), state["qw"], T_P, True)
+        if not ok:
+            return None
+        state["qw"] = q_e[kern.iw]
+        return 0.5 * float(x @ (w * x)), Jr.T @ (w * x)
+
+    def line(qv, d):  # Steps 7.1-7.3, warm-started from q_w^(k)
+        qw_k = state["qw"]
+
+        def F(a: float) -> float:
+            ok, xa, _, _, _ = evaluate_at(kern.project(qv + a * d), qw_k, T_P, False)
+            return 0.5 * float(xa @ (w * xa)) if ok else np.inf
+
+        return F
+
+    r = fletcher_reeves(point, line, kern.project(q_v0), opts.grad_tol, opts.line_tol,
+                        opts.max_iter or MAX_ITER_CG)
+    gn = float(np.sqrt(r["g"] @ r["g"]))
+    return dict(qv=kern.project(r["x"]), qw=state["qw"], f=r["f"], iters=r["iters"],
+                nev=r["nev"], gnorm=gn if r["ok"] else np.inf, closed=r["ok"],
+                converged=r["converged"], hist=r["hist"])

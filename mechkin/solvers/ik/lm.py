@@ -104,7 +104,8 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
         qv[:, sel], kern.chain.first_frame(T_P), w, kern.chain, kern.bound_lo[sel],
         kern.bound_hi[sel], kern.cont_v[sel], kern.lower_v[sel], kern.upper_v[sel],
         f_abs=f_abs,
-        max_iter=max_iter, stall=stall, mu=LM_MU, history=history, stop_first=stop_on_first)
+        max_iter=max_iter, stall=stall, mu=LM_MU, history=history, stop_first=stop_on_first,
+        grad_tol=opts.lm_grad_tol)
     qv[:, sel] = qc
     q = np.empty((m, kern.n))
     q[:, kern.iv] = qv
@@ -167,8 +168,12 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
               H = J_r^T W J_r
 
     q_v is projected onto its limits after each step; a step is kept when E decreases
-    (lambda / 10), else lambda x 4. On closed chains the dependent (passive) joints keep their
-    limits too: a step that would carry them across is re-solved with them held on the limit
+    (lambda / 10), else lambda x 4. A row stops when E is far below the verification
+    tolerances, when a step gains nothing measurable, or when ``||J_r^T W x|| <
+    opts.lm_grad_tol`` (an explicit ``tolerances.grad``; joints held on a limit do not count),
+    the same in the numpy and the compiled back ends. On closed chains the dependent (passive)
+    joints keep their limits too: a step that would carry them across is re-solved with them
+    held on the limit
     (:func:`passive_limited_steps`), and a trial whose loop closure lands more than
     PASSIVE_BAND of a range beyond a limit is rejected. (Measured on the kim1995 end-effector
     robot: without this, lm reaches Table 8 points 2-4 with spherical joint s1 through the
@@ -192,7 +197,7 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
         return tree_jit.lm_closed_rows(
             kern, q_v0, q_w0, T_P, w, tol_phi=opts.tol_phi, tol_dq=TOL_DQ_CLOSURE,
             max_iter_closure=MAX_ITER_CLOSURE, max_iter=max_iter, mu=LM_MU, history=history,
-            passive_band=PASSIVE_BAND, stop_first=stop_on_first,
+            passive_band=PASSIVE_BAND, stop_first=stop_on_first, grad_tol=opts.lm_grad_tol,
             f_abs=0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2)
     rows = _ClosedRows(kern, opts.tol_phi) if closed_chain else _OpenRows(kern)
     passive_bounded = closed_chain and kern.passive_bounded
@@ -235,6 +240,7 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
                 free = ~blocked
                 H = H * (free[:, :, None] & free[:, None, :]) + eye * blocked[:, :, None]
         ga_norm = np.sqrt(np.einsum("mi,mi->m", g, g))
+        gstop = ga_norm < opts.lm_grad_tol  # ||grad E|| below tolerances.grad: stop, no step
         A = H + la[:, None, None] * (H * eye + mu_eye)
         try:
             step = np.linalg.solve(A, g[:, :, None])[:, :, 0]
@@ -252,7 +258,7 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
             cl = cl & np.all((cn[0] >= kern.lo_w - band) & (cn[0] <= kern.hi_w + band), axis=1)
         fn = 0.5 * np.einsum("mi,mi->m", xn, wa * xn)
         its += 1
-        good = fn < fa if cl is None else cl & (fn < fa)
+        good = (fn < fa if cl is None else cl & (fn < fa)) & ~gstop
         gain = fa - fn
         if good.all():
             fin = (fn < f_abs) | (gain <= 1e-14 * np.maximum(fn, 1e-300))
@@ -270,6 +276,7 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
             # finished: converged, no measurable progress, or a rejected step that is tiny
             fin = np.where(good, (fn < f_abs) | (gain <= 1e-14 * np.maximum(fn, 1e-300)),
                            (np.sqrt(np.einsum("mi,mi->m", step, step)) < 1e-13) | (la > 1e10))
+        fin = fin | gstop
         if history:
             for r_, fv in zip(act, fa, strict=True):
                 hist[r_].append(float(fv))
@@ -285,7 +292,7 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
             r_ = act[fin]
             qv[r_], x[r_], f[r_], lam[r_], gnorm[r_] = qa[fin], xa[fin], fa[fin], la[fin], \
                 ga_norm[fin]
-            iters[r_] = its
+            iters[r_] = its - gstop[fin]  # a gradient stop takes no step (as compiled)
             if closed_chain:
                 qw[r_] = ca[0][fin]
             done[r_] = True

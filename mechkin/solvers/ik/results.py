@@ -59,7 +59,15 @@ class IkOptions:
     cg_restart : int or None
         Reset the conjugate direction to -grad every ``cg_restart`` iterations (None: every
         n_v iterations; 0: never, as printed in kim1995 §5.2). A direction that is not a
-        descent direction is always reset.
+        descent direction is always reset. Robust variant only.
+    lm_grad_tol : float
+        lm stops a row when ``||J_r^T W x|| < lm_grad_tol`` (0: off, the default, so default
+        solves are unchanged; the task sets it from an explicit ``tolerances.grad``).
+    cg_variant : {"robust", "printed"}
+        cg-golden only. ``printed``: kim1995 §5.2 as printed (Fletcher-Reeves without
+        restarts, Arora's three-phase golden section without a step cap, midpoint of the final
+        interval, no passive-limit projection, Step 6 as the only convergence test);
+        ``robust`` (default): see :func:`mechkin.solvers.ik.cg_golden.cg_golden`.
     """
 
     method: Method = "lm"
@@ -72,6 +80,8 @@ class IkOptions:
     tol_phi: float = TOL_PHI
     line_tol: float = 1e-7
     cg_restart: int | None = None
+    cg_variant: Literal["robust", "printed"] = "robust"
+    lm_grad_tol: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -236,8 +236,8 @@ def project(q, lo, hi, cont, lower, upper):
 
 
 @_njit
-def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, max_iter, stall,
-       mu, stop_first, q, f, iters, done, gnorm, hist):
+def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, grad_tol, max_iter,
+       stall, mu, stop_first, q, f, iters, done, gnorm, hist):
     """Rows one after another; with ``stop_first`` (several starts for one target) the rows
     after the first that converges (E < f_abs) are not run: their E is inf, 0 iterations."""
     m, k = q0.shape
@@ -269,6 +269,9 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, max_it
         gn = 0.0
         while not fin and it < max_iter:
             gn = lm_step(J, x, w[r], qr, lo, hi, lam, mu, g, H, A, step, blk)
+            if gn < grad_tol:  # ||grad E|| below tolerances.grad: stationary
+                fin = True
+                break
             for a in range(k):
                 qn[a] = qr[a] - step[a]
             project(qn, lo, hi, cont, lower, upper)
@@ -309,13 +312,14 @@ def lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, max_it
 def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarray,
               hi: np.ndarray, cont: np.ndarray, lower: np.ndarray, upper: np.ndarray, *,
               f_abs: float, max_iter: int, stall: int, mu: float, history: bool,
-              stop_first: bool = False):
+              stop_first: bool = False, grad_tol: float = 0.0):
     """Run the compiled lm on every row; returns q (m, k), f, iters, done, gnorm, hist.
 
     ``chain`` is a :class:`mechkin.model.serial.SerialChain`; q0 (m, k) are its joints; F0
     (m, 4, 4) its first frame in each precision point; w (m, 6) the weights; lo, hi, cont,
     lower, upper (k,) the bounds, continuous flags and the limits of the chain's joints.
     ``stop_first``: the rows are starts for one target; stop at the first that converges.
+    ``grad_tol``: a row also stops when ||J^T W x|| (free joints) is below it.
     """
     m, k = q0.shape
     q = np.empty((m, k))
@@ -332,7 +336,8 @@ def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarr
             chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(), chain.Pd[:, 0].copy(),
             chain.P0[:, 0].copy(), chain.rev.copy())
     consts = (*cc, *(np.ascontiguousarray(a) for a in (lo, hi, cont, lower, upper)),
-              float(f_abs), int(max_iter), int(stall), float(mu), bool(stop_first))
+              float(f_abs), float(grad_tol), int(max_iter), int(stall), float(mu),
+              bool(stop_first))
     outs = (q, f, iters, done, gnorm, hist)
 
     def run(sl: slice) -> None:

@@ -428,7 +428,8 @@ def workspace(n, n_links, neq, nv, nw):
 
 @_njit
 def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, lower, upper,
-              n_links, tol_phi, tol_dq, max_iter_closure, f_abs, max_iter, mu, lo_w, hi_w,
+              n_links, tol_phi, tol_dq, max_iter_closure, f_abs, grad_tol, max_iter, mu, lo_w,
+              hi_w,
               band_w, passive, stop_first, qv_out, qw_out, f, iters, done, gnorm, closed, hist):
     """Levenberg-Marquardt on the reduced Jacobian, row by row (see the module docstring).
     With ``stop_first`` (several starts for one target) the rows after the first that
@@ -476,6 +477,9 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
         gn = 0.0
         while not fin and it < max_iter:
             gn = lm_step(Jr, x, w[r], qv, lo, hi, lam, mu, g, H, A, step, blk)
+            if gn < grad_tol:  # ||grad E|| below tolerances.grad: stationary
+                fin = True
+                break
             if passive:
                 passive_limited_step(H, g, lam, mu, step, q, iw, S, lo_w, hi_w)
             for a in range(nv):
@@ -594,7 +598,7 @@ def tree_constants(mech, frame: int):
 def lm_closed_rows(kern, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, w: np.ndarray, *,
                    tol_phi: float, tol_dq: float, max_iter_closure: int, f_abs: float,
                    max_iter: int, mu: float, history: bool, passive_band: float,
-                   stop_first: bool = False):
+                   stop_first: bool = False, grad_tol: float = 0.0):
     """Run the compiled closed-chain lm on every row; returns a dict like
     :func:`mechkin.solvers.ik.lm.lm_batch`."""
     mech = kern.mech
@@ -616,7 +620,7 @@ def lm_closed_rows(kern, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray, w:
               *(np.ascontiguousarray(a) for a in (kern.bound_lo, kern.bound_hi, kern.cont_v,
                                                  kern.lower_v, kern.upper_v)),
               mech.n_links, float(tol_phi), float(tol_dq), int(max_iter_closure), float(f_abs),
-              int(max_iter), float(mu), np.ascontiguousarray(kern.lo_w),
+              float(grad_tol), int(max_iter), float(mu), np.ascontiguousarray(kern.lo_w),
               np.ascontiguousarray(kern.hi_w), np.ascontiguousarray(passive_band * kern.range_w),
               kern.passive_bounded, bool(stop_first), qv, qw, f, iters, done, gnorm, closed,
               hist)
