@@ -258,6 +258,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "line": "Tolerance of the golden-section line search (cg-golden).",
     },
     "IkSpec": {
+        "variant": "cg-golden only: printed (kim1995 §5.2 as printed: Fletcher-Reeves without "
+                   "restarts, Arora's golden section, no passive-limit projection) or robust "
+                   "(the default: restarts, a capped bracket, passive limits kept).",
         "targets": "Precision points {P} (kim1995 §5), solved in order.",
         "random_targets": "Seeded random reachable targets (besides or instead of targets).",
         "weights": "Default diagonal of W (kim1995 Eq. (9)): position x, y, z, then "
