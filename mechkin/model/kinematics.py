@@ -7,6 +7,7 @@ position first, then the vector part of the Euler parameters.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -203,11 +204,24 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
     qs = np.asarray(qs, dtype=np.float64)
     if qs.ndim != 2 or qs.shape[1] != mech.n:
         raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
-    fi = np.arange(len(mech.frame_names)) if idx is None else np.asarray(idx, dtype=int)
-    if fi.ndim != 1:
-        return forward_kinematics(mech, qs).frames(mech, fi)
-    plan = _path_plan(mech, fi)
-    if qs.shape[0] >= PLAN_LARGE_BATCH:
+    plans = mech.__dict__.get("_fk_plans")
+    try:  # the cache key: the frame indices as given (a list or an integer array)
+        key = tuple(idx) if type(idx) is list else (
+            None if idx is None else tuple(np.asarray(idx).tolist()))
+        plan = None if plans is None else plans.get(key)
+    except TypeError:  # unhashable (nested) indices: the tree FK decides
+        return forward_kinematics(mech, qs).frames(mech, idx)
+    if plan is None:
+        fi = np.arange(len(mech.frame_names)) if idx is None else np.asarray(idx)
+        if fi.ndim != 1 or (fi.size and fi.dtype.kind not in "iu"):
+            return forward_kinematics(mech, qs).frames(mech, idx)
+        plan = _path_plan(mech, fi, key)
+    m = qs.shape[0]
+    if not plan.frames_py:
+        return np.zeros((m, 0, 4, 4))
+    if m == 1:
+        return _plan_one(plan, qs[0])
+    if m >= PLAN_LARGE_BATCH:
         return _plan_large(plan, qs)
     return _plan_small(plan, qs)
 
@@ -235,18 +249,22 @@ class _PathPlan:
     frame_step: tuple[int, ...]  # per frame, the step whose X it continues (-1: the base)
     E: np.ndarray  # (k, 4, 4) constant after X
     last_use: tuple[int, ...]  # per step, the last step (or frame output p) that reads it
+    steps: tuple  # per step (joint, revolute, parent step, top 3 rows of C) as Python floats
+    frames_py: tuple  # per frame (step, top 3 rows of E) as Python floats
 
 
-def _path_plan(mech: Mechanism, fi: np.ndarray) -> _PathPlan:
-    """The path plan of frames ``fi``, computed once per mechanism and frame set."""
+def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan:
+    """The path plan of frames ``fi``, computed once per mechanism and frame set (``key``)."""
     cache = mech.__dict__.get("_fk_plans")
     if cache is None:
         cache = {}
         object.__setattr__(mech, "_fk_plans", cache)
-    key = tuple(int(f) for f in fi)
+    if key is None:
+        key = tuple(fi.tolist())
     plan = cache.get(key)
     if plan is not None:
         return plan
+    fi = np.arange(len(mech.frame_names))[fi]  # negative indices as numpy reads them
     links = mech.frame_link[fi]
     need = mech.link_ancestors[links].any(axis=0) if len(fi) else np.zeros(mech.n, bool)
     order = np.concatenate(mech.levels) if mech.levels else np.zeros(0, int)
@@ -274,10 +292,49 @@ def _path_plan(mech: Mechanism, fi: np.ndarray) -> _PathPlan:
     for st in frame_step:
         if st >= 0:
             last[st] = p
-    plan = _PathPlan(joints, parent, C, rev, all_rev, factors, frame_step, E, tuple(last))
+    steps = tuple((int(j), bool(r), int(pi), tuple(tuple(row) for row in c[:3].tolist()))
+                  for j, r, pi, c in zip(joints, rev, parent, C, strict=True))
+    frames_py = tuple((st, tuple(tuple(row) for row in e[:3].tolist()))
+                      for st, e in zip(frame_step, E, strict=True))
+    plan = _PathPlan(joints, parent, C, rev, all_rev, factors, frame_step, E, tuple(last),
+                     steps, frames_py)
     if len(cache) < 64:
         cache[key] = plan
     return plan
+
+
+def _mul34(X: tuple, Y: tuple) -> tuple:
+    """Product of two affine transforms given by their top 3 rows (tuples of floats)."""
+    (a0, a1, a2, a3), (b0, b1, b2, b3), (c0, c1, c2, c3) = X
+    (y00, y01, y02, y03), (y10, y11, y12, y13), (y20, y21, y22, y23) = Y
+    return ((a0 * y00 + a1 * y10 + a2 * y20, a0 * y01 + a1 * y11 + a2 * y21,
+             a0 * y02 + a1 * y12 + a2 * y22, a0 * y03 + a1 * y13 + a2 * y23 + a3),
+            (b0 * y00 + b1 * y10 + b2 * y20, b0 * y01 + b1 * y11 + b2 * y21,
+             b0 * y02 + b1 * y12 + b2 * y22, b0 * y03 + b1 * y13 + b2 * y23 + b3),
+            (c0 * y00 + c1 * y10 + c2 * y20, c0 * y01 + c1 * y11 + c2 * y21,
+             c0 * y02 + c1 * y12 + c2 * y22, c0 * y03 + c1 * y13 + c2 * y23 + c3))
+
+
+_LAST_ROW = (0.0, 0.0, 0.0, 1.0)
+
+
+def _plan_one(plan: _PathPlan, q: np.ndarray) -> np.ndarray:
+    """One configuration in plain Python floats (faster than numpy on 4x4 matrices,
+    measured): ``C Z(q)`` mixes C's first two columns (revolute) or shifts its last one by
+    q times the third (prismatic), then 3x4 affine products along the path."""
+    ql = q.tolist()
+    X: list = [None] * len(plan.steps)
+    cos, sin = math.cos, math.sin
+    for i, (j, rev, pi, C) in enumerate(plan.steps):
+        v = ql[j]
+        if rev:
+            c, s = cos(v), sin(v)
+            L = tuple((r0 * c + r1 * s, r1 * c - r0 * s, r2, r3) for r0, r1, r2, r3 in C)
+        else:
+            L = tuple((r0, r1, r2, r3 + r2 * v) for r0, r1, r2, r3 in C)
+        X[i] = L if pi < 0 else _mul34(X[pi], L)
+    return np.array([[(*(_mul34(X[st], E) if st >= 0 else E), _LAST_ROW)
+                      for st, E in plan.frames_py]])
 
 
 def _plan_small(plan: _PathPlan, qs: np.ndarray) -> np.ndarray:
