@@ -215,7 +215,7 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
         fi = np.arange(len(mech.frame_names)) if idx is None else np.asarray(idx)
         if fi.ndim != 1 or (fi.size and fi.dtype.kind not in "iu"):
             return forward_kinematics(mech, qs).frames(mech, idx)
-        plan = _path_plan(mech, fi, key)
+        plan = _path_plan(mech, fi.astype(int), key)
     m = qs.shape[0]
     if not plan.frames_py:
         return np.zeros((m, 0, 4, 4))
