@@ -324,17 +324,26 @@ def _plan_one(plan: _PathPlan, q: np.ndarray) -> np.ndarray:
     q times the third (prismatic), then 3x4 affine products along the path."""
     ql = q.tolist()
     X: list = [None] * len(plan.steps)
-    cos, sin = math.cos, math.sin
+    cos, sin, mul = math.cos, math.sin, _mul34
     for i, (j, rev, pi, C) in enumerate(plan.steps):
         v = ql[j]
+        (a0, a1, a2, a3), (b0, b1, b2, b3), (c0, c1, c2, c3) = C
         if rev:
             c, s = cos(v), sin(v)
-            L = tuple((r0 * c + r1 * s, r1 * c - r0 * s, r2, r3) for r0, r1, r2, r3 in C)
+            L = ((a0 * c + a1 * s, a1 * c - a0 * s, a2, a3),
+                 (b0 * c + b1 * s, b1 * c - b0 * s, b2, b3),
+                 (c0 * c + c1 * s, c1 * c - c0 * s, c2, c3))
         else:
-            L = tuple((r0, r1, r2, r3 + r2 * v) for r0, r1, r2, r3 in C)
-        X[i] = L if pi < 0 else _mul34(X[pi], L)
-    return np.array([[(*(_mul34(X[st], E) if st >= 0 else E), _LAST_ROW)
-                      for st, E in plan.frames_py]])
+            L = ((a0, a1, a2, a3 + a2 * v), (b0, b1, b2, b3 + b2 * v), (c0, c1, c2, c3 + c2 * v))
+        X[i] = L if pi < 0 else mul(X[pi], L)
+    flat: list = []
+    for st, E in plan.frames_py:
+        r0, r1, r2 = mul(X[st], E) if st >= 0 else E
+        flat += r0
+        flat += r1
+        flat += r2
+        flat += _LAST_ROW
+    return np.array(flat).reshape(1, len(plan.frames_py), 4, 4)
 
 
 def _plan_small(plan: _PathPlan, qs: np.ndarray) -> np.ndarray:
