@@ -228,7 +228,7 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
 
 #: From this batch size on, :func:`frame_poses` composes column by column (structure of
 #: arrays) instead of with batched 4x4 products.
-PLAN_LARGE_BATCH = 64
+PLAN_LARGE_BATCH = 128
 
 
 @dataclass(frozen=True)
