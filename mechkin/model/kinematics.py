@@ -124,6 +124,10 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
     if qs.ndim != 2 or qs.shape[1] != mech.n:
         raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
     m = qs.shape[0]
+    if m >= LARGE_BATCH and _links_are_frames(mech):
+        # the link body frames through the block-wise path plan (link-major storage)
+        plan = _path_plan(mech, np.arange(mech.n_links), ("links",))
+        return Kinematics(q=qs, T_links=_plan_large(plan, qs, link_major=True), mech=mech)
     T = np.empty((mech.n_links, m, 4, 4))  # link-major while composing, contiguous per link
     T[0] = np.eye(4)
     if m >= LARGE_BATCH:
@@ -141,6 +145,15 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
 
 
 LARGE_BATCH = 256
+
+
+def _links_are_frames(mech: Mechanism) -> bool:
+    """Whether frames 0..nl-1 are the link body frames (identity offsets), as built."""
+    nl = mech.n_links
+    return (len(mech.frame_names) >= nl and bool(np.array_equal(mech.frame_link[:nl],
+                                                                np.arange(nl)))
+            and bool(np.array_equal(mech.frame_offset[:nl], np.broadcast_to(np.eye(4),
+                                                                            (nl, 4, 4)))))
 
 
 def _a_as_rz_tz(mech: Mechanism) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -393,14 +406,15 @@ def _times_const(X: np.ndarray, C: np.ndarray) -> np.ndarray:
 PLAN_BLOCK = 4096
 
 
-def _plan_large(plan: _PathPlan, qs: np.ndarray) -> np.ndarray:
+def _plan_large(plan: _PathPlan, qs: np.ndarray, link_major: bool = False) -> np.ndarray:
     """Many configurations, block by block: poses kept column-major ((4, 3, b): column, row,
     sample), Z(q) mixes two columns (revolute) or shifts one (prismatic), constants are one
     wide product each; a step's pose is dropped once its last child has read it. Memory
     beyond the result: a few blocks of poses."""
     m = qs.shape[0]
     k = len(plan.frame_step)
-    out = np.empty((m, k, 4, 4))
+    store = np.empty((k, m, 4, 4) if link_major else (m, k, 4, 4))
+    out = np.moveaxis(store, 0, 1) if link_major else store  # (m, k, 4, 4) either way
     out[:, :, 3, :3] = 0.0
     out[:, :, 3, 3] = 1.0
     for f, st in enumerate(plan.frame_step):

@@ -135,3 +135,27 @@ def test_fk_task_open_chain_shortcut_equals_the_closure_solver():
     np.testing.assert_array_equal(got.iterations, ref.iterations)
     np.testing.assert_array_equal(got.residual, ref.residual)
     np.testing.assert_array_equal(got.cond, ref.cond)
+
+
+@pytest.mark.parametrize("path", FILES, ids=[p.stem for p in FILES])
+def test_large_batch_tree_fk_matches_joint_by_joint_and_naive(path):
+    # forward_kinematics from LARGE_BATCH on runs the block-wise plan over every link
+    mech = load_mechanism(path)
+    rng = np.random.default_rng(11)
+    m = K.LARGE_BATCH + K.PLAN_BLOCK + 3
+    qs = rng.uniform(-2.0, 2.0, size=(m, mech.n))
+    kin = forward_kinematics(mech, qs)
+    T = np.empty((mech.n_links, m, 4, 4))
+    T[0] = np.eye(4)
+    K._fk_large_batch(mech, qs, T)
+    np.testing.assert_allclose(kin.T_links, np.moveaxis(T, 0, 1), rtol=0, atol=1e-12)
+    small = forward_kinematics(mech, qs[:5])
+    np.testing.assert_allclose(kin.T_links[:5], small.T_links, rtol=0, atol=1e-12)
+    for r in (0, m - 1):
+        for f in range(mech.n_links):
+            np.testing.assert_allclose(kin.T_links[r, f], _naive(mech, qs[r], f), rtol=0,
+                                       atol=1e-12)
+    z, o = kin.axes()
+    z5, o5 = small.axes()
+    np.testing.assert_allclose(z[:5], z5, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(o[:5], o5, rtol=0, atol=1e-12)
