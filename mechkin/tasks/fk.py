@@ -204,6 +204,15 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
 
     kw = dict(tol_phi=tol.phi, tol_dq=tol.dq, max_iter=tol.max_iter)
     m = len(qv)
+    if mech.n_cuts == 0 and len(mech.dependent) == 0:
+        # an open chain has no loop to close: every step is converged with zero iterations,
+        # zero residual and cond 1 (what solve_closure returns, without the per-step loop)
+        from mechkin.model.closure import ClosureResult
+
+        return ClosureResult(q=mech.assemble(qv, np.zeros((m, 0))),
+                             status=np.full(m, ClosureStatus.CONVERGED, dtype=object),
+                             iterations=np.zeros(m, dtype=int), residual=np.zeros(m),
+                             cond=np.ones(m))
     if m <= CHUNK_STEPS:
         return solve_trajectory(mech, qv, q_w0, **kw)
     parts = []
