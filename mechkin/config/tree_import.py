@@ -20,7 +20,6 @@ errors, numpy.
 
 from __future__ import annotations
 
-import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +31,7 @@ from pydantic import Field
 from mechkin.config.load import YamlDoc, read_yaml
 from mechkin.config.schema import CutSpec, MechanismSpec, Name, Num, Spec, validate_model
 from mechkin.errors import ConfigError
+from mechkin.spatial.rotations import rpy_of
 
 _NAME_OK = r"^[A-Za-z_][A-Za-z0-9_.\-]*$"
 
@@ -95,25 +95,6 @@ class Sidecar(Spec):
     independent: list[Name] | None = None
     end_effector: Name | None = None
     home: dict[str, Num] | None = None
-
-
-def rpy_of(R: np.ndarray) -> list[float]:
-    """URDF roll-pitch-yaw of a rotation (``R = Rz(y) Ry(p) Rx(r)``), accurate at the poles.
-
-    The pitch is ``atan2(-R20, hypot(R00, R10))`` (``asin`` loses half the digits near +-pi/2),
-    the yaw ``atan2(R10, R00)``, and the roll is read from ``Ry(p)^T Rz(y)^T R`` so that an
-    inaccurate yaw near gimbal lock is absorbed by the roll: ``matrix_from_rpy`` of the result
-    reproduces R to rounding error everywhere.
-    """
-    R = np.asarray(R, dtype=np.float64)
-    c = math.hypot(R[0, 0], R[1, 0])
-    pitch = math.atan2(-R[2, 0], c)
-    yaw = math.atan2(R[1, 0], R[0, 0]) if c > 0 else 0.0
-    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
-    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    M = Ry.T @ Rz.T @ R
-    return [math.atan2(M[2, 1], M[1, 1]), pitch, yaw]
 
 
 def _clean(v) -> list[float]:

@@ -23,29 +23,18 @@ May import: spatial, numpy (duck-typed Mechanism; io sees no model code).
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
+
+from mechkin.spatial.rotations import rpy_of
 
 if TYPE_CHECKING:
     from mechkin.model import Mechanism
 
 NS = "urn:mechkin:urdf"
 AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
-
-
-def _rpy(R: np.ndarray) -> list[float]:
-    """URDF rpy of R, accurate at the poles (same as mechkin.config.tree_import.rpy_of)."""
-    c = math.hypot(R[0, 0], R[1, 0])
-    pitch = math.atan2(-R[2, 0], c)
-    yaw = math.atan2(R[1, 0], R[0, 0]) if c > 0 else 0.0
-    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
-    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    M = Ry.T @ Rz.T @ R
-    return [math.atan2(M[2, 1], M[1, 1]), pitch, yaw]
 
 
 def _num(x: float) -> str:
@@ -58,7 +47,7 @@ def _vec(v) -> str:
 
 
 def _origin(T: np.ndarray) -> str:
-    return f'<origin xyz="{_vec(T[:3, 3])}" rpy="{_vec(_rpy(T[:3, :3]))}"/>'
+    return f'<origin xyz="{_vec(T[:3, 3])}" rpy="{_vec(rpy_of(T[:3, :3]))}"/>'
 
 
 def mechanism_to_urdf(mech: Mechanism) -> str:

@@ -5,6 +5,8 @@ Every function accepts a leading batch shape ``(...)`` where stated; angles in r
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -181,3 +183,22 @@ def rotation_log(R: np.ndarray) -> np.ndarray:
         w[i] = np.where(np.einsum("mi,mi->m", a, w[i])[:, None] < 0.0, -a, a)
         scale[i] = ang[i]
     return w * scale[:, None]
+
+
+def rpy_of(R: np.ndarray) -> list[float]:
+    """URDF roll-pitch-yaw of a rotation (``R = Rz(y) Ry(p) Rx(r)``), accurate at the poles.
+
+    The pitch is ``atan2(-R20, hypot(R00, R10))`` (``asin`` loses half the digits near +-pi/2),
+    the yaw ``atan2(R10, R00)``, and the roll is read from ``Ry(p)^T Rz(y)^T R`` so that an
+    inaccurate yaw near gimbal lock is absorbed by the roll: ``matrix_from_rpy`` of the result
+    reproduces R to rounding error everywhere.
+    """
+    R = np.asarray(R, dtype=np.float64)
+    c = math.hypot(R[0, 0], R[1, 0])
+    pitch = math.atan2(-R[2, 0], c)
+    yaw = math.atan2(R[1, 0], R[0, 0]) if c > 0 else 0.0
+    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    M = Ry.T @ Rz.T @ R
+    return [math.atan2(M[2, 1], M[1, 1]), pitch, yaw]

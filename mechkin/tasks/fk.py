@@ -185,7 +185,12 @@ def check_budget(scenario: Scenario) -> None:
     """The run's memory budget check, without solving."""
     mech = load_mechanism(scenario.mechanism_path)
     t, *_ = independent_motion_rates(scenario, mech)
-    check_motion_budget(scenario, mech, len(t), ("fk",), "fk steps", extra_per_item=
+    _check_steps(scenario, mech, len(t))
+
+
+def _check_steps(scenario: Scenario, mech: Mechanism, m: int) -> None:
+    """m fk steps with their rates (qd, qdd, twists) against the memory budget."""
+    check_motion_budget(scenario, mech, m, ("fk",), "fk steps", extra_per_item=
                         8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
 
 
@@ -239,8 +244,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     """
     mech = load_mechanism(scenario.mechanism_path)
     t, qv, qd_v, qdd_v = independent_motion_rates(scenario, mech)
-    check_motion_budget(scenario, mech, len(t), ("fk",), "fk steps", extra_per_item=
-                        8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
+    _check_steps(scenario, mech, len(t))
     q_w0 = initial_dependent(scenario, mech)
     assembly_configs(scenario, mech)  # bad input before any work
     tol = scenario.section.tolerances

@@ -81,8 +81,7 @@ def _targets(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray, lis
         names.append(t.name or f"P{i + 1}")
     if spec.random_targets is not None:
         rt = spec.random_targets
-        check_motion_budget(sc, mech, rt.count + len(Ts), ("ik", "random_targets", "count"),
-                            "ik targets", extra_per_item=4000.0)  # + the summary record
+        _check_targets(sc, mech, rt.count + len(Ts))
         rng = np.random.default_rng(rt.seed)
         iv = mech.independent
         lo = np.where(np.isfinite(mech.lower[iv]), mech.lower[iv], -np.pi)
@@ -300,9 +299,13 @@ def check_budget(scenario: Scenario) -> None:
     rt = scenario.section.random_targets
     if rt is not None:
         mech = load_mechanism(scenario.mechanism_path)
-        check_motion_budget(scenario, mech, rt.count + len(scenario.section.targets),
-                            ("ik", "random_targets", "count"), "ik targets",
-                            extra_per_item=4000.0)
+        _check_targets(scenario, mech, rt.count + len(scenario.section.targets))
+
+
+def _check_targets(scenario: Scenario, mech: Mechanism, k: int) -> None:
+    """k ik targets (with their summary records) against the memory budget."""
+    check_motion_budget(scenario, mech, k, ("ik", "random_targets", "count"), "ik targets",
+                        extra_per_item=4000.0)
 
 
 def run(scenario: Scenario, progress: bool | None = None) -> Report:

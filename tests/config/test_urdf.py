@@ -145,9 +145,8 @@ def test_published_urdf_fk_equals_bundled_yaml(which):
 def test_rpy_round_trip_is_exact_at_the_poles():
     """The importer's and exporter's rpy reproduce R to rounding error, also in gimbal lock
     (where asin-based formulas lose half the digits)."""
-    from mechkin.config.tree_import import rpy_of
-    from mechkin.io.urdf_out import _rpy
-    from mechkin.spatial.rotations import matrix_from_rpy
+    from mechkin.io.urdf_out import rpy_of as _rpy  # the exporter uses the shared one
+    from mechkin.spatial.rotations import matrix_from_rpy, rpy_of
 
     rng = np.random.default_rng(2)
     rpy = rng.uniform(-3, 3, (3000, 3))
