@@ -120,16 +120,21 @@ def terminate_cleanly() -> Iterator[None]:
     import signal
 
     def on_signal(signum: int, frame: Any) -> None:
-        if frame is not None and _unraisable_context(frame):
-            # an exception raised in a weakref callback or __del__ is printed and dropped:
-            # deliver the signal again a moment later, from ordinary code
-            import threading
+        # never raise from here: an exception raised inside a finaliser, a weakref callback or
+        # a C-extension import is dropped or aborts the interpreter. Stop the workers, remove
+        # this run's staging folders and lock (renames into the output folder run with the
+        # signals held, so the folder holds the previous or the complete new files), leave.
+        from mechkin.io.output_dir import run_cleanups
 
-            threading.Timer(0.02, os.kill, (os.getpid(), signum)).start()
-            return
         _SIGNALLED.append(signum)
         _stop_children()
-        raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+        run_cleanups()
+        term = signum == signal.SIGTERM
+        with contextlib.suppress(Exception):
+            what = "terminated (SIGTERM)" if term else "interrupted (SIGINT)"
+            sys.stderr.write(f"mechkin: {what}; no output was changed\n")
+            sys.stderr.flush()
+        os._exit(143 if term else 130)
 
     try:
         old = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
@@ -154,21 +159,6 @@ def terminate_cleanly() -> Iterator[None]:
 
 
 _SIGNALLED: list[int] = []
-
-
-def _unraisable_context(frame: Any) -> bool:
-    """Is ``frame`` (or a caller within 3 levels) a weakref callback, a finaliser or the GC,
-    where a raised exception would be reported as 'Exception ignored' instead of unwinding?"""
-    f = frame
-    for _ in range(3):
-        if f is None:
-            return False
-        code = f.f_code
-        if code.co_name in ("__del__", "remove", "_remove_dead_weakref", "__exit__") or \
-                code.co_filename.endswith(("weakref.py", "_weakrefset.py")):
-            return True
-        f = f.f_back
-    return False
 
 
 def _stop_children() -> None:

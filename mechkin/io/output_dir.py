@@ -32,6 +32,30 @@ log = logging.getLogger(__name__)
 
 _HELD = {signal.SIGINT, signal.SIGTERM}
 
+#: Cleanups of the runs in progress (staging folders, locks), run by a signal handler that
+#: leaves the process at once (mechkin.cli.common.terminate_cleanly).
+_CLEANUPS: dict[int, Any] = {}
+
+
+def register_cleanup(fn: Any) -> int:
+    """Keep ``fn`` to run if the process is stopped by a signal; returns a key to forget it."""
+    key = id(fn)
+    _CLEANUPS[key] = fn
+    return key
+
+
+def forget_cleanup(key: int) -> None:
+    _CLEANUPS.pop(key, None)
+
+
+def run_cleanups() -> None:
+    """Run every registered cleanup, newest first, ignoring errors."""
+    for key in sorted(_CLEANUPS, reverse=True):
+        fn = _CLEANUPS.pop(key, None)
+        if fn is not None:
+            with contextlib.suppress(Exception):
+                fn()
+
 
 def _pid_alive(pid: int) -> bool:
     try:
@@ -144,6 +168,13 @@ class OutputDir:
             sweep_stale_staging(self.path)
             self._staging = Path(tempfile.mkdtemp(
                 prefix=f"{_STAGING_PREFIX}{os.getpid()}-", dir=self.path))
+            staging = self._staging
+
+            def _drop() -> None:
+                shutil.rmtree(staging, ignore_errors=True)
+                self._remove_if_created()
+
+            self._cleanup = register_cleanup(_drop)
         except OSError as e:
             self._remove_if_created()
             raise OutputError(f"{self.path}: cannot create a staging directory: "
@@ -166,6 +197,7 @@ class OutputDir:
         finally:
             shutil.rmtree(staging, ignore_errors=True)
             self._staging = None
+            forget_cleanup(getattr(self, "_cleanup", 0))
             if not ok:
                 self._remove_if_created()
 

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from mechkin.errors import OutputDirError
-from mechkin.io.output_dir import OutputDir, _pid_alive
+from mechkin.io.output_dir import OutputDir, _pid_alive, forget_cleanup, register_cleanup
 from mechkin.records import Report
 
 LOCK_NAME = ".mechkin.lock"
@@ -87,17 +87,22 @@ def prepare_output(out_dir: str | Path, scenario: str, *, force: bool = False) -
         raise OutputDirError(f"--out {_short(str(out))}: cannot create: "
                              f"{exc.strerror or exc}") from None
     lock = out / LOCK_NAME
-    try:
-        _take_lock(lock)
-        try:
-            yield out
-        finally:
-            with contextlib.suppress(OSError):
-                lock.unlink()
-    finally:
+
+    def _release() -> None:
+        with contextlib.suppress(OSError):
+            lock.unlink()
         if created:
             with contextlib.suppress(OSError):
                 out.rmdir()  # only if empty
+
+    key = 0
+    try:
+        _take_lock(lock)
+        key = register_cleanup(_release)
+        yield out
+    finally:
+        forget_cleanup(key)
+        _release()
 
 
 def _take_lock(lock: Path) -> None:
