@@ -124,11 +124,15 @@ def terminate_cleanly() -> Iterator[None]:
         # a C-extension import is dropped or aborts the interpreter. Stop the workers, remove
         # this run's staging folders and lock (renames into the output folder run with the
         # signals held, so the folder holds the previous or the complete new files), leave.
-        from mechkin.io.output_dir import run_cleanups
-
         _SIGNALLED.append(signum)
-        _stop_children()
-        run_cleanups()
+        with contextlib.suppress(BaseException):
+            _stop_children()
+        # no import here (the main thread may be half-way through importing these modules):
+        # nothing to clean up unless the output code is loaded
+        mod = sys.modules.get("mechkin.io.output_dir")
+        with contextlib.suppress(BaseException):
+            if mod is not None and hasattr(mod, "run_cleanups"):
+                mod.run_cleanups()
         term = signum == signal.SIGTERM
         with contextlib.suppress(Exception):
             what = "terminated (SIGTERM)" if term else "interrupted (SIGINT)"
