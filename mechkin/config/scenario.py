@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, model_validator
 
 from mechkin.config.load import YamlDoc, read_yaml, short, short_str, short_tail
-from mechkin.config.schema import Name, Num, PosNum, Spec, Units, validate_model
+from mechkin.config.schema import Name, Num, PosNum, Spec, Units, Vec3, validate_model
 from mechkin.errors import ConfigError
 
 # ---- fk ---------------------------------------------------------------------------------------
@@ -61,6 +61,48 @@ class ToleranceSpec(Spec):
     max_iter: Annotated[int, Field(strict=True, ge=1, le=10000)] = 50
 
 
+#: The six coordinates of a base pose: translation (file length unit) and URDF roll-pitch-yaw
+#: (file angle unit; R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes, as mechanism frames).
+BASE_COORDS = ("x", "y", "z", "roll", "pitch", "yaw")
+BaseCoord = Literal["x", "y", "z", "roll", "pitch", "yaw"]
+
+
+class BasePoseSpec(Spec):
+    """A constant base pose: ``xyz`` (file length unit) and URDF ``rpy`` (file angle unit)."""
+
+    xyz: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+class BaseSpec(Spec):
+    """``fk: base:``: the pose of the mechanism's base frame {0} in a world frame, T_0(t)
+    (kim1995 §5.1 Step 1, the homogeneous transform of the base frame in the inertial frame).
+
+    Give exactly one of: ``pose`` (constant ``xyz`` + ``rpy``), ``motion`` (a generator per
+    coordinate ``x``, ``y``, ``z``, ``roll``, ``pitch``, ``yaw``, the same ``constant`` / ``ramp``
+    / ``sinusoid`` forms as the joints, evaluated at the fk times; coordinates not given stay
+    0), ``table`` (columns ``t`` and any of the six coordinates) or ``csv`` (a file with
+    ``t_s`` and any of ``x_m|x_mm``, ..., ``roll_rad|roll_deg``, ...). A table or CSV is
+    interpolated at the fk times by a not-a-knot cubic spline (quadratic / linear / constant
+    for 3 / 2 / 1 rows), and its times must cover the fk times. ``frame``: name of the world
+    frame in the MCAP frame tree.
+    """
+
+    pose: BasePoseSpec | None = None
+    motion: dict[BaseCoord, MotionSpec] | None = None
+    table: dict[Name, list[Num]] | None = None
+    csv: str | None = None
+    frame: Name = "world"
+
+    @model_validator(mode="after")
+    def _one_source(self) -> BaseSpec:
+        given = [k for k in ("pose", "motion", "table", "csv") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one of pose, motion, table or csv, got "
+                             f"{', '.join(given) or 'none'}")
+        return self
+
+
 class FkSpec(Spec):
     """``fk:`` section: the motion of the independent joints.
 
@@ -72,6 +114,9 @@ class FkSpec(Spec):
     the first configuration of the motion (and at each ``assembly_at`` configuration of the
     independent joints, by name in the file's units), by seeded multi-start Newton-Raphson
     from ``assembly_starts`` starts; the motion itself follows the mode of ``initial_guess``.
+
+    ``base``: a moving (or displaced) base T_0(t) (:class:`BaseSpec`); frame poses, twists and
+    accelerations are then reported in its world frame.
     """
 
     time: TimeSpec | None = None
@@ -84,6 +129,7 @@ class FkSpec(Spec):
     assembly: Literal["one", "all"] = "one"
     assembly_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
     assembly_at: list[dict[Name, Num]] | None = None
+    base: BaseSpec | None = None
 
     @model_validator(mode="after")
     def _one_source(self) -> FkSpec:

@@ -229,6 +229,22 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "assembly_starts": "Seeded multi-start count for assembly: all.",
         "assembly_at": "Extra independent-joint configurations (by name, file units) to list "
                        "assembly modes at (needs assembly: all).",
+        "base": "Moving or displaced base T_0(t) (kim1995 §5.1 Step 1): pose of the base frame "
+                "in a world frame; outputs are then in the world frame.",
+    },
+    "BaseSpec": {
+        "pose": "Constant base pose (xyz, rpy); not with motion/table/csv.",
+        "motion": "Generator per base coordinate x, y, z (length unit), roll, pitch, yaw (angle "
+                  "unit; R = Rz(yaw) Ry(pitch) Rx(roll)); coordinates not given stay 0.",
+        "table": "Columns t [s] and any of x, y, z, roll, pitch, yaw (file units), "
+                 "interpolated at the fk times by a cubic spline.",
+        "csv": "CSV file (relative to the scenario) with t_s and any of x_m|x_mm, ..., "
+               "roll_rad|roll_deg, ... columns; interpolated at the fk times.",
+        "frame": "Name of the world frame (MCAP frame tree root).",
+    },
+    "BasePoseSpec": {
+        "xyz": f"Base origin in the world frame {_L}.",
+        "rpy": f"Base orientation, URDF roll-pitch-yaw (fixed axes x, y, z) {_A}.",
     },
     "EulerSpec": {
         "convention": "Sequence of intrinsic body axes, e.g. ZYX, XYZ or signed X-Y+Z.",
@@ -512,6 +528,9 @@ RULES: dict[str, list[dict]] = {
         _when("type", ["constant"], _present("value")),
         _when("type", ["ramp"], _present("from", "to")),
         _when("type", ["sinusoid"], _present("amplitude", "frequency")),
+    ],
+    "BaseSpec": [
+        {"oneOf": [_present("pose"), _present("motion"), _present("table"), _present("csv")]},
     ],
     "FkSpec": [
         {"oneOf": [_present("motion"), _present("table"), _present("csv")]},

@@ -67,16 +67,30 @@ def motion_layout(rec: MotionRecord) -> dict[str, Any]:
     key = [(state_path("closure_residual"), "closure residual [m | rad]")]
     if rec.task == "ik":
         key.append((state_path("position_error"), "position error [m]"))
-    return layout(rec.frame_root or "world", list(rec.joint_names),
+    return layout(rec.world_frame or rec.frame_root or "world", list(rec.joint_names),
                   [(f"{rec.task}: residuals", key)])
+
+
+def frame_tree_of(rec: MotionRecord) -> tuple[str | None, list[str], list[str], Any]:
+    """The /tf tree of a record: as recorded, or, with a moving base (``rec.world_frame``),
+    rooted at the world frame with the base pose T_0(t) as the world -> base transform
+    (kim1995 §5.1 Step 1)."""
+    if rec.world_frame is None or rec.T_world_base is None or rec.frame_root is None:
+        return rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child
+    T = np.asarray(rec.T_world_base, float)[:, None]
+    T_pc = (T if rec.T_parent_child is None or not len(rec.frame_names)
+            else np.concatenate([T, rec.T_parent_child], axis=1))
+    return (rec.world_frame, [rec.frame_root, *rec.frame_names],
+            [rec.world_frame, *rec.frame_parents], T_pc)
 
 
 def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog:
     times = rec.times
+    root, names, parents, T_pc = frame_tree_of(rec)
     return MotionLog(
-        times=times - min(0.0, float(times[0])), root_frame=rec.frame_root,
-        frame_names=rec.frame_names, frame_parents=rec.frame_parents,
-        T_parent_child=rec.T_parent_child, joint_names=list(rec.joint_names), q=rec.q, qd=rec.qd,
+        times=times - min(0.0, float(times[0])), root_frame=root,
+        frame_names=names, frame_parents=parents,
+        T_parent_child=T_pc, joint_names=list(rec.joint_names), q=rec.q, qd=rec.qd,
         effort=effort, scene=motion_scene(rec), state=rec.state,
         state_schema=state_schema(rec.task) if rec.task in STATE_FIELDS else None,
         metadata=rec.metadata,

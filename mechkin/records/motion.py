@@ -31,9 +31,10 @@ class MotionRecord:
     columns : dict
         The CSV table, in column order (units in the names).
     segments : array (m, s, 2, 3), optional
-        Stick-drawing segments in the base frame (plots and /scene); None when neither is asked.
+        Stick-drawing segments in the base frame, or in the world frame when the record has a
+        moving base (plots and /scene); None when neither is asked.
     axis_points : array (m, n, 3), optional
-        A point on every joint axis (/scene spheres).
+        A point on every joint axis (/scene spheres), in the frame of ``segments``.
     frame_root, frame_names, frame_parents, T_parent_child
         The /tf frame tree (``T_parent_child`` (m, k, 4, 4)); None when no MCAP is asked.
     state : list of dict
@@ -48,6 +49,12 @@ class MotionRecord:
         Labels of that plot.
     targets : array (m, 3), optional
         ik: the target position of each row in the base frame [m] (stick-plot markers).
+    world_frame : str, optional
+        fk with ``base:`` (kim1995 §5.1 Step 1): name of the world frame; the MCAP frame tree is
+        then rooted there, with ``T_world_base`` (m, 4, 4), the base pose T_0(t), as the
+        transform world -> ``frame_root``.
+    T_world_base : array (m, 4, 4), optional
+        The base pose in the world frame at each configuration.
     """
 
     task: str
@@ -73,3 +80,5 @@ class MotionRecord:
     convergence_ylabel: str = ""
     convergence_title: str = ""
     targets: np.ndarray | None = None
+    world_frame: str | None = None
+    T_world_base: np.ndarray | None = None

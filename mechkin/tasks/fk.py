@@ -37,6 +37,7 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
+from mechkin.tasks.fk_base import base_into_record, base_into_summary, base_trajectory
 
 # CSV column suffixes of joint values and their SI factors
 SUFFIX_TO_SI = {k: UNIT_TO_SI[k] for k in ("rad", "deg", "m", "mm")}
@@ -245,6 +246,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     mech = load_mechanism(scenario.mechanism_path)
     t, qv, qd_v, qdd_v = independent_motion_rates(scenario, mech)
     _check_steps(scenario, mech, len(t))
+    base = base_trajectory(scenario, mech, t)  # kim1995 §5.1 Step 1 T_0(t); bad input first
     q_w0 = initial_dependent(scenario, mech)
     assembly_configs(scenario, mech)  # bad input before any work
     tol = scenario.section.tolerances
@@ -306,6 +308,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         }
     if scenario.section.assembly == "all":
         summary.update(assembly_summary(scenario, mech, qv, q_w0, res.q[0] if len(t) else None))
+    base_into_summary(base, summary)
     checks = with_expect(summary, scenario)
     extra = rate_columns(mech, md, ee)
     extra.update(singularity_columns(sing))
@@ -315,6 +318,10 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     rec = motion_record(scenario=scenario, mech=mech, kin=kin, times=t, step_status=status,
                         residual=phin, task="fk", extra_columns=extra, extra_state=state)
     rec.qd = np.nan_to_num(md.qd, nan=0.0)
+    if base is not None:
+        base_into_record(base, rec, T_e=kin.frames(mech, ee)[:, 0] if ee else None,
+                         twist=md.twists[:, 0] if ee else None,
+                         accel=md.accelerations[:, 0] if ee else None)
     return Report(task="fk", scenario=scenario.name, summary=summary, checks=checks,
                   solver_ok=overall == "ok", writer="motion", data=rec,
                   outputs=output_flags(scenario), scenario_path=scenario.path,

@@ -166,7 +166,23 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
         if k not in dep:
             out.append(_unknown_joint(sc, ("fk", "initial_guess", k), k, dep,
                                       "a dependent joint"))
+    if spec.base is not None and not out:
+        out += _fk_base_problems(sc, mech)
     return out
+
+
+def _fk_base_problems(sc: Any, mech: Any) -> list[str]:
+    """``fk: base:``: the base trajectory can be built at the fk times (table / CSV columns,
+    times covering the motion, world frame name)."""
+    from mechkin.tasks.fk import independent_motion
+    from mechkin.tasks.fk_base import base_trajectory
+
+    try:
+        t, _ = independent_motion(sc, mech)
+        base_trajectory(sc, mech, t)
+    except ConfigError as exc:
+        return list(exc.problems)
+    return []
 
 
 # ---- ik ---------------------------------------------------------------------------------------
@@ -384,11 +400,13 @@ _FK_KEYS = {"scenario", "task", "mechanism", "status", "n_steps", "steps", "firs
             "closure", "joints_outside_limits", "solve_time_s", "time_per_step_s", "t_s",
             "final", "singularity", "rates_time_s", "assembly_modes", "n_assembly_modes",
             "n_assembly_modes_within_limits", "assembly_mode_followed", "assembly_search",
-            "assembly_at"}
+            "assembly_at", "base"}
 _FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_mean",
                           "iterations_max", "max_condition"},
               "steps": {"converged", "not converged", "singular"},
-              "final": {"q", "end_effector"}}
+              "final": {"q", "end_effector", "end_effector_in_base"},
+              "base": {"world_frame", "source", "final", "max_speed_m_s",
+                       "max_angular_speed_rad_s", "max_acceleration_m_s2"}}
 _IK_KEYS = {"scenario", "task", "mechanism", "method", "status", "n_targets", "counts",
             "max_position_error", "max_orientation_error", "solve_time_s",
             "median_time_per_target_s", "end_effector", "targets", "solutions"}
