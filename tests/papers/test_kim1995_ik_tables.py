@@ -182,13 +182,11 @@ def test_table9_end_effector_cg_golden_points_1_2(mechs, lm_backend):
 
 def _without_leg_strokes(tmp_path):
     """The end-effector robot with the leg strokes lifted: kim1995 gives no strokes, and its
-    §5.2 has no joint limits; the bundled file's [0.3, 0.8] m are the reconstruction's."""
-    src = (Path(__file__).resolve().parents[2] / "mechanisms" /
-           "kim1995_end_effector_robot.yaml").read_text()
-    assert src.count("limits: [0.3, 0.8]") == 3
-    path = tmp_path / "kim1995_end_effector_robot_no_strokes.yaml"
-    path.write_text(src.replace("limits: [0.3, 0.8]", "limits: [-10, 10]"))
-    return load_mechanism(path)
+    §5.2 has no joint limits; the bundled file's [0.3, 0.8] m are the reconstruction's. The
+    bundled variant mechanisms/kim1995_end_effector_robot_no_strokes.yaml (checked against the
+    bundled robot in test_kim1995_table9_readings.py)."""
+    return load_mechanism(Path(__file__).resolve().parents[2] / "mechanisms" /
+                          "kim1995_end_effector_robot_no_strokes.yaml")
 
 
 def test_table9_end_effector_cg_golden_sequence_as_printed(tmp_path, lm_backend):
