@@ -249,8 +249,9 @@ def base_into_summary(base: BaseTrajectory | None, summary: dict[str, Any]) -> N
     if base is None:
         return
     ee = summary["final"].get("end_effector")
-    if ee is not None and not base.static_identity:
+    if ee is not None:
         summary["final"]["end_effector_in_base"] = dict(ee)
+    if ee is not None and not base.static_identity:
         T_e = np.eye(4)
         T_e[:3, :3], T_e[:3, 3] = ee["R"], ee["xyz_m"]
         T_w = base.T[-1] @ T_e
