@@ -10,7 +10,11 @@ configuration (and at the ``assembly_at`` configurations), found by
 index of the mode the motion runs on; the motion is solved as with ``one``), and
 ``assembly_at`` for the given configurations.
 
-Imports: config, model, solvers (assembly), records, tasks.common.
+``base:`` (kim1995 §5.1 Step 1, a moving base T_0(t)) re-expresses the end-effector pose,
+twist and acceleration, the final pose and the drawings in the world frame and adds the base's
+own columns and summary block (:mod:`mechkin.tasks.fk_base`); the loop closure is unchanged.
+
+Imports: config, model, solvers (assembly), records, tasks.common, tasks.fk_base.
 """
 
 from __future__ import annotations
