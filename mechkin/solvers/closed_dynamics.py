@@ -99,6 +99,37 @@ class ClosedMotion:
     lm: LinkMotion
 
 
+def _pinv(P: np.ndarray) -> np.ndarray:
+    """Pseudo-inverse (m, c, r) of the nondimensionalised ``Phi_w (m, r, c)``.
+
+    With full column rank (the regular case) ``Phi_w^+ = (Phi_w^T Phi_w)^{-1} Phi_w^T``, or
+    ``Phi_w^{-1}`` when square, by LU: the same matrix as the SVD pseudo-inverse, several times
+    cheaper for the Stewart platform's 30 x 30 blocks. Rows where that fails (rank lost, a
+    constraint singularity) take the SVD one of :func:`mechkin.model.reduced._svd_pinv`
+    (minimum-norm rates, singular values below ``RCOND * sigma_max`` dropped).
+    """
+    m, r, c = P.shape
+    out = np.full((m, c, r), np.nan)
+    if m == 0 or c == 0:
+        return np.zeros((m, c, r))
+    with np.errstate(all="ignore"):
+        try:
+            if r == c:
+                out = np.linalg.inv(P)
+            else:
+                Pt = np.swapaxes(P, 1, 2)
+                out = np.linalg.solve(Pt @ P, Pt)
+        except np.linalg.LinAlgError:
+            pass
+        # a singular or nearly singular block passes LU with inf or garbage: keep the rows
+        # whose inverse reproduces the identity on the columns
+        resid = np.abs(out @ P - np.eye(c)).max(axis=(1, 2))
+        bad = ~(resid < 1e-8)
+    if bad.any():
+        out[bad] = _svd_pinv(P[bad])[0]
+    return out
+
+
 class _Geometry:
     """Per-configuration quantities shared by the calls at one q (kinematics, Phi^+, S)."""
 
@@ -110,7 +141,7 @@ class _Geometry:
         if len(iw):
             _, Phi = closure_jacobian(mech, self.kin)
             row, col = constraint_scaling(mech, length_scale)
-            Pinv, _ = _svd_pinv(Phi[:, :, iw] * row[None, :, None] * col[None, None, :])
+            Pinv = _pinv(Phi[:, :, iw] * row[None, :, None] * col[None, None, :])
             self.Pinv = Pinv * col[None, :, None] * row[None, None, :]
             self.Phi_v = Phi[:, :, iv]
             self.S = -self.Pinv @ self.Phi_v
