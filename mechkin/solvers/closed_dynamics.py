@@ -72,7 +72,7 @@ from mechkin.model.reduced import _svd_pinv
 from mechkin.model.singularity import constraint_scaling, resolve_length_scale
 
 __all__ = ["ClosedChainDynamics", "ClosedMotion", "IndependentJointDynamics",
-           "closed_chain_dynamics", "closed_motion"]
+           "closed_chain_dynamics", "closed_motion", "sensitivity"]
 
 
 @dataclass(frozen=True)
@@ -185,6 +185,14 @@ def _motion(mech: Mechanism, geo: _Geometry, qd_v: np.ndarray, qdd_v: np.ndarray
         qdd = mech.assemble(qdd_v, np.zeros((qd.shape[0], 0)))
     lm = LinkMotion(lm0.V, lm0.A + _ancestors(mech) @ (geo.xi * qdd[..., None]))
     return qd, qdd, lm
+
+
+def sensitivity(mech: Mechanism, q: np.ndarray, *, length_scale: float | None = None
+                ) -> np.ndarray:
+    """``S = dq_w/dq_v = -Phi_w^+ Phi_v (m, n_w, n_v)`` at assembled ``q (m, n)`` (kim1995
+    Eq. (4) differentiated; the pseudo-inverse of :func:`_pinv`, nondimensionalised)."""
+    q = _as_batch(q, mech.n, "q")
+    return _Geometry(mech, q, resolve_length_scale(mech, length_scale)).S
 
 
 def closed_motion(mech: Mechanism, q: np.ndarray, qd_v: np.ndarray,

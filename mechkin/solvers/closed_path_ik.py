@@ -35,11 +35,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mechkin.model.closure import dependent_sensitivity, solve_closure
+from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.model.mechanism import Mechanism
 from mechkin.model.reduced import reduced_jacobian
-from mechkin.solvers.closed_dynamics import closed_motion
+from mechkin.solvers.closed_dynamics import closed_motion, sensitivity
 from mechkin.solvers.path_ik import (
     FD_F2,
     FD_F2_REDUNDANT,
@@ -110,7 +110,7 @@ class ClosedHandLineIK(HandLineIK):
                               f"({res.status[0].value}, residual {res.residual[0]:.3g}); "
                               "change ik.initial_guess")
         self._anchor_q = res.q.copy()
-        self._anchor_S = dependent_sensitivity(mech, res.q)
+        self._anchor_S = sensitivity(mech, res.q)
         self._full_cache: tuple[bytes, np.ndarray] | None = None
         self._close_cache: dict = {}
         self._task_cache: dict = {}
@@ -126,7 +126,7 @@ class ClosedHandLineIK(HandLineIK):
             r = float(self.r_tab[k])
             raise PathIKError("path", f"the loops do not close near r = {r:.3g}", r=r,
                               point=self.hand(np.array([r]))[0])
-        self._add_anchors(self.tab_full, sensitivity=True)
+        self._add_anchors(self.tab_full)
         for j, sgn in branch_w.items():
             name = mech.joint_names[j]
             qj = self.tab_full[:, j]
@@ -143,48 +143,56 @@ class ClosedHandLineIK(HandLineIK):
 
     # ---- loop closure -------------------------------------------------------------------------
 
-    def _add_anchors(self, q: np.ndarray, sensitivity: bool) -> None:
-        """Remember closed configurations as starts of the closure; with ``sensitivity`` their
-        ``S`` too (first-order predictor), else a zero-order one (a continuation step)."""
+    def _add_anchors(self, q: np.ndarray, S: np.ndarray | None = None) -> None:
+        """Remember closed configurations (and their ``S``) as starts of the loop closure."""
         ok = np.isfinite(q).all(axis=1)
         if not ok.any() or self._anchor_q.shape[0] >= MAX_ANCHORS:
             return
         q = q[ok]
-        S = (dependent_sensitivity(self.closed_mech, q) if sensitivity
-             else np.zeros((q.shape[0],) + self._anchor_S.shape[1:]))
+        S = sensitivity(self.closed_mech, q) if S is None else S[ok]
         self._anchor_q = np.vstack([self._anchor_q, q])
         self._anchor_S = np.concatenate([self._anchor_S, S])
 
-    def _close(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Assembled ``q (m, n)`` and the rows that closed, for ``q_v (m, n_v)`` (or ``q (m, n)``
-        already assembled, returned as given); rows that do not close are nan."""
+    def _close_with_S(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Assembled ``q (m, n)``, the rows that closed and ``S = dq_w/dq_v (m, n_w, n_v)`` for
+        ``q_v (m, n_v)`` (or ``q (m, n)`` already assembled, returned as given); rows that do
+        not close are nan. Each batch of q_v starts from the nearest remembered configuration,
+        moved to first order (``q_w + S (q_v - q_v')``)."""
         mech = self.closed_mech
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        if q.shape[1] == mech.n:
-            return q, np.isfinite(q).all(axis=1)
         key = (q.shape, q.tobytes())
         hit = self._close_cache.get(key)
         if hit is not None:
-            return hit[0].copy(), hit[1].copy()
-        out = np.full((q.shape[0], mech.n), np.nan)
-        fin = np.flatnonzero(np.isfinite(q).all(axis=1))
-        if fin.size:
-            qv = q[fin]
-            av = self._anchor_q[:, self._iv]
-            d = np.sum((qv[:, None, :] - av[None]) ** 2, axis=2)
-            k = np.argmin(d, axis=1)
-            guess = (self._anchor_q[k][:, self._iw]
-                     + np.einsum("mwv,mv->mw", self._anchor_S[k], qv - av[k]))
-            res = solve_closure(mech, qv, guess)
-            ok = res.ok
-            out[fin[ok]] = res.q[ok]
-            if q.shape[0] == 1 and ok.all():  # a continuation step: remember it
-                self._add_anchors(res.q, sensitivity=False)
+            return tuple(a.copy() for a in hit)
+        nw, nv = len(self._iw), len(self._iv)
+        S = np.full((q.shape[0], nw, nv), np.nan)
+        if q.shape[1] == mech.n:
+            out = q.copy()
+        else:
+            out = np.full((q.shape[0], mech.n), np.nan)
+            fin = np.flatnonzero(np.isfinite(q).all(axis=1))
+            if fin.size:
+                qv = q[fin]
+                av = self._anchor_q[:, self._iv]
+                d = np.sum((qv[:, None, :] - av[None]) ** 2, axis=2)
+                k = np.argmin(d, axis=1)
+                guess = (self._anchor_q[k][:, self._iw]
+                         + np.einsum("mwv,mv->mw", self._anchor_S[k], qv - av[k]))
+                res = solve_closure(mech, qv, guess)
+                out[fin[res.ok]] = res.q[res.ok]
         ok = np.isfinite(out).all(axis=1)
+        if ok.any():
+            S[ok] = sensitivity(mech, out[ok])
+        if q.shape[0] == 1 and q.shape[1] != mech.n and ok.all():  # a continuation step
+            self._add_anchors(out, S)
         if len(self._close_cache) >= CLOSE_CACHE:
             self._close_cache.pop(next(iter(self._close_cache)))
-        self._close_cache[key] = (out, ok)
-        return out.copy(), ok.copy()
+        self._close_cache[key] = (out, ok, S)
+        return out.copy(), ok.copy(), S.copy()
+
+    def _close(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Assembled ``q (m, n)`` and the rows that closed (:meth:`_close_with_S`)."""
+        return self._close_with_S(q)[:2]
 
     # ---- the parent's kinematics hooks (independent joints in, reduced Jacobian out) ---------
 
@@ -202,7 +210,7 @@ class ClosedHandLineIK(HandLineIK):
         hit = self._task_cache.get(key)
         if hit is not None:
             return tuple(a.copy() for a in hit)
-        qf, ok = self._close(q)
+        qf, ok, S = self._close_with_S(q)
         m = qf.shape[0]
         T = np.full((m, 4, 4), np.nan)
         x = np.full((m, 6), np.nan)
@@ -210,7 +218,7 @@ class ClosedHandLineIK(HandLineIK):
         if ok.any():
             kin = forward_kinematics(mech, qf[ok])
             Tk = kin.frames(mech, [self.f])[:, 0]
-            J = reduced_jacobian(mech, qf[ok], self.f, kin=kin)  # rows (omega, v), kim1995 (10)
+            J = reduced_jacobian(mech, qf[ok], self.f, kin=kin, S=S[ok])  # kim1995 Eq. (10)
             T[ok] = Tk
             x[ok, :3] = Tk[:, :3, 3]
             A[ok, :3] = J[:, 3:]
