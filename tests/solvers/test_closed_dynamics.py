@@ -309,7 +309,8 @@ def test_mujoco_inverse_dynamics_projected(tmp_path: Path) -> None:
     model (so ``qfrc_inverse`` itself depends on the solref/solimp softness). Whatever f_eq is,
     ``J_eq^T f_eq`` lies in the row space of the constraint Jacobian, which the projection
     annihilates (``J_eq (L_v + L_w S) = 0`` on the constraint manifold). The projected torques
-    therefore do not depend on the softness, and agree to round-off; 1e-6 relative is asserted.
+    therefore do not depend on the softness, and agree to round-off (about 1e-15 relative when
+    measured); 1e-9 relative is asserted, tighter than the 1e-6 the issue asks for.
     """
     mujoco = pytest.importorskip("mujoco")
     xml = tmp_path / "turntable_fourbar.xml"
@@ -339,6 +340,6 @@ def test_mujoco_inverse_dynamics_projected(tmp_path: Path) -> None:
         P = mech.L_v + mech.L_w @ mo.S[0]  # (n, n_v)
         ref = P.T @ qfrc
         got = dyn.independent_torques(q[None], qd_v[None], qdd_v[None])[0]
-        np.testing.assert_allclose(got, ref, rtol=1e-6, atol=1e-6 * np.abs(ref).max())
+        np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
         # the constraint force is not small: the unprojected passive columns are not zero
         assert np.abs(qfrc[mech.dependent]).max() > 1e-3
