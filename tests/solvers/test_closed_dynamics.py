@@ -22,6 +22,7 @@ from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure, solve_trajectory
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.solvers.closed_dynamics import ClosedChainDynamics, closed_motion
+from mechkin.solvers.dynamics import InverseDynamics
 from mechkin.solvers.dynamics_from_mechanism import dynamics_from_mechanism
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -173,7 +174,8 @@ def test_fourbar_equals_lagrange_closed_form(tmp_path: Path) -> None:
     assert np.all(full[:, 1:] == 0.0)
     # the independent-joint interface closes the loop itself from the home configuration
     ind = dyn.independent(res.q[0])
-    assert ind.n_joints == 1
+    assert ind.n_joints == 1 and dyn.n_joints == 3
+    assert isinstance(dyn, InverseDynamics) and isinstance(ind, InverseDynamics)
     np.testing.assert_allclose(ind.inverse_dynamics(q[:1, :1], thd[:1, None], thdd[:1, None]),
                                [[ref[0]]], rtol=0, atol=1e-9)
 
