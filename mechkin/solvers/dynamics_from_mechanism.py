@@ -8,8 +8,10 @@ recursive Newton-Euler model (park Eq. (8): ``U = M(q) qdd + h(q, qd)``) is a ma
 the chain from the base and picking, per joint, its ``A``, ``B``, ``s`` and the inertials of its
 child link.
 
-Only open serial chains are accepted: a closed chain (cut links) or a branching tree needs
-constraint forces or several end links, which this model does not represent.
+A closed chain (cut links) or a branching tree gets
+:class:`~mechkin.solvers.closed_dynamics.ClosedChainDynamics` instead: Newton-Euler on the
+spanning tree, projected on the independent joints by the virtual-work principle (kim1995
+Eq. (3)-(4)); :func:`chain_order` itself still accepts only a serial chain.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import numpy as np
 
 from mechkin.errors import ModelError
 from mechkin.model import Mechanism
+from mechkin.solvers.closed_dynamics import ClosedChainDynamics
 from mechkin.solvers.dynamics import InverseDynamics, PlanarTwoLinkDynamics, SerialChainDynamics
 
 __all__ = [
@@ -106,8 +109,14 @@ class MechanismDynamics:
         return self._from_chain(self.chain.bias(self._to_chain(q), self._to_chain(qd)))
 
 
+def _is_serial(mech: Mechanism) -> bool:
+    parent = np.asarray(mech.joint_parent_link)
+    return not mech.is_closed and all(int(np.sum(parent == li)) <= 1
+                                      for li in range(mech.n_links))
+
+
 def dynamics_from_mechanism(mech: Mechanism) -> InverseDynamics:
-    """Recursive Newton-Euler inverse dynamics of a serial mechanism (park Eq. (8)).
+    """Recursive Newton-Euler inverse dynamics of a mechanism (park Eq. (8)).
 
     Per joint its constant transforms ``A``, ``B`` and kind ``s`` (kim1995 Eq. (2)); per joint the
     mass, centre of mass and inertia about the centre of mass of its child link, in that link's
@@ -118,12 +127,17 @@ def dynamics_from_mechanism(mech: Mechanism) -> InverseDynamics:
     SerialChainDynamics
         When the joints are listed from the base to the tip (the usual case), else a
         :class:`MechanismDynamics` that permutes to and from the chain order.
+    ClosedChainDynamics
+        For a closed chain or a branching tree (all-joint interface: ``tau_v`` in the
+        independent columns, 0 in the passive ones; :mod:`mechkin.solvers.closed_dynamics`).
 
     Raises
     ------
     ModelError
-        For closed chains, branching trees, or a chain without any mass.
+        For a mechanism without any mass, or joints not reached from the base.
     """
+    if not _is_serial(mech):
+        return ClosedChainDynamics(mech)
     order = chain_order(mech)
     links = np.asarray(mech.joint_child_link)[order]
     masses = np.asarray(mech.mass)[links]

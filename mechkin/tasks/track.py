@@ -88,6 +88,12 @@ def hand_ik(sc: Scenario, mech: Mechanism, p0: np.ndarray, p1: np.ndarray) -> Ha
             raise ConfigError(f"{doc.where(('track', 'ik', 'branch', name))}: "
                               f"{exc.args[0]}") from None
     try:
+        if mech.is_closed and len(mech.dependent):  # closed chain: IK in q_v, loops closed
+            from mechkin.solvers.closed_path_ik import ClosedHandLineIK
+
+            return ClosedHandLineIK(mech, f, p0, p1, q0, tol, branch,
+                                    mask=path_mask(spec.path, len(mech.independent)),
+                                    tol_rot=spec.ik.orientation_tolerance)
         return HandLineIK(mech, f, p0, p1, q0, tol, branch, mask=path_mask(spec.path, mech.n),
                           tol_rot=spec.ik.orientation_tolerance)
     except PathIKError as exc:

@@ -83,9 +83,18 @@ def test_joint_order_is_followed_from_the_base(tmp_path) -> None:
     np.testing.assert_allclose(dyn.inverse_dynamics(q, qd, qdd), ref[:, ::-1], atol=1e-12)
 
 
-def test_closed_chain_is_refused() -> None:
+def test_closed_chain_gets_the_projected_tree_dynamics() -> None:
+    """A closed chain is no longer refused: tree RNEA projected on the independent joints
+    (tests/solvers/test_closed_dynamics.py checks it); the serial chain order still refuses it,
+    and a massless closed chain is refused with a located reason."""
+    from mechkin.solvers.closed_dynamics import ClosedChainDynamics
+
+    dd = load_mechanism(ROOT / "mechanisms" / "kim1995_direct_drive.yaml")
+    assert isinstance(dynamics_from_mechanism(dd), ClosedChainDynamics)
     mech = load_mechanism(ROOT / "tests" / "data" / "fourbar.yaml")
     with pytest.raises(ModelError, match="closed chain"):
+        chain_order(mech)
+    with pytest.raises(ModelError, match="no link has a mass"):
         dynamics_from_mechanism(mech)
 
 
