@@ -256,6 +256,7 @@ class SplineGeometry(PathGeometry):
             i = int(np.argmin(chord))
             raise ValueError(f"spline: points {i} and {i + 1} coincide")
         self.points = P
+        self._memo: dict[bytes, np.ndarray] = {}
         self.u = np.concatenate([[0.0], np.cumsum(chord)])
         self.cs = CubicSpline(self.u, P, bc_type="natural")
         self.d1s = self.cs.derivative(1)
@@ -299,18 +300,23 @@ class SplineGeometry(PathGeometry):
     def _u_of_s(self, s: np.ndarray) -> np.ndarray:
         """Inverse of s(u) on ``[0, L]`` by Newton's method from the table (to rounding)."""
         u = np.interp(s, self._s_tab, self._u_tab)
-        for _ in range(20):
+        for _ in range(12):
             du = (self._s_of_u(u) - s) / self._speed(u)
             u = np.clip(u - du, 0.0, self.u[-1])
-            if np.all(np.abs(du) <= 1e-15 * self.u[-1]):
+            if np.all(np.abs(du) <= 1e-14 * self.u[-1]):  # quadratic: the next step ~1e-28
                 break
         return u
 
     def _split(self, r):
         r = _as_r(r)
-        inside = np.clip(r, 0.0, 1.0)
-        u = self._u_of_s(inside * self.arc_length)
-        return r, u, r < 0.0, r > 1.0
+        key = r.tobytes()
+        hit = self._memo.get(key)
+        if hit is None:  # the IK asks for the same r many times (Newton, differences)
+            u = self._u_of_s(np.clip(r, 0.0, 1.0) * self.arc_length)
+            if len(self._memo) > 256:
+                self._memo.clear()
+            hit = self._memo[key] = u
+        return r, hit, r < 0.0, r > 1.0
 
     def position(self, r) -> np.ndarray:
         r, u, below, above = self._split(r)
