@@ -63,8 +63,9 @@ class PathSpec(Spec):
     zero at every given orientation, so they stay continuous across via points).
     ``mask`` names the task components instead, like the ik weights (``x, y, z`` position,
     ``rx, ry, rz`` orientation about the base axes), e.g. ``[x, y, z, rz]`` for a tool that may
-    tilt but not turn about z; it must hold every position component the path moves along
-    (and all of ``rx, ry, rz`` for ``slerp``).
+    tilt but not turn about z (with ``slerp``: the components held to the interpolated
+    orientation, e.g. ``[x, y, rz]`` for a planar arm); it must hold every position component
+    the path moves along.
     """
 
     type: Literal["line", "arc", "spline"] = "line"
@@ -133,8 +134,6 @@ class PathSpec(Spec):
                 raise ValueError(f"mask names {', '.join(rot)} but orientation is free")
             if self.orientation in ("fixed", "slerp") and not rot:
                 raise ValueError(f"orientation {self.orientation} needs rx, ry or rz in the mask")
-            if self.orientation == "slerp" and len(rot) != 3:
-                raise ValueError("orientation slerp needs all of rx, ry, rz in the mask")
             moves = np.ptp(P, axis=0) != 0.0
             free = [a for a, m in zip("xyz", moves, strict=True) if m and a not in self.mask]
             if free:

@@ -29,8 +29,9 @@ generic rank (zero rows such as z of a planar arm drop out).
 
 **Derivatives** (park Eq. (10)-(11)), by the implicit function theorem on ``G = 0``:
 
-.. math:: f' = (I - D)^{-1} A^+ \dot x^*, \qquad D = \frac{\partial N}{\partial q}(q_s - q),
-          \qquad f'' = \frac{d}{dr} f'(f(r), r)
+.. math:: f' = (I - D)^{-1} (A^+ \dot x^* + D_r), \qquad
+          D = \frac{\partial N}{\partial q}(q_s - q), \quad
+          D_r = \frac{\partial N}{\partial r}(q_s - q), \qquad f'' = \frac{d}{dr} f'(f(r), r)
 
 with the task velocity ``\dot x^* = [p'(r);\ J_l(\varphi)^{-1} E\, \omega^*(r)]`` (masked;
 ``E = R R^{*T}``, the identity on the path, where it is ``[p'; \omega^*]``; ``\omega^* = 0`` when
@@ -42,9 +43,9 @@ without redundancy, where ``A f' = \dot x^*`` and, differentiated along the path
 (the path's curvature and the orientation's angular acceleration; for the line with the
 orientation held the right side is 0: the hand does not accelerate along r nor turn). ``D`` is
 a central difference of ``N`` over the joints; ``f''`` a central difference of the tangent field
-``f'(q, r)`` along ``(f', 1)``, which is that total derivative. ``N`` does not depend on r
-(a varying orientation needs all three rotation rows, whose span does not change with
-``J_l^{-1}``).
+``f'(q, r)`` along ``(f', 1)``, which is that total derivative. ``N`` depends on r only when
+the orientation varies and the mask holds some but not all rotation rows (the span of all three
+does not change with ``J_l^{-1}``); ``D_r`` is then a central difference in r, else 0.
 
 Failures raise :class:`PathIKError`, whose ``key`` says which part of the problem is at fault
 (``start``: the start pose is not reached from the initial guess; ``path``: the path leaves the
@@ -155,8 +156,8 @@ class HandPathIK:
         Orientation tolerance [rad] (default ``tol``).
     orientation : SlerpOrientation, optional
         The hand orientation ``R*(r)`` along the path (one keyframe: held at that orientation;
-        several: interpolated, which needs all of ``rx, ry, rz`` in the mask). Default: held
-        at the orientation of ``q0``.
+        several: interpolated; the mask's rotation rows are the components held to it).
+        Default: held at the orientation of ``q0``.
 
     Raises
     ------
@@ -193,9 +194,8 @@ class HandPathIK:
         self._varying = bool(orientation is not None and orientation.varying)
         if orientation is not None and not self.orientation_held:
             raise ValueError("orientation: given, but the mask names no rotation component")
-        if self._varying and self.rot_rows.size != 3:
-            raise ValueError("orientation: an interpolated orientation needs rx, ry and rz in "
-                             "the mask")
+        #: a varying orientation with only some rotation rows: the null space turns with r
+        self._partial_varying = bool(self._varying and self.rot_rows.size < 3)
         self.orientation_mode = ("free" if not self.orientation_held else
                                  "slerp" if self._varying else "fixed")
         #: constant task velocity (the line with a held orientation: the original solver)
@@ -370,6 +370,13 @@ class HandPathIK:
         dN = (Nq[0] - Nq[1]) / (2.0 * h)  # (m, k, n, n): dN/dq_k
         return np.einsum("mkij,mj->mik", dN, w)
 
+    def _D_r(self, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """``D_r = dN/dr (q_s - q)`` (m, n) by a central difference in r (a varying orientation
+        with only some rotation rows: N turns with R*(r))."""
+        h = FD_D
+        dN = (self._null(q, r + h) - self._null(q, r - h)) / (2.0 * h)
+        return np.einsum("mij,mj->mi", dN, self.q_ref - q)
+
     def _residual(self, q: np.ndarray, r: np.ndarray):
         _, x, A = self._tk(q, r)
         e = self.target(r) - x[:, self.rows]
@@ -458,6 +465,8 @@ class HandPathIK:
             P, _, _ = self._pinv(A)
             v = np.einsum("mij,mj->mi", P, b)
         if self.redundancy:
+            if self._partial_varying:
+                v = v + self._D_r(q, r)
             M = np.eye(self.n) - self._D(q, r)
             v = np.linalg.solve(M, v[..., None])[..., 0]
         return v

@@ -123,8 +123,8 @@ ARC = ("    type: arc\n    start: [0.80574977, -0.15005, 0.86743]\n"
      r":\d+: track\.path: .*orientation slerp needs orientations: two \(start, end\) or one "
      r"per point, got none"),
     ("puma560_track_spline", ("    orientation: slerp", "    orientation: slerp\n"
-                              "    mask: [x, y, z, rz]"),
-     r":\d+: track\.path: .*needs all of rx, ry, rz"),
+                              "    mask: [x, y, z]"),
+     r":\d+: track\.path: .*orientation slerp needs rx, ry or rz in the mask"),
     ("puma560_track_spline", ("    orientation: slerp", "    orientation: free"),
      r":\d+: track\.path: .*orientations \(2 given\) go with orientation slerp"),
     ("puma560_track_spline", ("[-170, 35, -150]]", "[-170, 35]]"),

@@ -305,10 +305,52 @@ def test_planar_3r_on_an_arc_in_its_plane() -> None:
     assert_allclose(ik.ddq(rr), fd2, atol=1e-4 * max(1.0, np.max(np.abs(fd2))))
 
 
-def test_slerp_needs_all_rotation_rows() -> None:
+def _check_partial(ik: HandPathIK, comps: list[int]) -> None:
+    """FK: the hand on the path, the masked rotation components of log(R R*^T) zero; dq, ddq
+    against Richardson differences of q(r)."""
+    r = np.linspace(0.0, 1.0, 41)
+    q = ik.q(r)
+    T = _fk(ik.mech, q)
+    pos = [i for i in range(3) if COMPONENTS[i] in ik.mask]
+    assert np.max(np.abs((T[:, :3, 3] - ik.geometry.position(r))[:, pos])) <= 1e-9
+    phi = rotation_log(T[:, :3, :3] @ np.swapaxes(ik.orientation.rotation(r), 1, 2))
+    assert np.max(np.abs(phi[:, comps])) <= 1e-9
+    rr = np.linspace(0.03, 0.97, 9)
+
+    def diffs(h):
+        qm, q0, qp = ik.q(rr - h), ik.q(rr), ik.q(rr + h)
+        return (qp - qm) / (2 * h), (qp - 2 * q0 + qm) / h**2
+
+    (a1, a2), (b1, b2) = diffs(2e-3), diffs(1e-3)
+    d1, d2 = ik.dq(rr), ik.ddq(rr)
+    assert_allclose(d1, (4 * b1 - a1) / 3, atol=1e-7 * max(1.0, np.max(np.abs(d1))))
+    assert_allclose(d2, (4 * b2 - a2) / 3, atol=1e-4 * max(1.0, np.max(np.abs(d2))))
+
+
+def test_slerp_on_some_rotation_rows_of_a_redundant_arm() -> None:
+    """PUMA 560, mask [x, y, z, rz] (redundancy 2) with the orientation slerped: only the z
+    component of the orientation error is held; the null-space projector then turns with r
+    (the D_r term), which dq/dr must include to match the differences of q(r)."""
     mech = _puma()
     R0, R1 = _puma_orientations()
-    with pytest.raises(ValueError, match="rx, ry and rz"):
-        HandPathIK(mech, mech.end_effector, SplineGeometry(SPLINE_PTS), Q0, 1e-12,
-                   mask=("x", "y", "z", "rz"),
-                   orientation=SlerpOrientation(np.stack([R0, R1]), [0.0, 1.0]))
+    ik = HandPathIK(mech, mech.end_effector, SplineGeometry(SPLINE_PTS), Q0, 1e-12,
+                    mask=("x", "y", "z", "rz"), tol_rot=1e-12,
+                    orientation=SlerpOrientation(np.stack([R0, R1]), [0.0, 1.0]))
+    assert ik.redundancy == 2 and ik._partial_varying
+    _check_partial(ik, [2])
+
+
+def test_planar_3r_turns_its_hand_by_slerp_about_z() -> None:
+    """Planar 3R on an arc with the hand's yaw interpolated from 0 to 40 deg: mask [x, y, rz]
+    (not redundant); the hand's angle q1 + q2 + q3 follows 40 r deg."""
+    mech = load_mechanism(ROOT / "mechanisms" / "planar3r.yaml")
+    p0 = _fk(mech, mech.home[None])[0, :3, 3]
+    g = ArcGeometry(p0, p0 + [-0.15, 0.1, 0.0], p0 + [-0.35, 0.0, 0.0])
+    rot = matrix_from_rpy(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 40.0]]) * DEG)
+    ik = HandPathIK(mech, mech.end_effector, g, mech.home, 1e-12, mask=("x", "y", "rz"),
+                    tol_rot=1e-12, orientation=SlerpOrientation(rot, [0.0, 1.0]))
+    assert ik.redundancy == 0
+    _check_partial(ik, [2])
+    r = np.linspace(0.0, 1.0, 11)
+    yaw = np.sum(ik.q(r), axis=1)
+    assert_allclose(np.angle(np.exp(1j * (yaw - 40 * DEG * r))), 0.0, atol=1e-9)
