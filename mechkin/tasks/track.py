@@ -1,8 +1,10 @@
 """The track task: conveyor tracking (or minimum time) by DP in the phase plane (park §2-§5).
 
-The hand moves on a straight line (park Eq. (7)); the joints follow it by the path inverse
-kinematics of :mod:`mechkin.solvers.path_ik` (continued along the line from the start solution,
-on the branch the scenario names); the torques come from the mechanism's inertial parameters
+The hand moves on a path of :mod:`mechkin.solvers.path_geometry` (a straight line, park Eq. (7),
+a circular arc or a C2 spline, r its normalised arc length) with its orientation held, slerped
+or free; the joints follow it by the path inverse kinematics of :mod:`mechkin.solvers.path_ik`
+(continued along the path from the start solution, on the branch the scenario names); the
+torques come from the mechanism's inertial parameters
 (recursive Newton-Euler, park Eq. (8)); the DP of
 :func:`mechkin.solvers.dpct.solve_conveyor_tracking` plans ``r(t)``. Returns a
 :class:`mechkin.records.Report` whose record (:class:`mechkin.records.track.TrackRecord`) the

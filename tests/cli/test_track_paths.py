@@ -146,3 +146,25 @@ def test_bad_path_input_is_one_located_line(tmp_path: Path, name: str, edit, pat
     assert len(res.stderr.strip().splitlines()) == 1, res.stderr
     assert "Traceback" not in res.output
     assert not out.exists()
+
+
+def test_arc_leaving_the_workspace_names_r_and_the_point(tmp_path: Path) -> None:
+    """A half circle bulging outwards past the PUMA's reach: one line at track.path naming r
+    and the point, which is the arc's point at that r (centre (0.80575, -0.05005, 0.86743),
+    radius 0.1, horizontal)."""
+    p = _local(tmp_path, "puma560_track_arc",
+               ("    via: [0.80574977, -0.05005, 0.96743]",
+                "    via: [0.90574977, -0.05005, 0.86743]"))
+    res, out = _run(tmp_path, p)
+    assert res.exit_code == 2, res.output
+    m = re.search(str(p).replace(".", r"\.") + r":\d+: track\.path: the hand arc leaves the "
+                  r"reachable workspace or meets a singularity near r = ([0-9.]+) \(point "
+                  r"\[([-0-9., ]+)\] m", res.stderr)
+    assert m is not None, res.stderr
+    r = float(m.group(1))
+    point = np.array([float(v) for v in m.group(2).split(",")])
+    assert 0.0 < r < 1.0
+    c = np.array([0.80574977, -0.05005, 0.86743])
+    th = np.pi * r  # from the start (0, -1, 0) towards via (+x)
+    assert np.allclose(point, c + 0.1 * np.array([np.sin(th), -np.cos(th), 0.0]), atol=2e-6)
+    assert not out.exists()
