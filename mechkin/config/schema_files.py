@@ -295,11 +295,20 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "solution_starts": "Seeded multi-start count for solutions: all.",
     },
     "PathSpec": {
-        "start": f"Start point of the straight hand line (park Eq. (7)) {_L}; 2 values: z = 0.",
-        "end": f"End point of the line {_L}.",
+        "type": "line (start, end; park Eq. (7)), arc (start, via, end on a circle) or spline "
+                "(C2 through points); r is the normalised arc length.",
+        "start": f"Start point of the path {_L}; 2 values: z = 0.",
+        "via": f"arc: a third point of the circle, between start and end {_L}.",
+        "end": f"End point of the path {_L}.",
+        "points": f"spline: at least 3 points, the ends included {_L}.",
         "frame": "Hand frame; default: the end effector.",
-        "orientation": "fixed: hold the start orientation; free: position only. Default fixed "
-                       "for >= 6 joints, else free.",
+        "orientation": "fixed: hold the start (or the given) orientation; slerp: interpolate "
+                       "between orientations; free: position only. Default fixed for >= 6 "
+                       "joints, else free.",
+        "orientations": f"Hand orientations, URDF roll-pitch-yaw [roll, pitch, yaw] {_A}: one "
+                        "(fixed), two (slerp: start, end) or one per spline point.",
+        "orientation_blend": "slerp between orientations: linear (constant rate) or smooth "
+                             "(quintic: rate and acceleration zero at each orientation).",
         "mask": "Task components (x, y, z, rx, ry, rz) instead of orientation.",
     },
     "IkBranchSpec": {

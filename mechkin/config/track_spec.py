@@ -38,55 +38,118 @@ Component = Literal["x", "y", "z", "rx", "ry", "rz"]
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 
 
-class PathSpec(Spec):
-    """Straight hand line (park Eq. (7)): ``start`` and ``end`` points [length unit] (2 values:
-    z = 0), and the hand ``frame`` (default: the end effector).
+Rpy = Annotated[list[Num], Field(min_length=3, max_length=3)]
 
-    ``orientation``: ``fixed`` holds the hand's orientation at the start orientation (that of
-    the ``ik.initial_guess`` configuration) along the whole line, ``free`` lets it turn
-    (position-only task). Default: ``fixed`` for an arm with 6 or more joints, ``free`` for
-    fewer (a planar 2R arm such as park's cannot hold an orientation besides its position).
+
+class PathSpec(Spec):
+    """Hand path, parametrised by normalised arc length ``r`` in [0, 1] (park Eq. (7) for the
+    line), and the hand ``frame`` (default: the end effector). Points in the length unit (2
+    values: z = 0; all points with the same number of values).
+
+    ``type``: ``line`` (default; ``start``, ``end``), ``arc`` (the circular arc from ``start``
+    through ``via`` to ``end``; three points not on one line) or ``spline`` (a C2 natural cubic
+    spline through ``points``, at least 3, ends included, re-parametrised by arc length).
+
+    ``orientation``: ``fixed`` holds the hand's orientation along the whole path, at the start
+    orientation (that of the ``ik.initial_guess`` configuration) or at the one orientation in
+    ``orientations``; ``slerp`` interpolates it along the geodesic between the
+    ``orientations`` (two: at the start and the end; for a spline also one per point, at the
+    points); ``free`` lets it turn (position-only task). Default: ``fixed`` for an arm with 6
+    or more joints, ``free`` for fewer (a planar 2R arm such as park's cannot hold an
+    orientation besides its position). ``orientations`` are URDF roll-pitch-yaw angles
+    ``[roll, pitch, yaw]`` (``R = Rz(yaw) Ry(pitch) Rx(roll)``, base frame) in the scenario's
+    angle unit. ``orientation_blend``: ``linear`` (constant angular rate between two
+    orientations: slerp) or ``smooth`` (quintic in r: the angular rate and acceleration are
+    zero at every given orientation, so they stay continuous across via points).
     ``mask`` names the task components instead, like the ik weights (``x, y, z`` position,
     ``rx, ry, rz`` orientation about the base axes), e.g. ``[x, y, z, rz]`` for a tool that may
-    tilt but not turn about z; it must hold every position component the line moves along.
+    tilt but not turn about z (with ``slerp``: the components held to the interpolated
+    orientation, e.g. ``[x, y, rz]`` for a planar arm); it must hold every position component
+    the path moves along.
     """
 
-    start: Point
-    end: Point
+    type: Literal["line", "arc", "spline"] = "line"
+    start: Point | None = None
+    via: Point | None = None
+    end: Point | None = None
+    points: Annotated[list[Point], Field(min_length=3, max_length=1000)] | None = None
     frame: Name | None = None
-    orientation: Literal["fixed", "free"] | None = None
+    orientation: Literal["fixed", "free", "slerp"] | None = None
+    orientations: Annotated[list[Rpy], Field(min_length=1, max_length=1000)] | None = None
+    orientation_blend: Literal["linear", "smooth"] = "linear"
     mask: Annotated[list[Component], Field(min_length=1, max_length=6)] | None = None
+
+    def all_points(self) -> list[list[float]]:
+        """The points that define the path, in the order given."""
+        if self.type == "spline":
+            return list(self.points or [])
+        return [p for p in (self.start, self.via, self.end) if p is not None]
 
     @model_validator(mode="after")
     def _check(self) -> PathSpec:
-        if len(self.start) != len(self.end):
-            raise ValueError("start and end need the same number of coordinates")
-        d = np.subtract(self.start, self.end)
-        if np.linalg.norm(d) == 0.0:
+        need = {"line": ("start", "end"), "arc": ("start", "via", "end"),
+                "spline": ("points",)}[self.type]
+        missing = [k for k in need if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"type {self.type} needs {', '.join(missing)}")
+        extra = [k for k in ("start", "via", "end", "points")
+                 if k not in need and getattr(self, k) is not None]
+        if extra:
+            raise ValueError(f"type {self.type} takes no {', '.join(extra)} (a "
+                             f"{self.type} is given by {', '.join(need)})")
+        pts = self.all_points()
+        if len({len(p) for p in pts}) != 1:
+            what = "start and end" if self.type == "line" else "all points"
+            raise ValueError(f"{what} need the same number of coordinates")
+        P = np.zeros((len(pts), 3))
+        P[:, : len(pts[0])] = np.asarray(pts, dtype=float)
+        if self.type == "line" and np.linalg.norm(P[1] - P[0]) == 0.0:
             raise ValueError("start and end are the same point")
+        if self.type == "arc":
+            u, v = P[1] - P[0], P[2] - P[0]
+            scale = max(float(u @ u), float(v @ v), float((P[2] - P[1]) @ (P[2] - P[1])))
+            if not np.linalg.norm(np.cross(u, v)) > 1e-9 * scale:
+                raise ValueError("start, via and end of the arc are on one line (or two "
+                                 "coincide): give three points of the circle, or use a line")
+        if self.type == "spline":
+            chord = np.linalg.norm(np.diff(P, axis=0), axis=1)
+            if np.any(chord == 0.0):
+                i = int(np.argmin(chord))
+                raise ValueError(f"points {i} and {i + 1} are the same point")
+        n_or = None if self.orientations is None else len(self.orientations)
+        if self.orientation == "slerp":
+            allowed = {2} | ({len(pts)} if self.type == "spline" else set())
+            if n_or not in allowed:
+                per = " or one per point" if self.type == "spline" else ""
+                raise ValueError(f"orientation slerp needs orientations: two (start, end){per}, "
+                                 f"got {n_or or 'none'}")
+        elif n_or is not None and (self.orientation != "fixed" or n_or != 1):
+            raise ValueError(f"orientations ({n_or} given) go with orientation slerp, or one "
+                             "orientation with orientation fixed")
         if self.mask is not None:
             if len(set(self.mask)) != len(self.mask):
                 raise ValueError(f"mask: a component is named twice in {self.mask}")
             rot = [c for c in self.mask if c.startswith("r")]
             if self.orientation == "free" and rot:
                 raise ValueError(f"mask names {', '.join(rot)} but orientation is free")
-            if self.orientation == "fixed" and not rot:
-                raise ValueError("orientation fixed needs rx, ry or rz in the mask")
-            free = [a for a, v in zip("xyz", d, strict=False) if v != 0.0 and a not in self.mask]
+            if self.orientation in ("fixed", "slerp") and not rot:
+                raise ValueError(f"orientation {self.orientation} needs rx, ry or rz in the mask")
+            moves = np.ptp(P, axis=0) != 0.0
+            free = [a for a, m in zip("xyz", moves, strict=True) if m and a not in self.mask]
             if free:
-                raise ValueError(f"mask: the line moves along {', '.join(free)}, which the mask "
-                                 "leaves free; add it")
+                raise ValueError(f"mask: the {self.type} moves along {', '.join(free)}, which "
+                                 "the mask leaves free; add it")
         return self
 
 
 def path_mask(path: PathSpec, n_joints: int) -> tuple[str, ...]:
-    """The task components of the path IK: ``mask`` if given, else all six for a held
-    orientation and ``x, y, z`` for a free one (default orientation: fixed when the arm has at
-    least 6 joints, free otherwise; :class:`PathSpec`)."""
+    """The task components of the path IK: ``mask`` if given, else all six for a held or
+    interpolated orientation and ``x, y, z`` for a free one (default orientation: fixed when
+    the arm has at least 6 joints, free otherwise; :class:`PathSpec`)."""
     if path.mask is not None:
         return tuple(c for c in COMPONENTS if c in path.mask)
     orientation = path.orientation or ("fixed" if n_joints >= 6 else "free")
-    return COMPONENTS if orientation == "fixed" else COMPONENTS[:3]
+    return COMPONENTS if orientation in ("fixed", "slerp") else COMPONENTS[:3]
 
 
 class IkBranchSpec(Spec):

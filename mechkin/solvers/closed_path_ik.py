@@ -201,9 +201,11 @@ class ClosedHandLineIK(HandLineIK):
         qf, _ = self._close(q)
         return forward_kinematics(mech, qf).frames(mech, [self.f])[:, 0]
 
-    def _task(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _task(self, q: np.ndarray, r: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Hand poses (m, 4, 4), task coordinates x (m, 6) and the reduced task Jacobian
-        (m, 6, n_v) (rows that do not close: x nan, Jacobian 0)."""
+        (m, 6, n_v) (rows that do not close: x nan, Jacobian 0). ``r`` is unused: the
+        orientation of a line is held or free, never interpolated."""
         mech = self.closed_mech
         q = np.atleast_2d(np.asarray(q, dtype=float))
         key = (q.shape, q.tobytes())

@@ -140,8 +140,13 @@ class ConveyorReference:
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
-    def position(self, t: np.ndarray) -> np.ndarray:
-        """``X_p(t) (m, d)`` for ``t (m,)`` (park Eq. (1))."""
+    def position(self, t: np.ndarray, path: JointPath | None = None) -> np.ndarray:
+        """``X_p(t) (m, d)`` for ``t (m,)`` (park Eq. (1)); on a curved ``path`` the part moves
+        along the path by arc length, ``X_p = p(r0 + rd t)`` (:meth:`phase`)."""
+        geometry = getattr(path, "geometry", None)
+        if geometry is not None and not geometry.straight:
+            r0, rd = geometry.conveyor_phase(self.part_start, self.belt_velocity)
+            return geometry.position(r0 + rd * np.asarray(t, dtype=np.float64))
         return self.part_start + np.asarray(t, dtype=np.float64)[:, None] * self.belt_velocity
 
     def phase(self, path: JointPath) -> tuple[float, float]:
@@ -150,11 +155,19 @@ class ConveyorReference:
         Eq. (17) divides by one component of ``X_h(t_f) - X_h(t_0)``; the largest is used, and
         the part must move on the hand's line (else no steady state with zero error exists).
 
+        On a curved path (``path.geometry``, :mod:`mechkin.solvers.path_geometry`, not
+        straight) the part moves along the path itself: ``r0`` is the path parameter (normalised
+        arc length) of ``part_start`` and ``rd = V_b . t(r0) / L``
+        (:meth:`~mechkin.solvers.path_geometry.PathGeometry.conveyor_phase`).
+
         Raises
         ------
         ConfigError
             If the belt does not carry the part along the hand's line, or carries it backwards.
         """
+        geometry = getattr(path, "geometry", None)
+        if geometry is not None and not geometry.straight:
+            return geometry.conveyor_phase(self.part_start, self.belt_velocity)
         p0 = path.hand(np.zeros(1))[0]
         dp = path.hand(np.ones(1))[0] - p0
         if dp.shape != self.part_start.shape or dp.shape != self.belt_velocity.shape:
@@ -782,7 +795,7 @@ def _realise(
     hand = path.hand(r)
     part = err = None
     if reference is not None:
-        part = reference.position(t)
+        part = reference.position(t, path)
         err = hand - part
     return TrackTrajectory(t, r, rd, rdd, q, qd, qdd, jerk, torque, hand, part, err)
 

@@ -1,8 +1,10 @@
 """The track task: conveyor tracking (or minimum time) by DP in the phase plane (park §2-§5).
 
-The hand moves on a straight line (park Eq. (7)); the joints follow it by the path inverse
-kinematics of :mod:`mechkin.solvers.path_ik` (continued along the line from the start solution,
-on the branch the scenario names); the torques come from the mechanism's inertial parameters
+The hand moves on a path of :mod:`mechkin.solvers.path_geometry` (a straight line, park Eq. (7),
+a circular arc or a C2 spline, r its normalised arc length) with its orientation held, slerped
+or free; the joints follow it by the path inverse kinematics of :mod:`mechkin.solvers.path_ik`
+(continued along the path from the start solution, on the branch the scenario names); the
+torques come from the mechanism's inertial parameters
 (recursive Newton-Euler, park Eq. (8)); the DP of
 :func:`mechkin.solvers.dpct.solve_conveyor_tracking` plans ``r(t)``. Returns a
 :class:`mechkin.records.Report` whose record (:class:`mechkin.records.track.TrackRecord`) the
@@ -20,7 +22,7 @@ import numpy as np
 
 from mechkin.config.scenario import Scenario
 from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, path_mask, point_si
-from mechkin.config.units import length_factor
+from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.kinematics import forward_kinematics
@@ -38,7 +40,15 @@ from mechkin.solvers.dynamics_from_mechanism import (
     dynamics_from_mechanism,
     planar_two_link_from_mechanism,
 )
-from mechkin.solvers.path_ik import HandLineIK, PathIKError
+from mechkin.solvers.path_geometry import (
+    ArcGeometry,
+    LineGeometry,
+    PathGeometry,
+    SlerpOrientation,
+    SplineGeometry,
+)
+from mechkin.solvers.path_ik import HandLineIK, HandPathIK, PathIKError
+from mechkin.spatial.rotations import matrix_from_rpy
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 
 CSV_NOTE = ("qdd and jerk are forward differences (park Eq. (32)-(33)); where undefined (qdd at "
@@ -53,9 +63,40 @@ def _dynamics(sc: Scenario, mech: Mechanism) -> InverseDynamics:
     return dynamics_from_mechanism(mech)
 
 
-def hand_ik(sc: Scenario, mech: Mechanism, p0: np.ndarray, p1: np.ndarray) -> HandLineIK:
-    """The path inverse kinematics of the scenario's hand frame, initial guess and branch
-    (park Eq. (9)); every failure is a ConfigError located at its scenario key."""
+def path_geometry(sc: Scenario) -> PathGeometry:
+    """The scenario's hand path in SI: a line, arc or spline of
+    :mod:`mechkin.solvers.path_geometry`."""
+    spec: TrackSpec = sc.section
+    path = spec.path
+    units = sc.spec.units
+    try:
+        if path.type == "arc":
+            return ArcGeometry(point_si(path.start, units), point_si(path.via, units),
+                               point_si(path.end, units))
+        if path.type == "spline":
+            return SplineGeometry(np.stack([point_si(p, units) for p in path.points]))
+        return LineGeometry(point_si(path.start, units), point_si(path.end, units))
+    except ValueError as exc:
+        raise ConfigError(f"{sc.doc.where(('track', 'path'))}: {exc}") from None
+
+
+def path_orientation(sc: Scenario, geometry: PathGeometry) -> SlerpOrientation | None:
+    """The given hand orientations (URDF rpy in the scenario's angle unit) as keyframes at r = 0
+    (one: held), r = 0 and 1 (two) or the spline's points; None: held at the start pose."""
+    path = sc.section.path
+    if path.orientations is None:
+        return None
+    rpy = np.asarray(path.orientations, dtype=float) * angle_factor(sc.spec.units.angle)
+    k = rpy.shape[0]
+    knots = (np.zeros(1) if k == 1 else np.array([0.0, 1.0]) if k == 2
+             else np.asarray(geometry.r_knots, dtype=float))
+    return SlerpOrientation(matrix_from_rpy(rpy), knots, path.orientation_blend)
+
+
+def hand_ik(sc: Scenario, mech: Mechanism) -> HandPathIK:
+    """The path inverse kinematics of the scenario's hand path, frame, orientation, initial
+    guess and branch (park Eq. (9)); every failure is a ConfigError located at its scenario
+    key."""
     spec: TrackSpec = sc.section
     doc = sc.doc
     tol = spec.ik.tolerance * length_factor(sc.spec.units.length)
@@ -87,19 +128,33 @@ def hand_ik(sc: Scenario, mech: Mechanism, p0: np.ndarray, p1: np.ndarray) -> Ha
         except KeyError as exc:
             raise ConfigError(f"{doc.where(('track', 'ik', 'branch', name))}: "
                               f"{exc.args[0]}") from None
+    geometry = path_geometry(sc)
+    orientation = path_orientation(sc, geometry)
     try:
         if mech.is_closed and len(mech.dependent):  # closed chain: IK in q_v, loops closed
+            if not (geometry.straight and orientation is None):
+                raise ConfigError(f"{doc.where(('track', 'path'))}: a closed chain "
+                                  f"({mech.name}) tracks straight lines only (type: line, "
+                                  "orientation fixed or free) in this release")
             from mechkin.solvers.closed_path_ik import ClosedHandLineIK
 
-            return ClosedHandLineIK(mech, f, p0, p1, q0, tol, branch,
+            return ClosedHandLineIK(mech, f, geometry.p0, geometry.p1, q0, tol, branch,
                                     mask=path_mask(spec.path, len(mech.independent)),
                                     tol_rot=spec.ik.orientation_tolerance)
-        return HandLineIK(mech, f, p0, p1, q0, tol, branch, mask=path_mask(spec.path, mech.n),
-                          tol_rot=spec.ik.orientation_tolerance)
+        if geometry.straight and orientation is None:
+            return HandLineIK(mech, f, geometry.p0, geometry.p1, q0, tol, branch,
+                              mask=path_mask(spec.path, mech.n),
+                              tol_rot=spec.ik.orientation_tolerance)
+        return HandPathIK(mech, f, geometry, q0, tol, branch, mask=path_mask(spec.path, mech.n),
+                          tol_rot=spec.ik.orientation_tolerance, orientation=orientation)
     except PathIKError as exc:
-        key = {"start": ("track", "path", "start"), "path": ("track", "path"),
+        first = ("track", "path", "points", "0") if spec.path.type == "spline" else \
+            ("track", "path", "start")
+        key = {"start": first, "path": ("track", "path"),
                "branch": ("track", "ik", "branch", exc.joint)}[exc.key]
         raise ConfigError(f"{doc.where(key)}: {exc.message}") from None
+    except ValueError as exc:
+        raise ConfigError(f"{doc.where(('track', 'path'))}: {exc}") from None
 
 
 def _finite_or_none(a: np.ndarray) -> list[float | None]:
@@ -107,7 +162,7 @@ def _finite_or_none(a: np.ndarray) -> list[float | None]:
     return [float(v) if np.isfinite(v) else None for v in np.asarray(a, dtype=float)]
 
 
-def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandLineIK,
+def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandPathIK,
            ref: ConveyorReference | None, limits: TrackLimits, joint_names: list[str]
            ) -> TrackResult:
     return solve_conveyor_tracking(
@@ -169,8 +224,8 @@ def run(scenario: Scenario) -> Report:
                               f"values (one per joint: {', '.join(mech.joint_names)}), got "
                               f"{lo.shape[0]}")
     limits = TrackLimits(**lim)
-    p0, p1 = point_si(spec.path.start, units), point_si(spec.path.end, units)
-    ik = path = hand_ik(scenario, mech, p0, p1)
+    ik = path = hand_ik(scenario, mech)
+    p0, p1 = ik.p0, ik.p1
     ref = None
     if spec.conveyor is not None:
         ref = ConveyorReference(part_start=point_si(spec.conveyor.part_start, units),
@@ -200,12 +255,11 @@ def run(scenario: Scenario) -> Report:
     summary["peak_torque_by_joint"] = (
         None if res.peak_torque is None
         else {n: float(v) for n, v in zip(mech.joint_names, res.peak_torque, strict=True)})
-    summary["path"] = {"start_m": p0.tolist(), "end_m": p1.tolist(),
-                       "frame": mech.frame_names[ik.f],
-                       "length_m": float(np.linalg.norm(p1 - p0)),
-                       "orientation": "fixed" if ik.orientation_held else "free",
-                       "mask": list(ik.mask), "task_rank": ik.rank,
-                       "redundancy": ik.redundancy}
+    summary["path"] = {**ik.geometry.summary(), "frame": mech.frame_names[ik.f],
+                       "orientation": ik.orientation_mode, "mask": list(ik.mask),
+                       "task_rank": ik.rank, "redundancy": ik.redundancy}
+    if ik.orientation is not None and ik.orientation.varying:
+        summary["path"]["orientation_blend"] = ik.orientation.blend
     if res.trajectory is not None:  # the realised plan, verified by forward kinematics
         summary["path"].update(ik.pose_errors(res.trajectory.q, res.trajectory.r))
     if ref is not None:
@@ -236,7 +290,9 @@ def run(scenario: Scenario) -> Report:
     rec = None
     if traj is not None:
         rec = _record(scenario, mech, res, [r for r in study_results if r is not res], lim,
-                      summary.get("reference"), (p0, p1), ref)
+                      summary.get("reference"),
+                      (p0, p1) if ik.geometry.straight else tuple(ik.hand(np.linspace(0, 1, 129))),
+                      ref)
     return Report(task="track", scenario=scenario.name, summary=summary, checks=checks,
                   solver_ok=ok, writer="track", data=rec, outputs=output_flags(scenario),
                   scenario_path=scenario.path, messages=messages)

@@ -189,10 +189,7 @@ def test_plan_torques_equal_lagrange_at_the_peak(name: str) -> None:
     iv = mech.independent
     assert np.all(traj.torque[:, mech.dependent] == 0.0)
     k = int(np.argmax(np.abs(traj.torque[:, iv]).max(axis=1)))
-    spec = sc.section
-    p0 = np.asarray(spec.path.start, dtype=float)
-    p1 = np.asarray(spec.path.end, dtype=float)
-    ik = track.hand_ik(sc, mech, p0, p1)
+    ik = track.hand_ik(sc, mech)
     h = 1e-3
     r = traj.r[k]
     qv = np.array([ik.q(np.array([r + j * h]))[0, iv] for j in OFFS])
