@@ -16,6 +16,7 @@ from mechkin.cli.ik import ik_cli
 from mechkin.cli.import_export import export_cli, import_cli
 from mechkin.cli.info import info_cli
 from mechkin.cli.track import track_cli
+from mechkin.cli.warmup import warmup_cli
 from mechkin.cli.workspace import workspace_cli
 
 app = typer.Typer(
@@ -48,6 +49,7 @@ app.command("info")(info_cli)
 app.command("check")(check_cli)
 app.command("import")(import_cli)
 app.command("export")(export_cli)
+app.command("warmup")(warmup_cli)
 
 
 @app.command("schema")

@@ -54,8 +54,12 @@ def _column_cells(name: str, values: np.ndarray | Sequence[Any]) -> list[str]:
     if kind in "US":
         return [_quote(str(v)) for v in arr.astype(str).tolist()]
     if kind == "O":
+        vals = arr.tolist()
+        if all(type(v) is str for v in vals):  # labels (status, class): quote each value once
+            memo = {v: _quote(v) for v in set(vals)}
+            return [memo[v] for v in vals]
         cells = []
-        for i, v in enumerate(arr.tolist()):
+        for i, v in enumerate(vals):
             if isinstance(v, enum.Enum):
                 v = v.value
             if isinstance(v, (bool, np.bool_)):

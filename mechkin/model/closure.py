@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+from mechkin.model.kinematics import Kinematics, closure_jacobian, forward_kinematics
 from mechkin.model.mechanism import Mechanism
 
 TOL_PHI = 1e-12
@@ -44,6 +44,11 @@ class ClosureResult:
     iterations: np.ndarray
     residual: np.ndarray
     cond: np.ndarray
+    #: ``keep_kinematics=True``: the link poses (m, nl, 4, 4) and d(phi)/dq (m, n_eq, n) of
+    #: the last Newton iterate of each converged row, evaluated at exactly ``q`` (None when
+    #: some row did not converge or was moved by whole turns; then recompute them).
+    T_links: np.ndarray | None = None
+    jacobian: np.ndarray | None = None
 
     @property
     def ok(self) -> np.ndarray:
@@ -101,6 +106,7 @@ def solve_closure(
     tol_phi: float = TOL_PHI,
     tol_dq: float = TOL_DQ,
     max_iter: int = MAX_ITER,
+    keep_kinematics: bool = False,
 ) -> ClosureResult:
     r"""Solve the dependent joints of a batch of configurations by Newton-Raphson.
 
@@ -116,6 +122,11 @@ def solve_closure(
     q_v : array, shape (m, n_v)
     q_w0 : array, shape (m, n_w)
         Initial guesses (the previous step's solution on a trajectory).
+    keep_kinematics : bool
+        Also return the link poses and the closure Jacobian of the converged iterates
+        (``ClosureResult.T_links``, ``.jacobian``): the forward kinematics the caller would
+        otherwise redo at the solution (the IK evaluation does; the same numbers, since they
+        are computed at the same q by the same code).
 
     References
     ----------
@@ -143,12 +154,15 @@ def solve_closure(
     prev_res = np.full(m, np.inf)
     prev_step = np.zeros_like(q_w)
     shrink = np.ones(m)
+    keep_T = np.empty((m, mech.n_links, 4, 4)) if keep_kinematics else None
+    keep_J = np.empty((m, mech.n_equations, mech.n)) if keep_kinematics else None
     for _ in range(max_iter + 1):
         act = np.flatnonzero(~done)
         if act.size == 0:
             break
         q = mech.assemble(q_v[act], q_w[act])
-        phi, J = closure_jacobian(mech, forward_kinematics(mech, q))
+        kin = forward_kinematics(mech, q)
+        phi, J = closure_jacobian(mech, kin)
         nphi = np.linalg.norm(phi, axis=1)
         # backtracking: a step that raised ||phi|| is retried at half length (kim1995 takes
         # full steps; this only acts far from a solution, where plain Newton can cycle)
@@ -162,6 +176,8 @@ def solve_closure(
             iters[wi] += 1
             keep = ~worse
             act, phi, J, nphi = act[keep], phi[keep], J[keep], nphi[keep]
+            if keep_T is not None:
+                kin = Kinematics(q=kin.q[keep], T_links=kin.T_links[keep], mech=mech)
             if act.size == 0:
                 if (iters[~done] >= max_iter).all():
                     break
@@ -175,6 +191,9 @@ def solve_closure(
             # the Jacobian of the converged iterate: cond at the solution (one small SVD)
             cond[act[conv]] = _cond(Jw[conv])
         done[act[conv]] = True
+        if keep_T is not None and conv.any():
+            keep_T[act[conv]] = kin.T_links[conv]
+            keep_J[act[conv]] = J[conv]
         upd = act[~conv]
         upd = upd[iters[upd] < max_iter]
         if upd.size == 0:
@@ -196,7 +215,10 @@ def solve_closure(
         cond[bad] = _cond(Jb[:, :, dep])
     # revolute dependents: the branch nearest the initial guess (Newton may wander by 2 pi)
     rev = mech.s[dep] == 0
-    q_w[:, rev] -= 2.0 * np.pi * np.round((q_w[:, rev] - q_w_init[:, rev]) / (2.0 * np.pi))
+    turns = np.round((q_w[:, rev] - q_w_init[:, rev]) / (2.0 * np.pi))
+    q_w[:, rev] -= 2.0 * np.pi * turns
+    if keep_T is not None and (bad.size or np.any(turns != 0)):
+        keep_T = keep_J = None  # not all at the returned q: the caller recomputes
     status = np.empty(m, dtype=object)
     for k in range(m):
         if done[k]:
@@ -205,7 +227,7 @@ def solve_closure(
             status[k] = ClosureStatus.SINGULAR
         else:
             status[k] = ClosureStatus.NOT_CONVERGED
-    return ClosureResult(mech.assemble(q_v, q_w), status, iters, res, cond)
+    return ClosureResult(mech.assemble(q_v, q_w), status, iters, res, cond, keep_T, keep_J)
 
 
 def dependent_sensitivity(mech: Mechanism, q: np.ndarray) -> np.ndarray:

@@ -65,8 +65,9 @@ def _point_evaluator(kern: IkKernel, opts: IkOptions):
     """``(q_v, q_w guess, T_P, jac) -> (closed, x, J_r | None, q, S | None)`` for one point:
     the compiled closed-chain evaluation when available, else :func:`evaluate`."""
     if accel.compiled_lm_available():  # the tree kernel also serves open chains (no cuts)
-        from mechkin.solvers.ik.tree_jit import ClosedEvaluator
+        from mechkin.solvers.ik.tree_jit import ClosedEvaluator, evaluate_one
 
+        accel.announce(evaluate_one, "tree_jit.evaluate_one")
         ce = ClosedEvaluator(kern, opts.tol_phi, TOL_DQ_CLOSURE, MAX_ITER_CLOSURE)
         return lambda qv, qw, T_P, jac: ce(qv, qw, T_P)
 

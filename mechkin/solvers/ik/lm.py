@@ -3,7 +3,8 @@ r"""Levenberg-Marquardt on the reduced Jacobian, batched across targets (the def
 Damped Gauss-Newton on ``J_r = dx/dq_v`` of kim1995's residual (Eq. (8), (10)) for m targets
 at once, vectorized across targets (numpy on :mod:`mechkin.model`), or by the optional compiled
 kernels (:mod:`mechkin.solvers.ik.serial_jit` for open chains, :mod:`mechkin.solvers.ik.tree_jit`
-for closed ones) when :func:`mechkin.solvers.ik.accel.compiled_lm_available` says so. Joint
+for closed ones) when :func:`mechkin.solvers.ik.accel.use_compiled` says so (numba available,
+and the job big enough to repay loading the kernels, or the kernels already loaded). Joint
 limits of q_v are kept by projection; on closed chains the passive joints' limits by an
 active-set step (:func:`passive_limited_steps`).
 
@@ -100,6 +101,8 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
     qv = np.array(q_v0, dtype=np.float64) if cols is None else kern.project(q_v0)
     f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
     stall = STALL_WINDOW if opts.restarts > 0 else 0
+    accel.announce(serial_jit.lm, "serial_jit.lm")
+    accel.mark_loaded("open")
     qc, f, iters, done, gnorm, hist = serial_jit.lm_serial(
         qv[:, sel], kern.chain.first_frame(T_P), w, kern.chain, kern.bound_lo[sel],
         kern.bound_hi[sel], kern.cont_v[sel], kern.lower_v[sel], kern.upper_v[sel],
@@ -189,11 +192,13 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     lo, hi = kern.bound_lo, kern.bound_hi
     bounded = bool(np.isfinite(lo).any() or np.isfinite(hi).any())
     closed_chain = bool(kern.n_cuts) and kern.iw.size > 0
-    if accel.compiled_lm_available():
+    if accel.use_compiled("closed" if closed_chain else "open", m):
         if not closed_chain:
             return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history, stop_on_first)
         from mechkin.solvers.ik import tree_jit
 
+        accel.announce(tree_jit.lm_closed, "tree_jit.lm_closed")
+        accel.mark_loaded("closed")
         return tree_jit.lm_closed_rows(
             kern, q_v0, q_w0, T_P, w, tol_phi=opts.tol_phi, tol_dq=TOL_DQ_CLOSURE,
             max_iter_closure=MAX_ITER_CLOSURE, max_iter=max_iter, mu=LM_MU, history=history,

@@ -17,12 +17,15 @@ Per row (target), with the chain expressed in {P} (``F_0 = T_P^{-1} A_0``):
   1e-13 or lambda > 1e10, or (``stall > 0``) when E has not halved in ``stall`` iterations.
 
 Importing this module imports numba; :func:`mechkin.solvers.ik.accel.compiled_lm_available` says
-whether it can be used (numba installed, ``MECHKIN_JIT`` not ``0``).
+whether it can be used (numba installed, ``MECHKIN_JIT`` not ``0``). The compiled code is cached
+on disk (:func:`mechkin.solvers.ik.accel.configure_numba_cache` picks the folder before numba is
+imported); ``mechkin warmup`` compiles it ahead of first use.
 
 Design
 ------
-Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports only numpy and numba (the
-chain constants come in as arrays); never ``io/``, ``cli/`` or ``tasks/``.
+Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports numpy, numba and
+:mod:`mechkin.solvers.ik.accel` (the chain constants come in as arrays); never ``io/``,
+``cli/`` or ``tasks/``.
 """
 
 from __future__ import annotations
@@ -30,10 +33,15 @@ from __future__ import annotations
 import os
 from concurrent.futures import ThreadPoolExecutor
 
-import numba
-import numpy as np
+from mechkin.solvers.ik.accel import configure_numba_cache
+
+configure_numba_cache()  # before numba reads NUMBA_CACHE_DIR (a read-only install: user cache)
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
 
 PARALLEL_ROWS = 512  # rows per thread below which one thread runs the whole batch
+_CPUS = os.cpu_count() or 1  # once: os.cpu_count() took ~1 ms per call here (profiled)
 
 _njit = numba.njit(cache=True, nogil=True)
 
@@ -344,7 +352,7 @@ def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarr
         lm(*(a[sl] for a in args), *consts,
            *(o[sl] if o.shape[0] else o for o in outs))
 
-    workers = 1 if stop_first else min(os.cpu_count() or 1, m // PARALLEL_ROWS)
+    workers = 1 if stop_first else min(_CPUS, m // PARALLEL_ROWS)
     if workers <= 1:
         run(slice(None))
     else:

@@ -27,10 +27,14 @@ Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports numpy, numba and
 
 from __future__ import annotations
 
-import numba
-import numpy as np
+from mechkin.solvers.ik.accel import configure_numba_cache
 
-from mechkin.solvers.ik.serial_jit import (
+configure_numba_cache()  # before numba reads NUMBA_CACHE_DIR (a read-only install: user cache)
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+
+from mechkin.solvers.ik.serial_jit import (  # noqa: E402
     cholesky_solve,
     half_wsq,
     lm_decide,

@@ -1,0 +1,139 @@
+"""Compile (or load from numba's cache) the IK kernels ahead of first use (``mechkin warmup``).
+
+The compiled kernels are specialised on argument types, not on a mechanism: compiling them
+once for any open chain (``serial_jit.lm``) and any closed chain (``tree_jit.lm_closed``; the
+cg-golden point evaluator ``tree_jit.evaluate_one`` serves both) covers every mechanism. Each
+kernel is run once on a one-row problem at the mechanism's home pose, through the same
+wrappers the solvers call.
+
+Design
+------
+Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports :mod:`mechkin.model`, the
+family and, lazily, the compiled kernels (numba); never ``io/``, ``cli/`` or ``tasks/``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik import accel
+from mechkin.solvers.ik.kernel import MAX_ITER_CLOSURE, TOL_DQ_CLOSURE, kernel_for
+
+#: A two-joint arm and a four-bar loop: the smallest open and closed chains (the default
+#: mechanisms of ``mechkin warmup``).
+TINY_OPEN = """name: warmup_2r
+units: {length: m, angle: deg}
+links:
+  - name: base
+  - name: l1
+  - name: l2
+    frames: [{name: tip, xyz: [0.5, 0, 0]}]
+joints:
+  - {name: q1, type: revolute, parent: base, child: l1, limits: [-170, 170], home: 20}
+  - {name: q2, type: revolute, parent: l1, child: l2, origin: {xyz: [0.6, 0, 0]},
+     limits: [-150, 150], home: 40}
+independent: [q1, q2]
+end_effector: tip
+"""
+TINY_CLOSED = """name: warmup_fourbar
+units: {length: m, angle: deg}
+links:
+  - name: ground
+    frames: [{name: rocker_pivot, xyz: [1.0, 0, 0]}]
+  - name: crank
+  - name: coupler
+    frames: [{name: coupler_end, xyz: [1.0, 0, 0]}]
+  - name: rocker
+    frames: [{name: rocker_end, xyz: [0.8, 0, 0]}]
+joints:
+  - {name: q_crank, type: revolute, parent: ground, child: crank, home: 60}
+  - {name: q_coupler, type: revolute, parent: crank, child: coupler, origin: {xyz: [0.3, 0, 0]},
+     home: -40}
+  - {name: q_rocker, type: revolute, parent: rocker_pivot, child: rocker, home: 90}
+cuts:
+  - {name: pin, frames: [coupler_end, rocker_end], mask: [x, y]}
+independent: [q_crank]
+end_effector: coupler_end
+"""
+
+
+@dataclass(frozen=True)
+class Warmed:
+    """One kernel: its name, what it serves, the wall time [s] and whether numba's cache
+    held it before (loaded) or it was compiled now."""
+
+    name: str
+    role: str
+    seconds: float
+    was_cached: bool | None
+
+
+def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
+    """(kernel name, role) of the compiled kernels ``mech``'s IK can use."""
+    closed = bool(mech.cuts) and len(mech.dependent) > 0
+    lm = (("tree_jit.lm_closed", "closed-chain lm") if closed
+          else ("serial_jit.lm", "open-chain lm"))
+    return [lm, ("tree_jit.evaluate_one", "cg-golden point evaluation")]
+
+
+def _dispatcher(name: str):
+    from mechkin.solvers.ik import serial_jit, tree_jit
+
+    mod, fn = name.split(".")
+    return getattr({"serial_jit": serial_jit, "tree_jit": tree_jit}[mod], fn)
+
+
+def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
+    """A one-row call of kernel ``name`` on ``mech`` at home, through the solvers' wrapper."""
+    from mechkin.model.kinematics import frame_poses
+    from mechkin.solvers.ik import lm
+    from mechkin.solvers.ik.results import IkOptions
+
+    kern = kernel_for(mech)
+    T = frame_poses(mech, mech.home[None], [kern.frame])[:, 0]
+    qv, qw = mech.home[kern.iv][None].copy(), mech.home[kern.iw][None].copy()
+    w = np.ones((1, 6))
+    opts = IkOptions()
+    if name == "serial_jit.lm":
+        return lambda: lm._lm_open_compiled(kern, qv, qw, T, w, opts, False)
+    if name == "tree_jit.lm_closed":
+        from mechkin.solvers.ik import tree_jit
+
+        return lambda: tree_jit.lm_closed_rows(
+            kern, qv, qw, T, w, tol_phi=opts.tol_phi, tol_dq=TOL_DQ_CLOSURE,
+            max_iter_closure=MAX_ITER_CLOSURE, max_iter=5, mu=lm.LM_MU, history=False,
+            passive_band=lm.PASSIVE_BAND, f_abs=1e-30)
+    from mechkin.solvers.ik.tree_jit import ClosedEvaluator
+
+    ce = ClosedEvaluator(kern, opts.tol_phi, TOL_DQ_CLOSURE, MAX_ITER_CLOSURE)
+    return lambda: ce(qv[0], qw[0], T[0])
+
+
+def warm(mechs: list[Mechanism]) -> Iterator[tuple[str, str] | Warmed]:
+    """Compile or load every kernel the mechanisms use, each once. Yields ``(name, role)``
+    before a kernel starts, then its :class:`Warmed` record."""
+    accel.quiet = True
+    try:
+        seen: set[str] = set()
+        for mech in mechs:
+            for name, role in kernels_for(mech):
+                if name in seen:
+                    continue
+                seen.add(name)
+                yield name, role
+                run = _runner(mech, name)
+                cached = accel.is_cached(_dispatcher(name))
+                t0 = time.perf_counter()
+                run()
+                dt = time.perf_counter() - t0
+                kind = {"serial_jit.lm": "open", "tree_jit.lm_closed": "closed"}.get(name)
+                if kind:
+                    accel.mark_loaded(kind)
+                yield Warmed(name, role, dt, cached)
+    finally:
+        accel.quiet = False
