@@ -39,6 +39,9 @@ class TrackTrajectory:
     hand: np.ndarray  # (K, d) [m]
     part: np.ndarray | None  # (K, d) [m]
     tracking_error: np.ndarray | None  # (K, d) hand - part [m]
+    #: (K,) [1/s] the phase plane's limit curve at each node's r: the largest r' the torque and
+    #: velocity limits admit (inf: unbounded; NaN: none admissible); None if not computed
+    rd_limit: np.ndarray | None = None
 
     def columns(self, prismatic: Sequence[bool] | None = None) -> dict[str, np.ndarray]:
         """CSV-ready columns ``name_unit -> (K,)``: ``t_s, r, rd_1_s, q1_rad, u1_Nm, hand_x_m``...
