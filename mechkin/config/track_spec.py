@@ -191,7 +191,10 @@ class TrackSpec(Spec):
     the same problem on several grids (park §5.2) and reports one record per grid; the outputs
     (CSV, plots, MCAP) are those of ``grid``. ``dynamics``: ``rnea`` (recursive Newton-Euler
     from the mechanism's inertial parameters) or ``closed_form_2link`` (park Table 1, for a
-    planar 2R arm; its parameters are read from the same inertials).
+    planar 2R arm; its parameters are read from the same inertials). ``dp`` selects the
+    readings of park §4 (:class:`DpSpec`); ``cases`` plans several limit sets / readings on the
+    same grid for the overlays of park Figs. 5-8 (:class:`CaseSpec`; the CSV and MCAP stay the
+    scenario's own plan).
     """
 
     objective: Literal["tracking", "time", "intercept"] = "tracking"

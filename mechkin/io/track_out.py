@@ -1,8 +1,14 @@
 """The files of a track run (park §2-§5): ``track.csv``, plots like park Figs. 4-8
-(``phase.png``, ``hand_part.png``, ``joint_velocities.png``, ``joint_accelerations.png``,
-``joint_jerks.png``, ``torques.png``), ``track.mcap`` (the arm following the part) and its
-Foxglove layout ``track.layout.json`` (3D, joint positions, torques against their limits and
-the tracking error). ``/mechkin/state`` has a fixed JSON schema (:func:`state_schema`); the
+(``phase.png`` with the limit curve, ``hand_part.png``, ``joint_positions.png``,
+``joint_velocities.png``, ``joint_accelerations.png``, ``joint_jerks.png``, ``torques.png``, each
+against its limits), ``path_3d.png`` (the hand path in 3-D with hand-frame triads and the arm),
+with ``track.cases`` the overlays of park Figs. 5-8 (``cases_phase.png``, ``cases_hand.png``,
+``cases_joint_velocities.png``, ``cases_torques.png``: every case on the same axes, legend by
+case name), ``track.mcap`` (the arm following the part on the moving belt) and its Foxglove
+layout ``track.layout.json`` (3D, joint positions, torques against their limits and the
+tracking error). :func:`figures` builds every figure (constrained layout, fixed legend places:
+``loc="best"`` searches every point at each draw) without drawing it. ``/mechkin/state`` has
+a fixed JSON schema (:func:`state_schema`); the
 torque limits are in it as ``torque_max_<joint>`` / ``torque_min_<joint>`` so a plot shows
 them beside the ``/joint_states`` efforts.
 
