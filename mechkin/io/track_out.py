@@ -241,7 +241,7 @@ def _panels(t: np.ndarray, ys: np.ndarray, labels: list[str], ylabel: list[str] 
 
     n = ys.shape[1]
     units = [ylabel] * n if isinstance(ylabel, str) else ylabel
-    fig = _new_figure((7.0, 2.0 * n + 0.8))
+    fig = _new_figure((7.0, (2.0 if n <= 3 else 1.6) * n + 0.8))  # area = drawing time
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     for k, ax in enumerate(axes):
         ax.plot(t, ys[:, k], linewidth=1.4, label=labels[k],
@@ -255,7 +255,7 @@ def _panels(t: np.ndarray, ys: np.ndarray, labels: list[str], ylabel: list[str] 
                     drawn = True
             if drawn:  # a fixed place: "best" costs a search over every point at each draw
                 ax.legend(fontsize="x-small", loc="upper right")
-        ax.yaxis.set_major_locator(MaxNLocator(5))
+        ax.yaxis.set_major_locator(MaxNLocator(4))  # fewer ticks: the layout sizes each one
         ax.set_ylabel(f"{labels[k]} [{units[k]}]")
         ax.grid(True, alpha=0.3)
     axes[0].set_title(title)
