@@ -411,31 +411,33 @@ def case_figures(rec: TrackRecord) -> dict[str, Any]:
              for k, c in enumerate(rec.cases)}
     out: dict[str, Any] = {}
     # Fig. 5: phase plane
-    fig = _new_figure((7.5, 4.8))
+    fig = _new_figure((9.5, 4.8))
     ax = fig.subplots()
-    top = 0.0
+    top = max([float(np.max(c.trajectory.rd)) for c in rec.cases]
+              + ([rec.phase_ref[1]] if rec.phase_ref is not None else []))
+    y_top = 1.5 * top if top > 0 else 1.0
     for c in rec.cases:
         col, ls = style[c.name]
         tr = c.trajectory
         lab = c.name + (f" (t_a = {c.t_a_s:.3g} s)" if c.t_a_s is not None else "")
         ax.plot(tr.r, tr.rd, color=col, linestyle=ls, marker=".", markersize=2.5, label=lab)
-        top = max(top, float(np.max(tr.rd)))
         curve = _finite_curve(tr.r, tr.rd_limit)
         if curve is not None:
+            low = float(np.min(curve[1]))
             ax.plot(curve[0], curve[1], color=col, linestyle=":", linewidth=1.0, alpha=0.8,
-                    label=f"{c.name}: limit curve")
+                    label=f"{c.name}: limit curve" + ("" if low < y_top
+                                                      else f" (above, >= {low:.3g} /s)"))
     if rec.phase_ref is not None:
         ax.axhline(rec.phase_ref[1], color="tab:red", linestyle="--", linewidth=1.0,
                    label="part x~2 = r~'")
-        top = max(top, rec.phase_ref[1])
-    ax.set_ylim(0.0, 1.5 * top if top > 0 else 1.0)
+    ax.set_ylim(0.0, y_top)
     ax.set(xlabel="r = x1 [-]", ylabel="r' = x2 [1/s]",
            title=f"{rec.title}: phase plane by case (park Fig. 5)")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small", loc="lower right")
+    fig.legend(*ax.get_legend_handles_labels(), fontsize="small", loc="outside right upper")
     out["cases_phase.png"] = fig
     # Fig. 6: hand and part along the line
-    fig = _new_figure((7.5, 4.8))
+    fig = _new_figure((9.5, 4.8))
     ax = fig.subplots()
     axis = int(np.argmax(np.ptp(rec.trajectory.hand, axis=0)))
     a = "xyz"[axis]
@@ -454,7 +456,7 @@ def case_figures(rec: TrackRecord) -> dict[str, Any]:
     ax.set(xlabel="t [s]", ylabel=f"{a} [m]",
            title=f"{rec.title}: hand and part by case (park Fig. 6)")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small", loc="lower right")
+    fig.legend(*ax.get_legend_handles_labels(), fontsize="small", loc="outside right upper")
     out["cases_hand.png"] = fig
     # Fig. 7 / 8: joint velocities and torques
     for fname, attr, fam, unit, what, steps in (
@@ -462,7 +464,7 @@ def case_figures(rec: TrackRecord) -> dict[str, Any]:
              "joint velocities (park Fig. 7)", False),
             ("cases_torques.png", "torque", "torque", _unit(rec.prismatic, "N m", "N"),
              "joint torques (park Fig. 8)", True)):
-        fig = _new_figure((7.5, 2.2 * n + 1.0))
+        fig = _new_figure((9.5, (2.2 if n <= 3 else 1.6) * n + 1.0))
         axes = _case_axes(fig, n)
         for k, ax in enumerate(axes):
             for c in rec.cases:
@@ -477,8 +479,9 @@ def case_figures(rec: TrackRecord) -> dict[str, Any]:
                             ax.axhline(float(v), color=col, linestyle=":", linewidth=0.9)
             ax.set_ylabel(f"{(_torque_labels(jn) if fam == 'torque' else jn)[k]} [{unit[k]}]")
             ax.grid(True, alpha=0.3)
-        axes[0].legend(fontsize="small", title="case (dotted: its limits)",
-                       title_fontsize="small", loc="lower right")
+        fig.legend(*axes[0].get_legend_handles_labels(), fontsize="small",
+                   title="case (dotted:\nits limits)", title_fontsize="small",
+                   loc="outside right upper")
         axes[0].set_title(f"{rec.title}: {what}")
         axes[-1].set_xlabel("t [s]")
         out[fname] = fig

@@ -106,7 +106,7 @@ def test_case_overlays_one_line_per_case_with_a_legend(records) -> None:
     assert names == ["1: no limits", "2: torque", "3: all limits"]
     figs = track_out.case_figures(rec)
     phase = figs["cases_phase.png"].axes[0]
-    labels = [t.get_text() for t in phase.get_legend().get_texts()]
+    labels = [t.get_text() for t in figs["cases_phase.png"].legends[0].get_texts()]
     assert all(any(lb.startswith(n) for lb in labels) for n in names)
     for c, ln in zip(rec.cases, [ln for ln in phase.get_lines()
                                  if not ln.get_label().endswith("limit curve")
@@ -114,7 +114,7 @@ def test_case_overlays_one_line_per_case_with_a_legend(records) -> None:
         np.testing.assert_array_equal(ln.get_xdata(), c.trajectory.r)
     for fname, attr in (("cases_joint_velocities.png", "qd"), ("cases_torques.png", "torque")):
         fig = figs[fname]
-        assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == names
+        assert [t.get_text() for t in fig.legends[0].get_texts()] == names
         for k, ax in enumerate(fig.axes):
             data = [ln for ln in ax.get_lines() if ln.get_label() in names]
             assert len(data) == 3
