@@ -353,6 +353,20 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "limits": "Joint limits (park Eq. (3)-(6)).",
         "dynamics": "rnea (recursive Newton-Euler from the inertials) or closed_form_2link "
                     "(park Table 1).",
+        "dp": "Readings of the DP stage (park §4): step time, wait cost, end jerk checks.",
+        "cases": "Several limit sets / readings planned and overlaid (park §5.3, Figs. 5-8).",
+    },
+    "DpSpec": {
+        "step_time": "trapezoid (dt = 2 dx1 / (x2[j] + x2[l]), default) or euler (park Eq. "
+                     "(26) literally: dt = dx1 / x2[j], Eq. (21) forward Euler).",
+        "wait_cost": "Cost the wait at rest before the start as park Eq. (18) from t_0 "
+                     "(objective tracking only).",
+        "jerk_ends": "Check the jerk of the first step (from rest) and the last step too.",
+    },
+    "CaseSpec": {
+        "name": "Case name (legend and summary cases[].name).",
+        "limits": "Limits of this case (replace track.limits; {} = joint positions only).",
+        "dp": "Readings of this case (replace track.dp).",
     },
     "AxisGridSpec": {
         "range": f"[lo, hi] inclusive {_A}.",

@@ -221,6 +221,30 @@ class LimitsSpec(Spec):
     q: Limit | None = None
 
 
+class DpSpec(Spec):
+    """How the DP stage reads park §4 where the text allows two readings (the defaults are
+    mechkin's readings; README "park: readings"). ``step_time``: ``trapezoid`` (``dt = 2 dx1 /
+    (x2[j] + x2[l])``, Eq. (21) with a constant r'') or ``euler`` (the literal Eq. (26) ``dt =
+    dx1 / x2[j]`` with the forward-Euler Eq. (21)). ``wait_cost``: the wait at rest before the
+    hand starts is costed as Eq. (18) integrates from t_0 (objective tracking only).
+    ``jerk_ends``: the jerk of the first step (from rest) and of the last step (into the
+    steady state or rest) is checked too."""
+
+    step_time: Literal["trapezoid", "euler"] = "trapezoid"
+    wait_cost: bool = False
+    jerk_ends: bool = False
+
+
+class CaseSpec(Spec):
+    """One case of ``cases`` (park §5.3 compares three): a ``name`` (the legend) and the
+    ``limits`` and ``dp`` readings that replace the scenario's for this case (absent: the
+    scenario's; ``limits: {}``: only the mechanism's joint positions)."""
+
+    name: Annotated[str, Field(min_length=1, max_length=60)]
+    limits: LimitsSpec | None = None
+    dp: DpSpec | None = None
+
+
 class TrackSpec(Spec):
     """``track:`` section.
 
@@ -230,7 +254,10 @@ class TrackSpec(Spec):
     the same problem on several grids (park §5.2) and reports one record per grid; the outputs
     (CSV, plots, MCAP) are those of ``grid``. ``dynamics``: ``rnea`` (recursive Newton-Euler
     from the mechanism's inertial parameters) or ``closed_form_2link`` (park Table 1, for a
-    planar 2R arm; its parameters are read from the same inertials).
+    planar 2R arm; its parameters are read from the same inertials). ``dp`` selects the
+    readings of park §4 (:class:`DpSpec`); ``cases`` plans several limit sets / readings on the
+    same grid for the overlays of park Figs. 5-8 (:class:`CaseSpec`; the CSV and MCAP stay the
+    scenario's own plan).
     """
 
     objective: Literal["tracking", "time", "intercept"] = "tracking"
@@ -241,15 +268,31 @@ class TrackSpec(Spec):
     grid_study: list[GridSpec] | None = None
     limits: LimitsSpec = Field(default_factory=LimitsSpec)
     dynamics: Literal["rnea", "closed_form_2link"] = "rnea"
+    dp: DpSpec = Field(default_factory=DpSpec)
+    cases: Annotated[list[CaseSpec], Field(min_length=1, max_length=12)] | None = None
 
     @model_validator(mode="after")
     def _check(self) -> TrackSpec:
+        _check_dp_cases(self)
         if self.objective != "time" and self.conveyor is None:
             raise ValueError(f"objective {self.objective} needs a conveyor: "
                              "{part_start, belt_velocity}")
         if self.grid_study is not None and not self.grid_study:
             raise ValueError("grid_study: give at least one grid")
         return self
+
+
+def _check_dp_cases(spec: TrackSpec) -> None:
+    """``dp.wait_cost`` needs objective tracking; case names are distinct."""
+    for where, dp in [("dp", spec.dp)] + [(f"cases: {c.name}: dp", c.dp) for c in spec.cases or []]:
+        if dp is not None and dp.wait_cost and spec.objective != "tracking":
+            raise ValueError(f"{where}.wait_cost needs objective tracking ({spec.objective} "
+                             + ("already costs the wait)" if spec.objective == "intercept"
+                                else "starts at t = 0: no wait)"))
+    names = [c.name for c in spec.cases or []]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"cases: the name {dup[0]!r} is used twice")
 
 
 def point_si(p: list[float], units: Units) -> np.ndarray:

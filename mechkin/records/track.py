@@ -39,6 +39,9 @@ class TrackTrajectory:
     hand: np.ndarray  # (K, d) [m]
     part: np.ndarray | None  # (K, d) [m]
     tracking_error: np.ndarray | None  # (K, d) hand - part [m]
+    #: (K,) [1/s] the phase plane's limit curve at each node's r: the largest r' the torque and
+    #: velocity limits admit (inf: unbounded; NaN: none admissible); None if not computed
+    rd_limit: np.ndarray | None = None
 
     def columns(self, prismatic: Sequence[bool] | None = None) -> dict[str, np.ndarray]:
         """CSV-ready columns ``name_unit -> (K,)``: ``t_s, r, rd_1_s, q1_rad, u1_Nm, hand_x_m``...
@@ -82,6 +85,17 @@ class GridTrace:
     rd: np.ndarray  # (K,) [1/s]
 
 
+@dataclass(frozen=True)
+class CaseTrace:
+    """One case of ``track.cases`` (park §5.3 compares three limit sets, Figs. 5-8): its name
+    (the legend), realised plan, ``t_a`` [s] and limits ``name -> (lo, hi)`` [SI]."""
+
+    name: str
+    trajectory: TrackTrajectory
+    t_a_s: float | None
+    limits: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+
 @dataclass
 class TrackRecord:
     """A planned track run as plain arrays for ``track.csv``, the PNGs and ``track.mcap``.
@@ -121,6 +135,12 @@ class TrackRecord:
         The /tf frame tree (``T_parent_child (K, k, 4, 4)``).
     metadata : dict
         MCAP metadata (scenario, mechanism, task).
+    cases : list of CaseTrace
+        The plans of ``track.cases``, drawn together in the overlay plots (park Figs. 5-8).
+    hand_T : array (K, 4, 4), optional
+        The hand frame's pose in the base frame at every sample (the triads of ``path_3d.png``).
+    hand_frame : str, optional
+        The hand frame's name.
     """
 
     title: str
@@ -143,3 +163,6 @@ class TrackRecord:
     frame_parents: list[str] = field(default_factory=list)
     T_parent_child: np.ndarray | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    cases: list[CaseTrace] = field(default_factory=list)
+    hand_T: np.ndarray | None = None
+    hand_frame: str | None = None

@@ -19,7 +19,11 @@ stated model can reproduce, see PAPER_NOTES):
    (so the steady state keeps exactly the belt's timing) and, unlike Eq. (26), stays finite when
    the hand leaves rest (``j = 0``); read literally, Eq. (26) also under-estimates the time of a
    decelerating step, which would let the time-optimal DP beat the true optimum. A transition
-   between two zero-speed states never advances and is excluded.
+   between two zero-speed states never advances and is excluded. ``DPOptions(step_time=
+   "euler")`` selects the literal Eq. (26) with the forward-Euler ``r'' = (x2[l] - x2[j]) / dt``
+   of Eq. (21) (leaving rest keeps the step above: Eq. (26) is infinite there); on park §5 it
+   gives the torque-only t_a 0.85 s (default 0.90 s, printed 0.8 s) but 2.95 s with all limits
+   (printed 1.1 s): an accelerating step from a low speed takes ``dx1 / x2[j]``.
 3. **Torque** (Eq. (12), (21), (3)). ``U = a r'' + b x2[j]^2 + g`` at node ``(x1[i], x2[j])`` with
    ``r'' = (x2[l]^2 - x2[j]^2) / (2 dx1)``; every joint is checked on every transition (§4.3),
    and at the end node with ``r'' = 0`` (the steady state goes on; at rest the arm holds).
@@ -28,7 +32,9 @@ stated model can reproduce, see PAPER_NOTES):
    is taken at ``t(i, j)``. The start time ``t(0, 0)`` is therefore an outcome: the hand waits at
    rest at ``r = 0`` until then (the wait lies before the first DP node and is not costed), but it
    may not start before ``t_0 = 0`` (Eq. (2)): transitions whose time would be negative are
-   excluded.
+   excluded. ``DPOptions(wait_cost=True)`` costs the wait as Eq. (18) integrates from ``t_0``
+   (:func:`wait_cost`, added at stage 0 to each candidate start time): park's unconstrained
+   peaks become -2.80 / -0.61 N m (default -5.88 / -1.27, printed -1.342 / -0.406).
 5. **Cost** (Eq. (22), (28)-(30)). ``J = dt [(x1[i] - x~1(t(i,j)))^2 + (x2[j] - x~2)^2]``, the
    left-point rectangle rule of Eq. (18); ``J*(i,j) = min_l J + J*(i+1,l)``.
 6. **Smoothness** (Eq. (4)'-(6)', (31)-(35)). Node velocities ``qd = f'(x1) x2`` (Eq. (10),
@@ -37,8 +43,9 @@ stated model can reproduce, see PAPER_NOTES):
    where ``qdd(k+1)`` is the acceleration of the transition already chosen for ``(i+1, l)``: this
    is why Eq. (35)'s admissible range of ``x2[j]`` depends on ``x1[i], x1[i+1], x2[l]``. The last
    transition has no successor and the departure from rest no predecessor, so neither has a jerk
-   check. With jerk limits the backward recursion is optimal given the stored successors (as
-   in the paper), not over all jerk-feasible paths.
+   check (``DPOptions(jerk_ends=True)`` checks both: from rest with qdd = 0, into the motion
+   after the end node with ``qdd = f''(1) x2_end^2``). With jerk limits the backward recursion
+   is optimal given the stored successors (as in the paper), not over all jerk-feasible paths.
 7. **Steady state** (§2, §5). ``t_a`` is the time of the first node after which the hand stays on
    the part (``|x1 - x~1| <= 1e-9`` and ``x2 = x~2``); with reading 2 the steady state has zero
    tracking error, and ``t_a`` lies on the grid ``t_f - m dx1 / x~2``.
@@ -69,7 +76,9 @@ stated model can reproduce, see PAPER_NOTES):
     with the same ``t_a``. Not in park; ``t_a`` of the tracking objective is an upper bound.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
-stages only.
+stages only. :func:`limit_curve` gives the phase plane's limit curve (the largest ``r'`` the
+torque and velocity limits admit at each ``r``) that the realised trajectory carries for the
+plots.
 
 References
 ----------
@@ -115,6 +124,73 @@ MU_BISECTIONS = 12
 
 
 TrackStatus = Status  # ok or infeasible (mechkin.solvers.result)
+
+StepTime = Literal["trapezoid", "euler"]
+
+
+@dataclass(frozen=True)
+class DPOptions:
+    """How the DP stage reads park §4 where the text allows two readings (readings 2, 4, 6).
+
+    Attributes
+    ----------
+    step_time : {"trapezoid", "euler"}
+        ``trapezoid`` (default, reading 2): ``dt = 2 dx1 / (x2[j] + x2[l])`` and
+        ``r'' = (x2[l]^2 - x2[j]^2) / (2 dx1)`` (Eq. (21) integrated with a constant r'').
+        ``euler``: the literal Eq. (26) ``dt = dx1 / x2[j]`` with the forward-Euler Eq. (21)
+        ``r'' = (x2[l] - x2[j]) / dt``; leaving rest (``j = 0``, where Eq. (26) is infinite)
+        keeps the trapezoid step ``dt = 2 dx1 / x2[l]``, the only finite time of a start from rest.
+    wait_cost : bool
+        False (default, reading 4): the wait at rest at ``r = 0`` before ``t(0, 0)`` is not
+        costed. True: it is costed as Eq. (18) integrates from ``t_0 = 0``, exactly:
+        ``int_0^ts (r~(t)^2 + x~2^2) dt = ((r0 + x~2 ts)^3 - r0^3) / (3 x~2) + x~2^2 ts``, added
+        at stage 0 (tracking objective only; ``intercept`` already costs the wait).
+    jerk_ends : bool
+        False (default, reading 6): no jerk check on the first and last step. True: the first
+        step's jerk ``(qdd_0 - 0) / dt_0`` (from rest, where qdd = 0) and the last step's
+        ``(qdd_after - qdd_last) / dt_last`` are checked too, with ``qdd_after`` the motion
+        after the end node: ``f''(1) x~2^2`` on the part (Eq. (11) with r'' = 0), 0 at rest.
+    """
+
+    step_time: StepTime = "trapezoid"
+    wait_cost: bool = False
+    jerk_ends: bool = False
+
+    def __post_init__(self) -> None:
+        if self.step_time not in ("trapezoid", "euler"):
+            raise ConfigError(f"dp.step_time: expected 'trapezoid' or 'euler', got "
+                              f"{self.step_time!r}")
+
+
+DEFAULT_DP = DPOptions()
+
+
+def step_arrays(
+    x_from: np.ndarray, x_to: np.ndarray, dx1: float, step_time: StepTime = "trapezoid"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(dt, 1/dt, r'')`` of the transitions ``x2 = x_from -> x_to`` over one stage ``dx1``
+    (broadcast), by reading 2 (``trapezoid``) or the literal Eq. (21)/(26) (``euler``,
+    :class:`DPOptions`). Two rest states give ``dt = inf`` (excluded by the DP)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if step_time == "trapezoid":
+            dt = 2.0 * dx1 / (x_from + x_to)  # reading 2 of the module docstring
+            inv_dt = (x_from + x_to) / (2.0 * dx1)
+            rdd = (x_to**2 - x_from**2) / (2.0 * dx1)  # constant r'' per transition
+            return dt, inv_dt, rdd
+        x_from, x_to = np.broadcast_arrays(x_from, x_to)
+        rest = x_from == 0.0
+        dt = np.where(rest, 2.0 * dx1 / (x_from + x_to), dx1 / x_from)  # park Eq. (26)
+        inv_dt = np.where(rest, (x_from + x_to) / (2.0 * dx1), x_from / dx1)
+        rdd = np.where(rest, (x_to**2 - x_from**2) / (2.0 * dx1),
+                       (x_to - x_from) * inv_dt)  # park Eq. (21), forward Euler
+    return dt, inv_dt, rdd
+
+
+def wait_cost(t_start: np.ndarray, r0: float, rd: float) -> np.ndarray:
+    """Eq. (18) over the wait at rest at ``r = 0`` from ``t_0 = 0`` to ``t_start`` (exact):
+    ``((r0 + rd ts)^3 - r0^3) / (3 rd) + rd^2 ts``; 0 for ``ts <= 0``."""
+    ts = np.maximum(np.asarray(t_start, dtype=np.float64), 0.0)
+    return ((r0 + rd * ts) ** 3 - r0**3) / (3.0 * rd) + rd * rd * ts
 
 
 @dataclass(frozen=True)
@@ -317,6 +393,8 @@ class TrackResult:
     time_penalty : float
         The multiplier ``mu`` of reading 9 (0 unless the part starts ahead of the hand).
     trajectory : TrackTrajectory or None
+    dp : DPOptions
+        The readings of the DP stage the plan was made with.
     """
 
     status: TrackStatus
@@ -336,6 +414,7 @@ class TrackResult:
     blocking_limits: tuple[str, ...] = ()
     time_penalty: float = 0.0
     trajectory: TrackTrajectory | None = field(default=None, repr=False)
+    dp: DPOptions = DEFAULT_DP
 
     def summary(self) -> dict[str, object]:
         """JSON-ready key figures (no trajectory arrays) for ``summary.json``."""
@@ -361,6 +440,8 @@ class TrackResult:
             "blocked_at_r": None if self.blocked_at_r is None else list(self.blocked_at_r),
             "blocking_limits": list(self.blocking_limits),
             "time_penalty": self.time_penalty,
+            "dp": {"step_time": self.dp.step_time, "wait_cost": self.dp.wait_cost,
+                   "jerk_ends": self.dp.jerk_ends},
         }
 
 
@@ -392,13 +473,16 @@ def _transition_checks(
     st: _Stage,
     qdd_next: np.ndarray,
     per_family: bool,
+    qdd_prev: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Limit checks of all transitions ``(i, j) -> (i+1, l)``, ``j`` in ``rows``.
 
     Returns ``ok (J, L)``, true where every limit holds, and (with ``per_family``) per-joint
     masks ``"torque_1" -> (J, L)`` for the diagnosis of a blocked stage. Torque (Eq. (3), (12))
     is checked as an interval of r'', velocity (Eq. (4)') per row, acceleration (Eq. (32),
-    (5)') and jerk (Eq. (33), (6)', with the successor's stored ``qdd_next``) per pair.
+    (5)') and jerk (Eq. (33), (6)', with the successor's stored ``qdd_next``) per pair;
+    ``qdd_prev (n,)`` (the departure from rest, ``DPOptions.jerk_ends``) adds the jerk
+    ``(qdd - qdd_prev) / dt`` of the step itself.
     """
     x2j = st.x2[rows]
     inv_dt = st.inv_dt[rows]
@@ -436,6 +520,9 @@ def _transition_checks(
                 lo, hi = limits["jerk"][0][k], limits["jerk"][1][k]
                 jerk = (qdd_next[None, :, k] - qdd) * inv_dt  # park Eq. (33)
                 keep(f"jerk_{k + 1}", ~((jerk < lo - _slack(lo)) | (jerk > hi + _slack(hi))))
+                if qdd_prev is not None:  # the step from rest (DPOptions.jerk_ends)
+                    jerk = (qdd - qdd_prev[k]) * inv_dt
+                    keep(f"jerk_{k + 1}", (jerk >= lo - _slack(lo)) & (jerk <= hi + _slack(hi)))
     return ok, masks
 
 
@@ -578,12 +665,14 @@ def _run_dp(
     reference: tuple[float, float] | None,
     mu: float = 0.0,
     intercept: bool = False,
+    opts: DPOptions = DEFAULT_DP,
 ) -> _DPTables:
     """Backward recursion of park Eq. (25)-(30) with time-to-go bookkeeping (Eq. (27)).
 
     ``reference`` is ``(r0, x~2)`` for the tracking cost (Eq. (28)); None for minimum time.
     ``mu`` adds ``mu dt`` to the tracking cost (reading 9 of the module docstring);
-    ``intercept`` replaces the cost by the time off the part (reading 10).
+    ``intercept`` replaces the cost by the time off the part (reading 10); ``opts`` selects the
+    step time, the wait cost and the end jerk checks (:class:`DPOptions`).
     """
     N1 = pc.r.shape[0] - 1
     N2 = x2.shape[0] - 1
@@ -606,18 +695,15 @@ def _run_dp(
     V[N1, j_end] = 0.0
     T[N1, j_end] = t_end
     qdd_next = np.full((N2 + 1, n), np.nan)  # no successor after the end node: no jerk check
+    if opts.jerk_ends:  # the motion after the end node: on the part (r'' = 0) or at rest
+        qdd_next[j_end] = pc.ddq[N1] * x_end**2  # park Eq. (11)
 
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dt = 2.0 * dx1 / (x2[:, None] + x2[None, :])  # reading 2 of the module docstring
-    st = _Stage(
-        x2=x2,
-        dt=dt,
-        inv_dt=(x2[:, None] + x2[None, :]) / (2.0 * dx1),
-        rdd=(x2[None, :] ** 2 - x2[:, None] ** 2) / (2.0 * dx1),  # constant r'' per transition
-    )
+    dt, inv_dt, rdd = step_arrays(x2[:, None], x2[None, :], dx1, opts.step_time)
+    st = _Stage(x2=x2, dt=dt, inv_dt=inv_dt, rdd=rdd)
     for i in range(N1 - 1, -1, -1):
         with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
-            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu, intercept)
+            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu, intercept,
+                            opts)
         if isinstance(out, list):
             return _DPTables(V, NP, T, (i, out))
         qdd_next = out
@@ -636,6 +722,7 @@ def _dp_stage(
     reference: tuple[float, float] | None,
     mu: float = 0.0,
     intercept: bool = False,
+    opts: DPOptions = DEFAULT_DP,
 ) -> np.ndarray | list[str]:
     """One stage of park Eq. (25)-(30), all ``(j, l)`` pairs at once; fills row i of V, T, NP.
 
@@ -646,7 +733,8 @@ def _dp_stage(
     rows = slice(0, 1) if i == 0 else slice(0, N2 + 1)  # stage 0: only the rest state
     x2j = st.x2[rows]
     dt = st.dt[rows]
-    ok, _ = _transition_checks(limits, pc, i, rows, st, qdd_next, per_family=False)
+    qdd_prev = np.zeros(pc.a.shape[1]) if (i == 0 and opts.jerk_ends) else None  # from rest
+    ok, _ = _transition_checks(limits, pc, i, rows, st, qdd_next, False, qdd_prev)
     base = np.isfinite(V[i + 1])[None, :] & np.isfinite(dt)
     ok &= base
     t = T[i + 1][None, :] - dt  # park Eq. (27): time at (i, j) via (i+1, l)
@@ -662,6 +750,8 @@ def _dp_stage(
             stage_cost = dt * (np.where(on, 0.0, 1.0) + mu) + INTERCEPT_TIE * stage_cost
             if i == 0:
                 stage_cost = stage_cost + np.maximum(t, 0.0)  # the wait before t(0, 0)
+        elif i == 0 and opts.wait_cost:  # Eq. (18) from t_0 = 0: the wait at rest is costed
+            stage_cost = stage_cost + wait_cost(t, r0, rd_ref)
     else:
         stage_cost = dt  # minimum time
     cost = np.where(ok, stage_cost + V[i + 1][None, :], np.inf)  # park Eq. (29)
@@ -671,7 +761,7 @@ def _dp_stage(
     NP[i, rows] = best
     T[i, rows] = np.where(np.isfinite(V[i, rows]), t[jj, best], np.nan)
     if not np.any(np.isfinite(V[i, rows])):
-        _, masks = _transition_checks(limits, pc, i, rows, st, qdd_next, per_family=True)
+        _, masks = _transition_checks(limits, pc, i, rows, st, qdd_next, True, qdd_prev)
         if reference is not None:
             masks["start"] = start_ok
         return _diagnose(masks, base)
@@ -699,6 +789,7 @@ def _time_penalty_search(
     t_end: float,
     reference: tuple[float, float],
     intercept: bool = False,
+    opts: DPOptions = DEFAULT_DP,
 ) -> tuple[_DPTables, float]:
     """Reading 9: the smallest time penalty ``mu`` (stage cost ``+ mu dt``) whose DP starts at
     ``t(0, 0) >= 0``: a decade scan of ``mu``, then a bisection on ``log mu``. Returns the
@@ -708,12 +799,12 @@ def _time_penalty_search(
     lo, last = 0.0, None
     for k in range(-3, 9):
         mu = scale * 10.0**k
-        tab = _run_dp(pc, limits, x2, j_end, t_end, reference, mu, intercept)
+        tab = _run_dp(pc, limits, x2, j_end, t_end, reference, mu, intercept, opts)
         if tab.blocked is None and np.isfinite(tab.V[0, 0]):
             hi, best = mu, tab
             for _ in range(MU_BISECTIONS):
                 mid = np.sqrt(lo * hi) if lo > 0.0 else hi / 10.0
-                t_mid = _run_dp(pc, limits, x2, j_end, t_end, reference, mid, intercept)
+                t_mid = _run_dp(pc, limits, x2, j_end, t_end, reference, mid, intercept, opts)
                 if t_mid.blocked is None and np.isfinite(t_mid.V[0, 0]):
                     hi, best = mid, t_mid
                 else:
@@ -754,6 +845,59 @@ def _position_block(
     return i, [int(k) for k in np.flatnonzero(bad[i])]
 
 
+def limit_curve(
+    pc: PhaseCoefficients, limits: dict[str, tuple[np.ndarray, np.ndarray]]
+) -> np.ndarray:
+    r"""The phase plane's limit curve: the largest ``r'`` at each grid point ``r`` for which the
+    torque limits (Eq. (3), (12)) admit some ``r''`` and the velocity limits (Eq. (4)') hold,
+    ``(K,)`` [1/s]; inf where nothing bounds it, NaN where no ``r'`` is admissible.
+
+    With ``s = r'^2`` every joint's torque interval ``lo <= a r'' + b s + g <= hi`` is an
+    interval of ``r''`` whose ends are linear in ``s``; they intersect iff every lower end is at
+    most every upper end, a set of linear inequalities ``c0 + c1 s <= 0``, so the admissible
+    ``s`` form one interval and the curve is the square root of its top. Acceleration and jerk
+    limits depend on the neighbouring nodes and are not part of it.
+    """
+    K, n = pc.a.shape
+    c0: list[np.ndarray] = []
+    c1: list[np.ndarray] = []
+    if "torque" in limits:
+        lo, hi = limits["torque"]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ends = []  # per joint: (lower r'' end, upper r'' end) as (const, slope in s)
+            for k in range(n):
+                a, b, g = pc.a[:, k], pc.b[:, k], pc.g[:, k]
+                if np.all(a == 0.0):
+                    c0 += [g - hi[k], lo[k] - g]  # b s + g <= hi, lo <= b s + g
+                    c1 += [b, -b]
+                    continue
+                e_lo = ((lo[k] - g) / a, -b / a)
+                e_hi = ((hi[k] - g) / a, -b / a)
+                pos = a > 0
+                ends.append(((np.where(pos, e_lo[0], e_hi[0]), np.where(pos, e_lo[1], e_hi[1])),
+                             (np.where(pos, e_hi[0], e_lo[0]), np.where(pos, e_hi[1], e_lo[1]))))
+            for (lk, _) in ends:
+                for (_, um) in ends:
+                    c0.append(lk[0] - um[0])
+                    c1.append(lk[1] - um[1])
+    s_hi = np.full(K, np.inf)
+    s_lo = np.zeros(K)
+    empty = np.zeros(K, dtype=bool)
+    for a0, a1 in zip(c0, c1, strict=True):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = -a0 / a1
+        s_hi = np.where((a1 > 0) & ~np.isnan(bound), np.minimum(s_hi, bound), s_hi)
+        s_lo = np.where((a1 < 0) & ~np.isnan(bound), np.maximum(s_lo, bound), s_lo)
+        empty |= (a1 == 0) & (a0 > 0)
+    if "qd" in limits:
+        lo, hi = limits["qd"]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cap = np.where(pc.dq > 0, hi / pc.dq, np.where(pc.dq < 0, lo / pc.dq, np.inf))
+        s_hi = np.minimum(s_hi, np.min(cap, axis=1) ** 2)
+    top = np.sqrt(np.maximum(s_hi, 0.0))
+    return np.where(empty | (s_lo > s_hi) | (s_hi < 0), np.nan, top)
+
+
 def _realise(
     pc: PhaseCoefficients,
     path: JointPath,
@@ -761,8 +905,15 @@ def _realise(
     tab: _DPTables,
     objective: str,
     reference: ConveyorReference | None,
-) -> TrackTrajectory:
-    """Follow NP from (0, 0) and evaluate the trajectory at the nodes (Eq. (9)-(12), (31)-(33))."""
+    opts: DPOptions = DEFAULT_DP,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+) -> tuple[TrackTrajectory, np.ndarray | None]:
+    """Follow NP from (0, 0) and evaluate the trajectory at the nodes (Eq. (9)-(12), (31)-(33)).
+
+    Returns the trajectory and, with ``opts.jerk_ends``, the jerks ``(n,)`` of the step from
+    rest (they belong to no node when the hand does not wait; with a wait they are the wait
+    node's jerk too), else None.
+    """
     N1 = pc.r.shape[0] - 1
     dx1 = 1.0 / N1
     js = np.zeros(N1 + 1, dtype=np.int64)
@@ -773,15 +924,20 @@ def _realise(
         t = t - t[0]
     r = pc.r.copy()
     rd = x2[js]
-    rdd = np.append((rd[1:] ** 2 - rd[:-1] ** 2) / (2.0 * dx1), 0.0)
-    dt = 2.0 * dx1 / (rd[:-1] + rd[1:])
+    dt, _, rdd_steps = step_arrays(rd[:-1], rd[1:], dx1, opts.step_time)
+    rdd = np.append(rdd_steps, 0.0)
     q = pc.q.copy()
     qd = pc.dq * rd[:, None]  # park Eq. (10)
     qdd = np.full_like(qd, np.nan)
     qdd[:-1] = (qd[1:] - qd[:-1]) / dt[:, None]  # park Eq. (32)
     jerk = np.full_like(qd, np.nan)
     jerk[:-2] = (qdd[1:-1] - qdd[:-2]) / dt[:-1, None]  # park Eq. (33)
+    jerk_start = None
+    if opts.jerk_ends:  # the first and last steps (DPOptions.jerk_ends)
+        jerk[-2] = (pc.ddq[-1] * rd[-1] ** 2 - qdd[-2]) / dt[-1]
+        jerk_start = qdd[0] / dt[0]
     torque = pc.torque(rd, rdd)  # park Eq. (12)
+    rd_lim = limit_curve(pc, limits or {})
     if t[0] > 1e-12:  # the hand waits at rest until t(0, 0)
         t = np.append(0.0, t)
         r = np.append(0.0, r)
@@ -790,14 +946,17 @@ def _realise(
         q = np.vstack([q[:1], q])
         qd = np.vstack([np.zeros_like(qd[:1]), qd])
         qdd = np.vstack([np.zeros_like(qdd[:1]), qdd])
-        jerk = np.vstack([np.full_like(jerk[:1], np.nan), jerk])
+        jerk = np.vstack([np.full_like(jerk[:1], np.nan) if jerk_start is None
+                          else jerk_start[None, :], jerk])
         torque = np.vstack([pc.g[:1], torque])
+        rd_lim = np.append(rd_lim[:1], rd_lim)
     hand = path.hand(r)
     part = err = None
     if reference is not None:
         part = reference.position(t, path)
         err = hand - part
-    return TrackTrajectory(t, r, rd, rdd, q, qd, qdd, jerk, torque, hand, part, err)
+    return (TrackTrajectory(t, r, rd, rdd, q, qd, qdd, jerk, torque, hand, part, err,
+                            rd_limit=rd_lim), jerk_start)
 
 
 def solve_conveyor_tracking(
@@ -812,6 +971,7 @@ def solve_conveyor_tracking(
     nt_fraction: float = NT_FRACTION,
     x2_max: float | None = None,
     joint_names: Sequence[str] | None = None,
+    dp: DPOptions | None = None,
 ) -> TrackResult:
     r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
 
@@ -844,6 +1004,9 @@ def solve_conveyor_tracking(
         from rest that can still stop (torque and velocity limits).
     joint_names : sequence of str, optional
         Names of the joints for the message of a joint position limit.
+    dp : DPOptions, optional
+        Readings of the DP stage (step time, wait cost, jerk on the end steps); default
+        :data:`DEFAULT_DP`, the readings 2, 4 and 6 of the module docstring.
 
     Returns
     -------
@@ -866,6 +1029,11 @@ def solve_conveyor_tracking(
         raise ConfigError("objective: expected 'tracking', 'time' or 'intercept', got "
                           f"{objective!r}")
     intercept = objective == "intercept"
+    opts = DEFAULT_DP if dp is None else dp
+    if opts.wait_cost and objective != "tracking":
+        raise ConfigError(f"dp.wait_cost: only for objective tracking (objective {objective} "
+                          + ("already costs the wait as time off the part)" if intercept
+                             else "starts at t = 0: there is no wait)"))
     if N1 < 1 or N2 < 1:
         raise ConfigError(f"grid: expected N1, N2 >= 1, got {N1} x {N2}")
     limits = limits or TrackLimits()
@@ -920,14 +1088,15 @@ def solve_conveyor_tracking(
             t_start_s=None, duration_s=None, peak_torque=None, limits_ok=False,
             active_limits=(), limit_usage={}, grid=grid, cost=float("inf"),
             solve_time_s=time.perf_counter() - t_start,
-            blocked_at_r=(float(x1[i_b]), float(x1[i_b])), blocking_limits=tuple(names))
+            blocked_at_r=(float(x1[i_b]), float(x1[i_b])), blocking_limits=tuple(names),
+            dp=opts)
 
-    tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase, 0.0, intercept)
+    tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase, 0.0, intercept, opts)
     feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
     mu = 0.0
     blocked_by_start = tab.blocked is not None and "start" in tab.blocked[1]
     if not feasible and blocked_by_start:  # reading 9: relax t(0, 0) >= 0 into the cost
-        tab, mu = _time_penalty_search(pc, lim, x2, j_end, t_end, ref_phase, intercept)
+        tab, mu = _time_penalty_search(pc, lim, x2, j_end, t_end, ref_phase, intercept, opts)
         feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
     if not feasible:
         i_b, names = tab.blocked if tab.blocked is not None else (0, [])
@@ -968,11 +1137,14 @@ def solve_conveyor_tracking(
             solve_time_s=time.perf_counter() - t_start,
             blocked_at_r=where,
             blocking_limits=tuple(names),
+            dp=opts,
         )
 
-    traj = _realise(pc, path, x2, tab, objective, reference)
+    traj, jerk_start = _realise(pc, path, x2, tab, objective, reference, opts, lim)
     values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk,
               "q": traj.q}
+    if jerk_start is not None:  # the step from rest (DPOptions.jerk_ends), also without a wait
+        values["jerk"] = np.vstack([jerk_start[None, :], traj.jerk])
     usage: dict[str, float] = {}
     for name, (lo, hi) in lim.items():
         use = _usage_interval if name == "q" else _usage
@@ -1022,4 +1194,5 @@ def solve_conveyor_tracking(
         solve_time_s=time.perf_counter() - t_start,
         time_penalty=mu,
         trajectory=traj,
+        dp=opts,
     )

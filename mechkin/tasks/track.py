@@ -50,6 +50,7 @@ from mechkin.solvers.path_geometry import (
 from mechkin.solvers.path_ik import HandLineIK, HandPathIK, PathIKError
 from mechkin.spatial.rotations import matrix_from_rpy
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
+from mechkin.tasks.track_cases import case_record, case_traces, dp_options, solve_cases
 
 CSV_NOTE = ("qdd and jerk are forward differences (park Eq. (32)-(33)); where undefined (qdd at "
             "the last node, jerk at the last two nodes and across the initial wait) they are "
@@ -163,12 +164,13 @@ def _finite_or_none(a: np.ndarray) -> list[float | None]:
 
 
 def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandPathIK,
-           ref: ConveyorReference | None, limits: TrackLimits, joint_names: list[str]
-           ) -> TrackResult:
+           ref: ConveyorReference | None, limits: TrackLimits, joint_names: list[str],
+           dp: Any = None) -> TrackResult:
     return solve_conveyor_tracking(
         dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
         objective=spec.objective, nt_fraction=grid.nt_fraction,
         x2_max=grid.x2_max if spec.objective == "time" else None, joint_names=joint_names,
+        dp=dp_options(spec.dp) if dp is None else dp,  # parkvar: track.dp / track.cases
     )
 
 
@@ -244,6 +246,8 @@ def run(scenario: Scenario) -> Report:
                                  else _solve(spec, g, dyn, path, ref, limits,
                                              list(mech.joint_names)))
         study = [_grid_record(r) for r in study_results]
+    cases = solve_cases(scenario, mech, res, lambda lm, dp: _solve(
+        spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # parkvar: cases
 
     summary: dict[str, Any] = {
         "scenario": scenario.name,
@@ -269,6 +273,8 @@ def run(scenario: Scenario) -> Report:
                             for k, (lo, hi) in lim.items()}
     if study is not None:
         summary["grid_study"] = study
+    if cases:
+        summary["cases"] = [case_record(c, r) for c, r, _ in cases]
     traj = res.trajectory
     if traj is not None:
         summary["n_samples"] = int(traj.t.shape[0])
@@ -284,15 +290,21 @@ def run(scenario: Scenario) -> Report:
     ok = res.status is TrackStatus.OK and res.limits_ok
     if study is not None:
         ok = ok and all(r["status"] == "ok" and r["limits_ok"] for r in study)
+    ok = ok and all(r.status is TrackStatus.OK and r.limits_ok for _, r, _ in cases)
+    messages_cases = [f"{scenario.path}: case {c.name}: {r.message}" for c, r, _ in cases
+                      if r.status is not TrackStatus.OK]
     messages = expect_messages(checks, scenario.path)
     if res.status is not TrackStatus.OK:
         messages.append(f"{scenario.path}: {res.message}")
+    messages += messages_cases
     rec = None
     if traj is not None:
         rec = _record(scenario, mech, res, [r for r in study_results if r is not res], lim,
                       summary.get("reference"),
                       (p0, p1) if ik.geometry.straight else tuple(ik.hand(np.linspace(0, 1, 129))),
                       ref)
+        rec.cases = case_traces(cases)  # parkvar: overlays of park Figs. 5-8
+        rec.hand_frame = mech.frame_names[ik.f]
     return Report(task="track", scenario=scenario.name, summary=summary, checks=checks,
                   solver_ok=ok, writer="track", data=rec, outputs=output_flags(scenario),
                   scenario_path=scenario.path, messages=messages)
@@ -319,10 +331,13 @@ def _record(scenario: Scenario, mech: Mechanism, res: TrackResult, others: list[
     if ref is not None and spec.conveyor is not None:
         rec.belt_velocity = np.asarray(ref.belt_velocity, dtype=float)
         rec.part_size = point_si(spec.conveyor.part_size, scenario.spec.units)
-    if scenario.spec.outputs.mcap:
+    if scenario.spec.outputs.mcap or scenario.spec.outputs.plots:
         from mechkin.model.drawing import frame_tree, skeleton_segments
 
         kin = forward_kinematics(mech, traj.q)
+        fname = spec.path.frame
+        f = mech.frame_index(fname) if fname is not None else int(mech.end_effector)
+        rec.hand_T = kin.frames(mech, f)  # parkvar: the hand triads of path_3d.png
         rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child = \
             frame_tree(mech, kin)
         rec.segments = skeleton_segments(mech, kin)

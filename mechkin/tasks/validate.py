@@ -284,6 +284,15 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
         if lo.shape != (mech.n,):
             out.append(f"{doc.where(('track', 'limits', name))}: expected {mech.n} values (one "
                        f"per joint: {short_list(mech.joint_names)}), got {lo.shape[0]}")
+    for k, case in enumerate(spec.cases or []):  # parkvar: track.cases[k].limits
+        if case.limits is None:
+            continue
+        for name, (lo, _) in limits_si(case.limits, sc.spec.units,
+                                       np.asarray(mech.s) == 1).items():
+            if lo.shape != (mech.n,):
+                out.append(f"{doc.where(('track', 'cases', k, 'limits', name))}: expected "
+                           f"{mech.n} values (one per joint: {short_list(mech.joint_names)}), "
+                           f"got {lo.shape[0]}")
     if spec.path.frame is None:
         if mech.end_effector is None:
             out.append(f"{doc.where(('track', 'path'))}: the mechanism has no end_effector; "
@@ -420,7 +429,7 @@ _TRACK_KEYS = {"scenario", "task", "mechanism", "dynamics", "status", "message",
                "t_a_s", "t_start_s", "duration_s", "peak_torque", "limits_ok", "active_limits",
                "limit_usage", "grid", "cost", "solve_time_s", "blocked_at_r",
                "blocking_limits", "peak_torque_by_joint", "path", "reference", "limits_si",
-               "grid_study", "n_samples", "csv_notes", "time_penalty"}
+               "grid_study", "n_samples", "csv_notes", "time_penalty", "dp", "cases"}
 _HEAD = {"scenario", "task", "kind", "status"}
 _LEE_KEYS = _HEAD | {"design_source", "mechanism", "r", "R", "center", "stroke", "threshold",
                      "definition", "isotropy", "gamma_range", "compute_time_s"}
