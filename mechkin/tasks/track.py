@@ -41,6 +41,11 @@ from mechkin.solvers.dynamics_from_mechanism import (
 from mechkin.solvers.path_ik import HandLineIK, PathIKError
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 
+CSV_NOTE_TOPP = ("planner topp: qdd = q' r'' + q'' r'^2 at each node with the r'' of the "
+                 "segment leaving it (TOPP-RA, constant r'' per segment); jerk is its forward "
+                 "difference (no jerk limit applies); where undefined (jerk at the last node "
+                 "and across the initial wait) it is written as 0 and flagged 0 in "
+                 "jerk_defined")
 CSV_NOTE = ("qdd and jerk are forward differences (park Eq. (32)-(33)); where undefined (qdd at "
             "the last node, jerk at the last two nodes and across the initial wait) they are "
             "written as 0 and flagged 0 in qdd_defined / jerk_defined")
@@ -108,6 +113,7 @@ def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandLine
         dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
         objective=spec.objective, nt_fraction=grid.nt_fraction,
         x2_max=grid.x2_max if spec.objective == "time" else None, joint_names=joint_names,
+        planner=spec.resolved_planner(),
     )
 
 
@@ -167,10 +173,12 @@ def run(scenario: Scenario) -> Report:
     ik = path = hand_ik(scenario, mech, p0, p1)
     ref = None
     if spec.conveyor is not None:
+        acc = spec.conveyor.belt_acceleration
         ref = ConveyorReference(part_start=point_si(spec.conveyor.part_start, units),
-                                belt_velocity=point_si(spec.conveyor.belt_velocity, units))
+                                belt_velocity=point_si(spec.conveyor.belt_velocity, units),
+                                belt_acceleration=None if acc is None else point_si(acc, units))
         try:
-            ref.phase(path)
+            ref.motion(path)
         except ConfigError as exc:
             raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
 
@@ -203,8 +211,11 @@ def run(scenario: Scenario) -> Report:
     if res.trajectory is not None:  # the realised plan, verified by forward kinematics
         summary["path"].update(ik.pose_errors(res.trajectory.q, res.trajectory.r))
     if ref is not None:
-        r0, rd = ref.phase(path)
-        summary["reference"] = {"r0": r0, "rd_1_s": rd, "t_f_s": (1.0 - r0) / rd}
+        pm = ref.motion(path)
+        t_f = float(pm.time_at(1.0))
+        summary["reference"] = {"r0": pm.r0, "rd_1_s": pm.rd,
+                                "t_f_s": t_f if np.isfinite(t_f) else None,
+                                "rdd_1_s2": pm.ra}
     summary["limits_si"] = {k: {"min": _finite_or_none(lo), "max": _finite_or_none(hi)}
                             for k, (lo, hi) in lim.items()}
     if study is not None:
@@ -212,7 +223,7 @@ def run(scenario: Scenario) -> Report:
     traj = res.trajectory
     if traj is not None:
         summary["n_samples"] = int(traj.t.shape[0])
-        summary["csv_notes"] = CSV_NOTE
+        summary["csv_notes"] = CSV_NOTE_TOPP if res.planner == "topp" else CSV_NOTE
     checks = evaluate_expect(summary, scenario.spec.expect)
     for c in checks:  # a value missing from the summary (infeasible: t_a_s None) is null, not NaN
         for k in ("actual", "error"):
