@@ -1001,12 +1001,18 @@ def solve_conveyor_tracking(
         return plan_track_topp(dynamics=dynamics, path=path, reference=reference,
                                limits=limits, N=N1, objective=objective,
                                joint_names=joint_names)
-    if objective != "time" and reference is not None and reference.accelerating:
+    if objective == "tracking" and reference is not None and reference.accelerating:
         raise ConfigError(
-            "conveyor.belt_acceleration: the phase-plane DP cannot follow an accelerating "
-            "belt (its r' grid holds the part's speed at the single state N_t, park Eq. (24), "
-            "and time is not a DP state); use planner topp (objective intercept or time, no "
-            "jerk limit)")
+            "conveyor.belt_acceleration: the tracking objective cannot follow an accelerating "
+            "belt (the DP's r' grid holds the part's speed at the single state N_t, park "
+            "Eq. (24), and time is not a DP state); use objective intercept")
+    if objective == "intercept" and reference is not None and (
+            reference.accelerating or reference.phase(path)[0] > 0.0):  # reading 11
+        from mechkin.solvers.intercept import plan_intercept_dp
+
+        return plan_intercept_dp(dynamics=dynamics, path=path, reference=reference,
+                                 limits=limits, N1=N1, N2=N2, nt_fraction=nt_fraction,
+                                 joint_names=joint_names)
     intercept = objective == "intercept"
     if N1 < 1 or N2 < 1:
         raise ConfigError(f"grid: expected N1, N2 >= 1, got {N1} x {N2}")
