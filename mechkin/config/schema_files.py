@@ -295,6 +295,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
     "ConveyorSpec": {
         "part_start": f"Part position at t = 0, X_p(0) (park Eq. (1)) {_L}.",
         "belt_velocity": f"Belt velocity {_L} per s.",
+        "belt_acceleration": f"Constant belt acceleration {_L} per s^2 (park §6); default "
+                             "none. Needs objective intercept (or time).",
         "part_size": f"Size of the box drawn for the part {_L}.",
     },
     "GridSpec": {
@@ -328,6 +330,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "limits": "Joint limits (park Eq. (3)-(6)).",
         "dynamics": "rnea (recursive Newton-Euler from the inertials) or closed_form_2link "
                     "(park Table 1).",
+        "planner": "auto (TOPP-RA for time/intercept with torque, qd or qdd limits and no "
+                   "jerk limit, else the DP), dp (phase-plane DP) or topp (TOPP-RA on the "
+                   "N1 + 1 points of the grid; time and intercept, no jerk).",
     },
     "AxisGridSpec": {
         "range": f"[lo, hi] inclusive {_A}.",

@@ -106,8 +106,8 @@ class IkBranchSpec(Spec):
 class ConveyorSpec(Spec):
     """The part on the belt (park Eq. (1)): ``X_p(t) = part_start + belt_velocity t +
     belt_acceleration t^2 / 2`` (the constant acceleration of park §6, default none); the
-    part is drawn as a box of ``part_size`` [length unit]. An accelerating belt is planned by
-    TOPP-RA (``planner: topp``/``auto``, objectives ``intercept`` and ``time``)."""
+    part is drawn as a box of ``part_size`` [length unit]. An accelerating belt needs
+    ``objective: intercept`` (or ``time``, which ignores the part)."""
 
     part_start: Point
     belt_velocity: Point
@@ -208,13 +208,12 @@ class TrackSpec(Spec):
             raise ValueError("planner topp (TOPP-RA) cannot impose jerk limits (limits.jerk); "
                              "use planner dp or auto")
         acc = self.conveyor.belt_acceleration if self.conveyor is not None else None
-        if (acc is not None and any(a != 0 for a in acc) and self.objective != "time"
-                and self.resolved_planner() != "topp"):
+        if acc is not None and any(a != 0 for a in acc) and self.objective == "tracking":
             raise ValueError(
-                "conveyor.belt_acceleration: the phase-plane DP cannot follow an accelerating "
-                "belt (its r' grid holds the part's speed at one state, park Eq. (24), and "
-                "time is not a DP state); use objective intercept with planner topp or auto "
-                "(torque, velocity or acceleration limits and no jerk limit)")
+                "conveyor.belt_acceleration: the tracking objective cannot follow an "
+                "accelerating belt (the DP's r' grid holds the part's speed at one state, park "
+                "Eq. (24), and time is not a DP state); use objective intercept (TOPP-RA, or "
+                "the DP by decomposition)")
         if self.grid_study is not None and not self.grid_study:
             raise ValueError("grid_study: give at least one grid")
         return self

@@ -970,9 +970,12 @@ def solve_conveyor_tracking(
         ``dp``: this module's DP (every objective, jerk limits included). ``topp``: the O(N)
         TOPP-RA planner of :mod:`mechkin.solvers.intercept` on the ``N1 + 1`` points
         ``r = i / N1`` (``time`` and ``intercept`` only, no jerk limit; ``N2`` is unused).
-        ``auto``: ``topp`` for ``time`` and ``intercept`` without a jerk limit, else ``dp``.
-        An accelerating belt (``reference.belt_acceleration``) needs ``topp`` for
-        ``tracking`` and ``intercept``: the DP's grid holds the part's speed at one state.
+        ``auto``: ``topp`` for ``time`` and ``intercept`` with torque, velocity or
+        acceleration limits and no jerk limit, else ``dp``. With ``dp``, an intercept whose
+        part starts ahead of the hand or rides an accelerating belt is planned by
+        decomposition (reading 11, :func:`mechkin.solvers.intercept.plan_intercept_dp`);
+        ``tracking`` refuses an accelerating belt (its grid holds the part's speed at one
+        state).
 
     Returns
     -------

@@ -450,7 +450,7 @@ def _intercept(nd: _Nodes, lim: dict[str, tuple[np.ndarray, np.ndarray]], path: 
     nodes = _Nodes(*(np.concatenate([x, y]) for x, y in
                      zip(head._arrays(), tail._arrays(), strict=True)))
     t_tail = pm.time_at(tail.r)
-    t_all = np.concatenate([best.t + (t_a - float(best.duration_s)), t_tail])
+    t_all = np.concatenate([best.t + wait, t_tail])  # wait >= 0: t starts at exactly 0
     t_all[head.r.shape[0] - 1] = t_a
     rd_all = np.concatenate([best.sd, pm.speed_at(tail.r)])
     rd_all[head.r.shape[0] - 1] = float(pm.speed_at(s_star))
@@ -683,7 +683,7 @@ def plan_intercept_dp(
     rd = np.concatenate([x2[js], v[first_tail:]])
     rd[kk] = float(pm.speed_at(r_star))
     wait = max(t_a - T_leg, 0.0)
-    t = np.concatenate([t_leg + (t_a - T_leg), t_p[first_tail:]])
+    t = np.concatenate([t_leg + wait, t_p[first_tail:]])
     t[kk] = t_a
     traj = _dp_trajectory(rows, path, t, rd, pm.ra, wait > 1e-12, reference)
     values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk,
