@@ -932,10 +932,11 @@ def solve_conveyor_tracking(
     nt_fraction: float = NT_FRACTION,
     x2_max: float | None = None,
     joint_names: Sequence[str] | None = None,
-    planner: Literal["auto", "dp", "topp"] = "dp",
 ) -> TrackResult:
-    r"""Plan the hand's motion along the path by DP in the phase plane (park §4), or by
-    TOPP-RA (:mod:`mechkin.solvers.intercept`) for the time and intercept objectives.
+    r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
+
+    :func:`mechkin.solvers.track_plan.plan_track` chooses between this DP, the DP intercept
+    by decomposition (reading 11) and TOPP-RA (``planner`` auto / dp / topp).
 
     ``objective="tracking"``: DPCT, the tracking cost of Eq. (22)/(28) against ``reference``
     (Eq. (16)-(17)), from rest at ``r = 0`` to the part's state at ``r = 1`` at ``t_f``.
@@ -966,17 +967,6 @@ def solve_conveyor_tracking(
         from rest that can still stop (torque and velocity limits).
     joint_names : sequence of str, optional
         Names of the joints for the message of a joint position limit.
-    planner : {"dp", "auto", "topp"}
-        ``dp``: this module's DP (every objective, jerk limits included). ``topp``: the O(N)
-        TOPP-RA planner of :mod:`mechkin.solvers.intercept` on the ``N1 + 1`` points
-        ``r = i / N1`` (``time`` and ``intercept`` only, no jerk limit; ``N2`` is unused).
-        ``auto``: ``topp`` for ``time`` and ``intercept`` with torque, velocity or
-        acceleration limits and no jerk limit, else ``dp``. With ``dp``, an intercept whose
-        part starts ahead of the hand or rides an accelerating belt is planned by
-        decomposition (reading 11, :func:`mechkin.solvers.intercept.plan_intercept_dp`);
-        ``tracking`` refuses an accelerating belt (its grid holds the part's speed at one
-        state).
-
     Returns
     -------
     TrackResult
@@ -997,25 +987,13 @@ def solve_conveyor_tracking(
     if objective not in ("tracking", "time", "intercept"):
         raise ConfigError("objective: expected 'tracking', 'time' or 'intercept', got "
                           f"{objective!r}")
-    planner = resolve_planner(planner, objective, limits)
-    if planner == "topp":
-        from mechkin.solvers.intercept import plan_track_topp
-
-        return plan_track_topp(dynamics=dynamics, path=path, reference=reference,
-                               limits=limits, N=N1, objective=objective,
-                               joint_names=joint_names)
-    if objective == "tracking" and reference is not None and reference.accelerating:
+    if reference is not None and reference.accelerating and objective != "time":
         raise ConfigError(
-            "conveyor.belt_acceleration: the tracking objective cannot follow an accelerating "
-            "belt (the DP's r' grid holds the part's speed at the single state N_t, park "
-            "Eq. (24), and time is not a DP state); use objective intercept")
-    if objective == "intercept" and reference is not None and (
-            reference.accelerating or reference.phase(path)[0] > 0.0):  # reading 11
-        from mechkin.solvers.intercept import plan_intercept_dp
-
-        return plan_intercept_dp(dynamics=dynamics, path=path, reference=reference,
-                                 limits=limits, N1=N1, N2=N2, nt_fraction=nt_fraction,
-                                 joint_names=joint_names)
+            f"conveyor.belt_acceleration: the {objective} objective of the single-pass DP "
+            "cannot follow an accelerating belt (its r' grid holds the part's speed at the "
+            "single state N_t, park Eq. (24), and time is not a DP state); use objective "
+            "intercept through mechkin.solvers.track_plan.plan_track (TOPP-RA, or the DP by "
+            "decomposition, reading 11)")
     intercept = objective == "intercept"
     if N1 < 1 or N2 < 1:
         raise ConfigError(f"grid: expected N1, N2 >= 1, got {N1} x {N2}")

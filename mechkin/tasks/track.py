@@ -3,8 +3,10 @@
 The hand moves on a straight line (park Eq. (7)); the joints follow it by the path inverse
 kinematics of :mod:`mechkin.solvers.path_ik` (continued along the line from the start solution,
 on the branch the scenario names); the torques come from the mechanism's inertial parameters
-(recursive Newton-Euler, park Eq. (8)); the DP of
-:func:`mechkin.solvers.dpct.solve_conveyor_tracking` plans ``r(t)``. Returns a
+(recursive Newton-Euler, park Eq. (8)); :func:`mechkin.solvers.track_plan.plan_track` plans
+``r(t)`` by the DP of :func:`mechkin.solvers.dpct.solve_conveyor_tracking` or, for the time and
+intercept objectives without a jerk limit (``planner: auto``), by TOPP-RA
+(:mod:`mechkin.solvers.intercept`). Returns a
 :class:`mechkin.records.Report` whose record (:class:`mechkin.records.track.TrackRecord`) the
 writer :mod:`mechkin.io.track_out` turns into ``track.csv``, plots like park Figs. 4-8 and
 ``track.mcap``; writes nothing.
@@ -31,7 +33,6 @@ from mechkin.solvers.dpct import (
     TrackLimits,
     TrackResult,
     TrackStatus,
-    solve_conveyor_tracking,
 )
 from mechkin.solvers.dynamics import InverseDynamics
 from mechkin.solvers.dynamics_from_mechanism import (
@@ -39,6 +40,7 @@ from mechkin.solvers.dynamics_from_mechanism import (
     planar_two_link_from_mechanism,
 )
 from mechkin.solvers.path_ik import HandLineIK, PathIKError
+from mechkin.solvers.track_plan import plan_track
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 
 CSV_NOTE_TOPP = ("planner topp: qdd = q' r'' + q'' r'^2 at each node with the r'' of the "
@@ -109,7 +111,7 @@ def _finite_or_none(a: np.ndarray) -> list[float | None]:
 def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandLineIK,
            ref: ConveyorReference | None, limits: TrackLimits, joint_names: list[str]
            ) -> TrackResult:
-    return solve_conveyor_tracking(
+    return plan_track(
         dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
         objective=spec.objective, nt_fraction=grid.nt_fraction,
         x2_max=grid.x2_max if spec.objective == "time" else None, joint_names=joint_names,

@@ -18,12 +18,12 @@ from mechkin.solvers.dpct import (
     TrackLimits,
     TrackResult,
     TrackStatus,
-    solve_conveyor_tracking,
 )
 from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
 from mechkin.solvers.path import PlanarTwoLinkLinePath, phase_coefficients
 from mechkin.solvers.result import Status
 from mechkin.solvers.topp import plan_time_optimal
+from mechkin.solvers.track_plan import plan_track as solve_conveyor_tracking
 
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "scenarios"
