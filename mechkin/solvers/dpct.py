@@ -67,6 +67,15 @@ stated model can reproduce, see PAPER_NOTES):
     ``t(0, 0)`` at stage 0, so ``J*(0, 0) = t_a``: the earliest steady tracking the grid and
     the limits allow. ``1e-6`` times the tracking cost of Eq. (28) breaks ties between plans
     with the same ``t_a``. Not in park; ``t_a`` of the tracking objective is an upper bound.
+11. **Intercept by decomposition** (:func:`mechkin.solvers.intercept.plan_intercept_dp`, chosen
+    by :func:`mechkin.solvers.track_plan.plan_track` when the part starts ahead of the hand or
+    the belt accelerates, ``ConveyorReference.belt_acceleration``): reading 10's single pass
+    keeps one time per node (reading 9's caveat) and no grid state holds an accelerating
+    part's speed. Instead, for an intercept stage the DP's minimum time from rest to the
+    part's speed there (this recursion with cost ``dt``, the part's speed exactly on its r'
+    grid) is compared with the part's arrival time; the part's own motion from there to
+    ``r = 1`` is checked with the same limit model; the earliest qualifying stage is found by
+    bisection, then the point inside it. The hand waits at rest for the difference.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
 stages only.

@@ -47,7 +47,14 @@ q'' r'^2`` there (TOPP-RA §III, not park's forward difference Eq. (32)); ``jerk
 forward difference of ``qdd`` (informative: no jerk limit applies), NaN across the wait and at
 the last node.
 
-Imports: numpy, mechkin.errors, mechkin.solvers (dpct, path, topp, result).
+**The DP intercept by decomposition** (:func:`plan_intercept_dp`, dpct reading 11) applies the
+same argument to the phase-plane DP: its minimum-time recursion from rest to the part's speed
+at an intercept stage (on an r' grid that holds that speed exactly, topped by the time
+objective's reachability bound), the part's motion after it checked with the DP's limit model
+(Eq. (3), (4)', (32)-(33)), bisection on the stage and then inside it.
+
+Imports: numpy, mechkin.errors, mechkin.records.track, mechkin.solvers (dpct, dynamics, path,
+topp).
 
 References
 ----------
