@@ -303,3 +303,21 @@ def test_accelerating_belt_with_the_dp_tracking_is_a_located_config_error(
     with pytest.raises(ConfigError, match="belt_acceleration") as exc:
         load_scenario(p)
     assert str(exc.value).startswith(f"{p}:")
+
+
+def test_task_topp_joint_limit_names_the_joint_and_r(tmp_path: Path) -> None:
+    """park's elbow q2 opens from 0.61 rad as the hand comes closer to the base; an upper
+    limit of 0.8 rad on it blocks the TOPP-RA plan where q2 first exceeds it."""
+    from mechkin.tasks.track import run
+
+    p = _local(tmp_path, "park_time_optimal_torque_topp", ("grid: {N1: 1000}", "grid: {N1: 200}"),
+               ("limits: {torque: [0.5, 0.2]}",
+                "limits: {torque: [0.5, 0.2], q: {min: [-10, -10], max: [10, 0.8]}}"))
+    rep = run(load_scenario(p))
+    s = rep.summary
+    assert not rep.solver_ok and s["status"] == "infeasible" and s["planner"] == "topp"
+    assert "joint position limit (joint 2 = " in s["message"] and "r = " in s["message"]
+    assert s["blocking_limits"] == ["q_2"]
+    r_b = s["blocked_at_r"][0]
+    q2 = PATH.q(np.array([r_b - 1 / 200, r_b]))[:, 1]
+    assert q2[0] <= 0.8 < q2[1]  # the first grid point past the limit
