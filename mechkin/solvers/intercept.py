@@ -34,8 +34,8 @@ stays on it passes ``s2 > s1`` at ``T_part(s2)`` with the part's speed, so ``s2`
 tail" is a discrete plan to ``s2``, so ``T_fast(s2) - T_part(s2) <= T_fast(s1) - T_part(s1)``).
 The intercept time is ``T_part(s_min)``, the smallest ``T`` with ``T_fast(s*) <= T_part(s*)``:
 found by bisection over the grid points, then refined inside the last segment (the grid
-``r_0..r_{k-1}, s*`` with the path evaluated at ``s*``) by bisection until ``T_fast`` is finite
-and then the Illinois false-position method on ``T_fast(s*) - T_part(s*)``. The part may start
+``r_0..r_{k-1}, s*``): two levels of 31 points each, the path evaluated at all of them in one
+vectorised call and bisected over (the intercept point to 1/1024 of a segment). The part may start
 ahead of the hand (``r0 > 0``: then ``s* > r0``) or behind it (``r0 < 0``). If ``s = 1``
 itself does not qualify, no plan exists (every qualifying ``s*`` would make ``1`` qualify) and
 the message says which condition fails and by how much.
@@ -97,8 +97,10 @@ from mechkin.solvers.topp import ToppResult, plan_time_optimal
 TIME_RTOL = 1e-12
 #: The refined intercept point is found to this width of its bracket in r.
 S_TOL = 1e-12
-#: Most refinement steps inside the intercept segment.
-MAX_REFINE = 60
+#: Refinement inside the intercept segment: levels of batches of path points (each batch one
+#: vectorised path evaluation and a bisection over its points): width / 32^2.
+REFINE_LEVELS = 2
+REFINE_POINTS = 32
 
 
 @dataclass(frozen=True)
@@ -410,34 +412,28 @@ def _intercept(nd: _Nodes, lim: dict[str, tuple[np.ndarray, np.ndarray]], path: 
     k = hi_k
     s_star, extra = float(s[k]), None
     left = max(float(s[k - 1]), lo_r) if k >= 1 else lo_r
-    if k >= 1 and left < s[k]:  # the tail condition at s* itself is checked per probe
-        a, b = left, float(s[k])
-        g_a, g_b = math.inf, gap(best, b)
-        side = 0
-        for _ in range(MAX_REFINE):
-            if b - a <= S_TOL:
-                break
-            if math.isfinite(g_a) and g_a > g_b:  # Illinois false position
-                c = b - g_b * (b - a) / (g_b - g_a)
-                c = min(max(c, a + 0.01 * (b - a)), b - 0.01 * (b - a))
+    a_s, b_s = left, float(s[k])
+    for _ in range(REFINE_LEVELS if k >= 1 else 0):  # batches of path points inside
+        cs = np.linspace(a_s, b_s, REFINE_POINTS + 1)[1:-1]
+        if cs.size == 0 or b_s - a_s <= S_TOL:
+            break
+        batch = _Nodes.of(phase_coefficients(dynamics, path, cs))  # one vectorised call
+        bad_c = np.zeros(cs.shape[0], dtype=bool)
+        for m in _state_violations(batch, lim, pm.speed_at(cs),
+                                   np.full(cs.shape[0], pm.ra)).values():
+            bad_c |= np.any(m, axis=1)  # the tail condition at s* itself
+        lo_j, hi_j = -1, cs.shape[0]  # hi_j = len(cs): b_s, which qualifies
+        while hi_j - lo_j > 1:
+            mid = (lo_j + hi_j) // 2
+            ex = _Nodes(*(x[mid:mid + 1] for x in batch._arrays()))
+            r_c = fastest(k, ex) if not bad_c[mid] else None
+            if r_c is not None and qualifies(gap(r_c, float(cs[mid])), float(cs[mid])):
+                hi_j, best, extra = mid, r_c, ex
             else:
-                c = 0.5 * (a + b)
-            ex = _point(dynamics, path, c)
-            tail_bad = any(np.any(m) for m in _state_violations(
-                ex, lim, np.asarray(pm.speed_at(np.array([c]))), np.array([pm.ra])).values())
-            r_c = fastest(k, ex)
-            g_c = math.inf if tail_bad else gap(r_c, c)
-            if qualifies(g_c, c):
-                b, g_b, best, extra = c, g_c, r_c, ex
-                if side == 1:
-                    g_a *= 0.5
-                side = 1
-            else:
-                a, g_a = c, g_c
-                if side == -1:
-                    g_b *= 0.5
-                side = -1
-        s_star = b
+                lo_j = mid
+        a_s = float(cs[lo_j]) if lo_j >= 0 else a_s
+        b_s = float(cs[hi_j]) if hi_j < cs.shape[0] else b_s
+    s_star = b_s
     # 4. the plan: wait, fastest arrival, then the tail on the part
     assert best.sd is not None and best.t is not None and best.sdd is not None
     t_a = float(pm.time_at(s_star))
@@ -474,9 +470,6 @@ def _intercept(nd: _Nodes, lim: dict[str, tuple[np.ndarray, np.ndarray]], path: 
                s_star)
 
 
-def _point(dynamics: InverseDynamics, path: JointPath, r: float) -> _Nodes:
-    """Path data at one path parameter (the refined intercept point)."""
-    return _Nodes.of(phase_coefficients(dynamics, path, np.array([r])))
 
 
 # ------------------------------------------------------------------------------------------
