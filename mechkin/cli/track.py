@@ -18,9 +18,11 @@ def _line(s: dict[str, Any]) -> str:
             else f"duration {s['duration_s']:.4g} s")
     peaks = ", ".join(f"{v:.4g}" for v in s["peak_torque"])
     g = s["grid"]
+    how = (f"TOPP-RA on {g['N1'] + 1} points" if s.get("planner") == "topp"
+           else f"{g['N1']}x{g['N2']} grid")
     return (f"{s['scenario']}: ok, {head}, peak torques [{peaks}], limits "
-            f"{'ok' if s['limits_ok'] else 'EXCEEDED'}, {g['N1']}x{g['N2']} "
-            f"grid in {s['solve_time_s']:.3g} s; wrote {s['out_dir']}")
+            f"{'ok' if s['limits_ok'] else 'EXCEEDED'}, {how} "
+            f"in {s['solve_time_s']:.3g} s; wrote {s['out_dir']}")
 
 
 track_cli = run_command(

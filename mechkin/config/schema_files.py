@@ -320,6 +320,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
     "ConveyorSpec": {
         "part_start": f"Part position at t = 0, X_p(0) (park Eq. (1)) {_L}.",
         "belt_velocity": f"Belt velocity {_L} per s.",
+        "belt_acceleration": f"Constant belt acceleration {_L} per s^2 (park §6); default "
+                             "none. Needs objective intercept (or time).",
         "part_size": f"Size of the box drawn for the part {_L}.",
     },
     "GridSpec": {
@@ -355,6 +357,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                     "(park Table 1).",
         "dp": "Readings of the DP stage (park §4): step time, wait cost, end jerk checks.",
         "cases": "Several limit sets / readings planned and overlaid (park §5.3, Figs. 5-8).",
+        "planner": "auto (TOPP-RA for time/intercept with torque, qd or qdd limits and no "
+                   "jerk limit, else the DP), dp (phase-plane DP) or topp (TOPP-RA on the "
+                   "N1 + 1 points of the grid; time and intercept, no jerk).",
     },
     "DpSpec": {
         "step_time": "trapezoid (dt = 2 dx1 / (x2[j] + x2[l]), default) or euler (park Eq. "

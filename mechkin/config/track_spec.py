@@ -167,11 +167,14 @@ class IkBranchSpec(Spec):
 
 
 class ConveyorSpec(Spec):
-    """The part on the belt (park Eq. (1)): ``X_p(t) = part_start + belt_velocity t``; the
-    part is drawn as a box of ``part_size`` [length unit]."""
+    """The part on the belt (park Eq. (1)): ``X_p(t) = part_start + belt_velocity t +
+    belt_acceleration t^2 / 2`` (the constant acceleration of park §6, default none); the
+    part is drawn as a box of ``part_size`` [length unit]. An accelerating belt needs
+    ``objective: intercept`` (or ``time``, which ignores the part)."""
 
     part_start: Point
     belt_velocity: Point
+    belt_acceleration: Point | None = None
     part_size: Annotated[list[PosNum], Field(min_length=3, max_length=3)] = Field(
         default_factory=lambda: [0.08, 0.08, 0.04])
 
@@ -249,8 +252,12 @@ class TrackSpec(Spec):
     """``track:`` section.
 
     ``objective``: ``tracking`` (DPCT, park §4: follow the part on the belt), ``intercept``
-    (the same, reaching steady tracking as early as possible: the earliest t_a) or ``time``
-    (minimum time from rest to rest along the same path, same limits). ``grid_study`` solves
+    (minimum time from rest to the part's position and velocity, then on the part: the
+    earliest t_a) or ``time`` (minimum time from rest to rest along the same path, same
+    limits). ``planner``: ``dp`` (the phase-plane DP, every objective and limit), ``topp``
+    (TOPP-RA, O(N1): ``time`` and ``intercept`` without a jerk limit, on the ``N1 + 1`` points
+    of the grid's r axis) or ``auto`` (default: ``topp`` for ``time``/``intercept`` with
+    torque, velocity or acceleration limits and no jerk limit, else ``dp``). ``grid_study`` solves
     the same problem on several grids (park §5.2) and reports one record per grid; the outputs
     (CSV, plots, MCAP) are those of ``grid``. ``dynamics``: ``rnea`` (recursive Newton-Euler
     from the mechanism's inertial parameters) or ``closed_form_2link`` (park Table 1, for a
@@ -270,6 +277,16 @@ class TrackSpec(Spec):
     dynamics: Literal["rnea", "closed_form_2link"] = "rnea"
     dp: DpSpec = Field(default_factory=DpSpec)
     cases: Annotated[list[CaseSpec], Field(min_length=1, max_length=12)] | None = None
+    planner: Literal["auto", "dp", "topp"] = "auto"
+
+    def resolved_planner(self) -> str:
+        """``planner`` with ``auto`` resolved (see the class docstring)."""
+        lim = self.limits
+        if self.planner != "auto":
+            return self.planner
+        rates = any(getattr(lim, k) is not None for k in ("torque", "qd", "qdd"))
+        ok = self.objective in ("time", "intercept") and rates and lim.jerk is None
+        return "topp" if ok else "dp"
 
     @model_validator(mode="after")
     def _check(self) -> TrackSpec:
@@ -277,6 +294,23 @@ class TrackSpec(Spec):
         if self.objective != "time" and self.conveyor is None:
             raise ValueError(f"objective {self.objective} needs a conveyor: "
                              "{part_start, belt_velocity}")
+        if self.planner == "topp" and self.objective == "tracking":
+            raise ValueError("planner topp plans the time and intercept objectives; tracking "
+                             "(park's cost, Eq. (28)) needs planner dp or auto")
+        if self.planner == "topp" and self.limits.jerk is not None:
+            raise ValueError("planner topp (TOPP-RA) cannot impose jerk limits (limits.jerk); "
+                             "use planner dp or auto")
+        acc = self.conveyor.belt_acceleration if self.conveyor is not None else None
+        if acc is not None and any(a != 0 for a in acc) and self.objective == "tracking":
+            raise ValueError(
+                "conveyor.belt_acceleration: the tracking objective cannot follow an "
+                "accelerating belt (the DP's r' grid holds the part's speed at one state, park "
+                "Eq. (24), and time is not a DP state); use objective intercept (TOPP-RA, or "
+                "the DP by decomposition)")
+        if self.resolved_planner() == "topp" and self.dp != DpSpec():
+            raise ValueError("dp: the DP readings (step_time, wait_cost, jerk_ends) apply to the "
+                             "phase-plane DP; this scenario plans with TOPP-RA (planner "
+                             f"{self.planner}); set planner: dp or remove dp")
         if self.grid_study is not None and not self.grid_study:
             raise ValueError("grid_study: give at least one grid")
         return self

@@ -74,6 +74,15 @@ stated model can reproduce, see PAPER_NOTES):
     ``t(0, 0)`` at stage 0, so ``J*(0, 0) = t_a``: the earliest steady tracking the grid and
     the limits allow. ``1e-6`` times the tracking cost of Eq. (28) breaks ties between plans
     with the same ``t_a``. Not in park; ``t_a`` of the tracking objective is an upper bound.
+11. **Intercept by decomposition** (:func:`mechkin.solvers.intercept.plan_intercept_dp`, chosen
+    by :func:`mechkin.solvers.track_plan.plan_track` when the part starts ahead of the hand or
+    the belt accelerates, ``ConveyorReference.belt_acceleration``): reading 10's single pass
+    keeps one time per node (reading 9's caveat) and no grid state holds an accelerating
+    part's speed. Instead, for an intercept stage the DP's minimum time from rest to the
+    part's speed there (this recursion with cost ``dt``, the part's speed exactly on its r'
+    grid) is compared with the part's arrival time; the part's own motion from there to
+    ``r = 1`` is checked with the same limit model; the earliest qualifying stage is found by
+    bisection, then the point inside it. The hand waits at rest for the difference.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
 stages only. :func:`limit_curve` gives the phase plane's limit curve (the largest ``r'`` the
@@ -194,8 +203,47 @@ def wait_cost(t_start: np.ndarray, r0: float, rd: float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class PartMotion:
+    r"""The part's motion in the path parameter: ``r~(t) = r0 + rd t + ra t^2 / 2``.
+
+    Park Eq. (16)-(17) with the constant belt acceleration of park §6 (``ra = 0``: park's
+    constant-speed belt). ``rd > 0`` (the belt carries the part towards ``r = 1``).
+    """
+
+    r0: float
+    rd: float
+    ra: float = 0.0
+
+    def position(self, t: np.ndarray | float) -> np.ndarray:
+        """``r~(t)``."""
+        t = np.asarray(t, dtype=np.float64)
+        return self.r0 + self.rd * t + 0.5 * self.ra * t * t
+
+    def speed(self, t: np.ndarray | float) -> np.ndarray:
+        """``r~'(t)``."""
+        return self.rd + self.ra * np.asarray(t, dtype=np.float64)
+
+    def speed_at(self, r: np.ndarray | float) -> np.ndarray:
+        """The part's speed when it is at ``r``: ``sqrt(rd^2 + 2 ra (r - r0))`` (NaN where the
+        part never gets there moving forwards)."""
+        v2 = self.rd * self.rd + 2.0 * self.ra * (np.asarray(r, dtype=np.float64) - self.r0)
+        with np.errstate(invalid="ignore"):
+            return np.where(v2 > 0.0, np.sqrt(np.maximum(v2, 0.0)), np.nan)
+
+    def time_at(self, r: np.ndarray | float) -> np.ndarray:
+        """When the part is at ``r``: ``(v(r) - rd) / ra`` (``(r - r0) / rd`` for ``ra = 0``),
+        written ``2 (r - r0) / (rd + v(r))`` so it holds for both (NaN where it never is)."""
+        return 2.0 * (np.asarray(r, dtype=np.float64) - self.r0) / (self.rd + self.speed_at(r))
+
+    def stop_time(self) -> float:
+        """When a decelerating belt stops the part (``inf`` if it never does)."""
+        return -self.rd / self.ra if self.ra < 0.0 else float("inf")
+
+
+@dataclass(frozen=True)
 class ConveyorReference:
-    """The part on the belt: ``X_p(t) = part_start + belt_velocity t`` (park Eq. (1)).
+    """The part on the belt: ``X_p(t) = part_start + belt_velocity t + belt_acceleration t^2/2``
+    (park Eq. (1); the acceleration term is park §6's accelerating belt, zero by default).
 
     Parameters
     ----------
@@ -203,27 +251,40 @@ class ConveyorReference:
         ``X_p(t_0)`` [m].
     belt_velocity : array, shape (d,)
         ``V_b`` [m/s].
+    belt_acceleration : array, shape (d,), optional
+        Constant belt acceleration [m/s^2]; default zero.
     """
 
     part_start: np.ndarray
     belt_velocity: np.ndarray
+    belt_acceleration: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for name in ("part_start", "belt_velocity"):
+        if self.belt_acceleration is None:
+            object.__setattr__(self, "belt_acceleration",
+                               np.zeros_like(np.asarray(self.belt_velocity, dtype=np.float64)))
+        for name in ("part_start", "belt_velocity", "belt_acceleration"):
             a = np.asarray(getattr(self, name), dtype=np.float64)
             if a.ndim != 1 or not np.all(np.isfinite(a)):
                 raise ValueError(f"{name}: expected a finite vector, got {a!r}")
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
+    @property
+    def accelerating(self) -> bool:
+        """The belt has a nonzero acceleration."""
+        return bool(np.any(self.belt_acceleration != 0.0))
+
     def position(self, t: np.ndarray, path: JointPath | None = None) -> np.ndarray:
-        """``X_p(t) (m, d)`` for ``t (m,)`` (park Eq. (1)); on a curved ``path`` the part moves
-        along the path by arc length, ``X_p = p(r0 + rd t)`` (:meth:`phase`)."""
+        """``X_p(t) (m, d)`` for ``t (m,)`` (park Eq. (1), plus ``a t^2 / 2``); on a curved
+        ``path`` the part moves along the path by arc length, ``X_p = p(r0 + rd t)``
+        (:meth:`phase`; an accelerating belt on a curved path is refused by :meth:`motion`)."""
         geometry = getattr(path, "geometry", None)
         if geometry is not None and not geometry.straight:
             r0, rd = geometry.conveyor_phase(self.part_start, self.belt_velocity)
             return geometry.position(r0 + rd * np.asarray(t, dtype=np.float64))
-        return self.part_start + np.asarray(t, dtype=np.float64)[:, None] * self.belt_velocity
+        t = np.asarray(t, dtype=np.float64)[:, None]
+        return self.part_start + t * self.belt_velocity + 0.5 * t * t * self.belt_acceleration
 
     def phase(self, path: JointPath) -> tuple[float, float]:
         r"""``(r0, rd)`` with ``x~1(t) = r0 + rd t``, ``x~2 = rd`` (park Eq. (16)-(17)).
@@ -269,6 +330,59 @@ class ConveyorReference:
                 f"conveyor: the belt moves the part away from the path's end (r' = {rd:.3g} /s)"
             )
         return r0, rd
+
+    def motion(self, path: JointPath) -> PartMotion:
+        r"""The part in the path parameter, ``r~(t) = r0 + rd t + ra t^2 / 2``.
+
+        ``(r0, rd)`` from :meth:`phase`; ``ra`` maps the belt acceleration onto the line the
+        same way (park Eq. (17) applied to ``d^2 X_p / dt^2``).
+
+        Raises
+        ------
+        ConfigError
+            As :meth:`phase`; also if the acceleration is not along the hand's line or the
+            shape differs.
+        """
+        r0, rd = self.phase(path)
+        acc = self.belt_acceleration
+        if not self.accelerating:
+            return PartMotion(r0, rd, 0.0)
+        geometry = getattr(path, "geometry", None)
+        if geometry is not None and not geometry.straight:
+            raise ConfigError("conveyor: belt_acceleration on a curved path is not supported "
+                              "(the part moves along the path at a constant speed there)")
+        p0 = path.hand(np.zeros(1))[0]
+        dp = path.hand(np.ones(1))[0] - p0
+        if acc.shape != dp.shape:
+            raise ConfigError(f"conveyor: expected a {dp.shape[0]}-vector belt_acceleration "
+                              f"like the hand path, got {acc.shape}")
+        k = int(np.argmax(np.abs(dp)))
+        ra = float(acc[k] / dp[k])
+        off = float(np.linalg.norm(acc - ra * dp))
+        if off > 1e-9 * max(float(np.linalg.norm(dp)), 1.0):
+            raise ConfigError("conveyor: the belt acceleration is not along the hand's line "
+                              f"(off by {off:.3g} m/s^2)")
+        return PartMotion(r0, rd, ra)
+
+
+def resolve_planner(planner: str, objective: str, limits: TrackLimits | None) -> str:
+    """``auto`` -> ``topp`` for ``time`` / ``intercept`` with torque, velocity or acceleration
+    limits and no jerk limit, else ``dp``;
+    ``topp`` where it cannot plan (tracking, a jerk limit) is a ConfigError."""
+    if planner not in ("auto", "dp", "topp"):
+        raise ConfigError(f"planner: expected 'auto', 'dp' or 'topp', got {planner!r}")
+    jerk = limits is not None and limits.jerk is not None
+    bounded = limits is not None and any(
+        getattr(limits, k) is not None for k in ("torque", "qd", "qdd"))
+    if planner == "auto":  # without any rate limit TOPP-RA has no finite speed to plan
+        return "topp" if objective in ("time", "intercept") and bounded and not jerk else "dp"
+    if planner == "topp" and objective == "tracking":
+        raise ConfigError("planner: topp plans the time and intercept objectives; tracking "
+                          "(park's cost, Eq. (28)) needs planner dp")
+    if planner == "topp" and jerk:
+        raise ConfigError("planner: topp (TOPP-RA) cannot impose jerk limits (limits.jerk); "
+                          "use planner dp or auto")
+    return planner
 
 
 def _limit_pair(
@@ -395,6 +509,11 @@ class TrackResult:
     trajectory : TrackTrajectory or None
     dp : DPOptions
         The readings of the DP stage the plan was made with.
+    planner : {"dp", "topp"}
+        The phase-plane DP of this module or the TOPP-RA planner of
+        :mod:`mechkin.solvers.intercept` (``grid.N2 = 0``: it has no r' grid).
+    intercept_r : float or None
+        TOPP intercept only: the path parameter where the hand meets the part.
     """
 
     status: TrackStatus
@@ -415,6 +534,8 @@ class TrackResult:
     time_penalty: float = 0.0
     trajectory: TrackTrajectory | None = field(default=None, repr=False)
     dp: DPOptions = DEFAULT_DP
+    planner: str = "dp"
+    intercept_r: float | None = None
 
     def summary(self) -> dict[str, object]:
         """JSON-ready key figures (no trajectory arrays) for ``summary.json``."""
@@ -442,6 +563,8 @@ class TrackResult:
             "time_penalty": self.time_penalty,
             "dp": {"step_time": self.dp.step_time, "wait_cost": self.dp.wait_cost,
                    "jerk_ends": self.dp.jerk_ends},
+            "planner": self.planner,
+            "intercept_r": self.intercept_r,
         }
 
 
@@ -896,6 +1019,28 @@ def limit_curve(
         s_hi = np.minimum(s_hi, np.min(cap, axis=1) ** 2)
     top = np.sqrt(np.maximum(s_hi, 0.0))
     return np.where(empty | (s_lo > s_hi) | (s_hi < 0), np.nan, top)
+def position_limit_message(
+    pc: PhaseCoefficients,
+    path: JointPath,
+    q_lim: tuple[np.ndarray, np.ndarray],
+    blocked: tuple[int, list[int]],
+    joint_names: Sequence[str] | None,
+) -> tuple[str, list[str]]:
+    """The message of a joint position limit that blocks stage ``blocked[0]`` (reading 8),
+    naming the joints, r and the hand point; and the limit names ``q_k``."""
+    i_b, js = blocked
+    lo, hi = q_lim
+    n = pc.q.shape[1]
+    names = [f"q_{k + 1}" for k in js]
+    hand = np.round(path.hand(pc.r[i_b:i_b + 1])[0], 4).tolist()
+    jn = list(joint_names) if joint_names is not None else [f"q{k + 1}" for k in range(n)]
+    detail = "; ".join(f"{jn[k]} = {pc.q[i_b, k]:.4g} outside [{lo[k]:.4g}, {hi[k]:.4g}]"
+                       for k in js)
+    message = (f"infeasible: joint position limit (joint{'s' if len(js) > 1 else ''} "
+               f"{', '.join(f'{k + 1} = {jn[k]}' for k in js)}) blocks the motion at r = "
+               f"{pc.r[i_b]:.4g} (hand at {hand} m; {detail}, SI units): the path's inverse "
+               "kinematics leaves the joint limits there")
+    return message, names
 
 
 def _realise(
@@ -975,6 +1120,9 @@ def solve_conveyor_tracking(
 ) -> TrackResult:
     r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
 
+    :func:`mechkin.solvers.track_plan.plan_track` chooses between this DP, the DP intercept
+    by decomposition (reading 11) and TOPP-RA (``planner`` auto / dp / topp).
+
     ``objective="tracking"``: DPCT, the tracking cost of Eq. (22)/(28) against ``reference``
     (Eq. (16)-(17)), from rest at ``r = 0`` to the part's state at ``r = 1`` at ``t_f``.
     ``objective="intercept"``: the same problem, cost the time until the hand is on the part
@@ -1028,6 +1176,13 @@ def solve_conveyor_tracking(
     if objective not in ("tracking", "time", "intercept"):
         raise ConfigError("objective: expected 'tracking', 'time' or 'intercept', got "
                           f"{objective!r}")
+    if reference is not None and reference.accelerating and objective != "time":
+        raise ConfigError(
+            f"conveyor.belt_acceleration: the {objective} objective of the single-pass DP "
+            "cannot follow an accelerating belt (its r' grid holds the part's speed at the "
+            "single state N_t, park Eq. (24), and time is not a DP state); use objective "
+            "intercept through mechkin.solvers.track_plan.plan_track (TOPP-RA, or the DP by "
+            "decomposition, reading 11)")
     intercept = objective == "intercept"
     opts = DEFAULT_DP if dp is None else dp
     if opts.wait_cost and objective != "tracking":
@@ -1071,17 +1226,8 @@ def solve_conveyor_tracking(
 
     blocked_q = _position_block(pc, lim["q"]) if "q" in lim else None
     if blocked_q is not None:  # no state of that stage is admissible: nothing to search
-        i_b, js = blocked_q
-        lo, hi = lim["q"]
-        names = [f"q_{k + 1}" for k in js]
-        hand = np.round(path.hand(x1[i_b:i_b + 1])[0], 4).tolist()
-        jn = list(joint_names) if joint_names is not None else [f"q{k + 1}" for k in range(n)]
-        detail = "; ".join(f"{jn[k]} = {pc.q[i_b, k]:.4g} outside [{lo[k]:.4g}, {hi[k]:.4g}]"
-                           for k in js)
-        message = (f"infeasible: joint position limit (joint{'s' if len(js) > 1 else ''} "
-                   f"{', '.join(f'{k + 1} = {jn[k]}' for k in js)}) blocks the motion at r = "
-                   f"{x1[i_b]:.4g} (hand at {hand} m; {detail}, SI units): the path's inverse "
-                   "kinematics leaves the joint limits there")
+        i_b = blocked_q[0]
+        message, names = position_limit_message(pc, path, lim["q"], blocked_q, joint_names)
         logger.info(message)
         return TrackResult(
             status=TrackStatus.INFEASIBLE, message=message, objective=objective, t_a_s=None,

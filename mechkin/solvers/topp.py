@@ -655,6 +655,7 @@ def solve_topp(
     discretization: Discretization = "interpolation",
     x_names: tuple[str, ...] = (),
     x_bounds_j: tuple[np.ndarray, np.ndarray] | None = None,
+    diagnose: bool = True,
 ) -> ToppResult:
     r"""Time-optimal ``s_dot(s)`` under canonical rows and x bounds (§IV, Algorithm 1).
 
@@ -675,6 +676,9 @@ def solve_topp(
     x_names, x_bounds_j :
         Names and per-joint ``(x_lo_j, x_hi_j) (N+1, n)`` of the velocity bounds, for the
         diagnostics and the limit usage.
+    diagnose : bool
+        Name the blocking limits of an infeasible problem (one extra pass per limit for an
+        uncontrollable start); False skips that (a root-finder's feasibility probes).
 
     Returns
     -------
@@ -731,6 +735,8 @@ def solve_topp(
     X_lo, X_hi = _admissible_x(pc)
 
     def fail(msg: str, i: int, names: list[str], K: np.ndarray) -> ToppResult:
+        if not diagnose:
+            names = []
         where = (float(s[i]), float(s[min(i + 1, N)]))
         what = ", ".join(names) if names else "the limits"
         return ToppResult(
@@ -802,7 +808,7 @@ def solve_topp(
             f"the start speed s_dot = {sd_start:.6g} is not controllable: from s = {s[0]:.6g} "
             f"only s_dot^2 in [{K[0, 0]:.6g}, {K[0, 1]:.6g}] reaches the end state",
             0,
-            _blocking_start(pc, d, x_start, x_end) or vel_names(0),
+            (_blocking_start(pc, d, x_start, x_end) or vel_names(0)) if diagnose else [],
             K,
         )
     x = _forward(lists, K, d, min(max(x_start, K[0, 0]), K[0, 1]))
@@ -898,6 +904,7 @@ def plan_time_optimal(
     sd_start: float = 0.0,
     sd_end: float = 0.0,
     discretization: Discretization = "interpolation",
+    diagnose: bool = True,
 ) -> ToppResult:
     """Time-optimal parametrisation of a joint path under torque, velocity and acceleration
     limits (Pham & Pham 2018, Algorithm 1), from arrays.
@@ -921,6 +928,8 @@ def plan_time_optimal(
     sd_start, sd_end : float
         Path speeds at the ends (``0, 0``: rest to rest; ``sd_end > 0``: an intercept).
     discretization : {"interpolation", "collocation"}
+    diagnose : bool
+        See :func:`solve_topp`.
 
     Returns
     -------
@@ -953,4 +962,5 @@ def plan_time_optimal(
         discretization=discretization,
         x_names=names,
         x_bounds_j=(xl_j, xh_j) if qd is not None else None,
+        diagnose=diagnose,
     )

@@ -5,8 +5,10 @@ a circular arc or a C2 spline, r its normalised arc length) with its orientation
 or free; the joints follow it by the path inverse kinematics of :mod:`mechkin.solvers.path_ik`
 (continued along the path from the start solution, on the branch the scenario names); the
 torques come from the mechanism's inertial parameters
-(recursive Newton-Euler, park Eq. (8)); the DP of
-:func:`mechkin.solvers.dpct.solve_conveyor_tracking` plans ``r(t)``. Returns a
+(recursive Newton-Euler, park Eq. (8)); :func:`mechkin.solvers.track_plan.plan_track` plans
+``r(t)`` by the DP of :func:`mechkin.solvers.dpct.solve_conveyor_tracking` or, for the time and
+intercept objectives without a jerk limit (``planner: auto``), by TOPP-RA
+(:mod:`mechkin.solvers.intercept`). Returns a
 :class:`mechkin.records.Report` whose record (:class:`mechkin.records.track.TrackRecord`) the
 writer :mod:`mechkin.io.track_out` turns into ``track.csv``, plots like park Figs. 4-8 and
 ``track.mcap``; writes nothing.
@@ -33,7 +35,6 @@ from mechkin.solvers.dpct import (
     TrackLimits,
     TrackResult,
     TrackStatus,
-    solve_conveyor_tracking,
 )
 from mechkin.solvers.dynamics import InverseDynamics
 from mechkin.solvers.dynamics_from_mechanism import (
@@ -48,10 +49,16 @@ from mechkin.solvers.path_geometry import (
     SplineGeometry,
 )
 from mechkin.solvers.path_ik import HandLineIK, HandPathIK, PathIKError
+from mechkin.solvers.track_plan import plan_track
 from mechkin.spatial.rotations import matrix_from_rpy
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 from mechkin.tasks.track_cases import case_record, case_traces, dp_options, solve_cases
 
+CSV_NOTE_TOPP = ("planner topp: qdd = q' r'' + q'' r'^2 at each node with the r'' of the "
+                 "segment leaving it (TOPP-RA, constant r'' per segment); jerk is its forward "
+                 "difference (no jerk limit applies); where undefined (jerk at the last node "
+                 "and across the initial wait) it is written as 0 and flagged 0 in "
+                 "jerk_defined")
 CSV_NOTE = ("qdd and jerk are forward differences (park Eq. (32)-(33)); where undefined (qdd at "
             "the last node, jerk at the last two nodes and across the initial wait) they are "
             "written as 0 and flagged 0 in qdd_defined / jerk_defined")
@@ -166,10 +173,11 @@ def _finite_or_none(a: np.ndarray) -> list[float | None]:
 def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandPathIK,
            ref: ConveyorReference | None, limits: TrackLimits, joint_names: list[str],
            dp: Any = None) -> TrackResult:
-    return solve_conveyor_tracking(
+    return plan_track(
         dynamics=dyn, path=path, reference=ref, limits=limits, N1=grid.N1, N2=grid.N2,
         objective=spec.objective, nt_fraction=grid.nt_fraction,
         x2_max=grid.x2_max if spec.objective == "time" else None, joint_names=joint_names,
+        planner=spec.resolved_planner(),
         dp=dp_options(spec.dp) if dp is None else dp,  # parkvar: track.dp / track.cases
     )
 
@@ -230,10 +238,12 @@ def run(scenario: Scenario) -> Report:
     p0, p1 = ik.p0, ik.p1
     ref = None
     if spec.conveyor is not None:
+        acc = spec.conveyor.belt_acceleration
         ref = ConveyorReference(part_start=point_si(spec.conveyor.part_start, units),
-                                belt_velocity=point_si(spec.conveyor.belt_velocity, units))
+                                belt_velocity=point_si(spec.conveyor.belt_velocity, units),
+                                belt_acceleration=None if acc is None else point_si(acc, units))
         try:
-            ref.phase(path)
+            ref.motion(path)
         except ConfigError as exc:
             raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
 
@@ -267,8 +277,11 @@ def run(scenario: Scenario) -> Report:
     if res.trajectory is not None:  # the realised plan, verified by forward kinematics
         summary["path"].update(ik.pose_errors(res.trajectory.q, res.trajectory.r))
     if ref is not None:
-        r0, rd = ref.phase(path)
-        summary["reference"] = {"r0": r0, "rd_1_s": rd, "t_f_s": (1.0 - r0) / rd}
+        pm = ref.motion(path)
+        t_f = float(pm.time_at(1.0))
+        summary["reference"] = {"r0": pm.r0, "rd_1_s": pm.rd,
+                                "t_f_s": t_f if np.isfinite(t_f) else None,
+                                "rdd_1_s2": pm.ra}
     summary["limits_si"] = {k: {"min": _finite_or_none(lo), "max": _finite_or_none(hi)}
                             for k, (lo, hi) in lim.items()}
     if study is not None:
@@ -278,7 +291,7 @@ def run(scenario: Scenario) -> Report:
     traj = res.trajectory
     if traj is not None:
         summary["n_samples"] = int(traj.t.shape[0])
-        summary["csv_notes"] = CSV_NOTE
+        summary["csv_notes"] = CSV_NOTE_TOPP if res.planner == "topp" else CSV_NOTE
     checks = evaluate_expect(summary, scenario.spec.expect)
     for c in checks:  # a value missing from the summary (infeasible: t_a_s None) is null, not NaN
         for k in ("actual", "error"):

@@ -429,7 +429,8 @@ _TRACK_KEYS = {"scenario", "task", "mechanism", "dynamics", "status", "message",
                "t_a_s", "t_start_s", "duration_s", "peak_torque", "limits_ok", "active_limits",
                "limit_usage", "grid", "cost", "solve_time_s", "blocked_at_r",
                "blocking_limits", "peak_torque_by_joint", "path", "reference", "limits_si",
-               "grid_study", "n_samples", "csv_notes", "time_penalty", "dp", "cases"}
+               "grid_study", "n_samples", "csv_notes", "time_penalty", "dp", "cases",
+               "planner", "intercept_r"}
 _HEAD = {"scenario", "task", "kind", "status"}
 _LEE_KEYS = _HEAD | {"design_source", "mechanism", "r", "R", "center", "stroke", "threshold",
                      "definition", "isotropy", "gamma_range", "compute_time_s"}
