@@ -24,7 +24,7 @@ from mechkin.errors import OutputError
 from mechkin.io.atomic import atomic_path
 
 __all__ = ["Plate", "Stick", "Triad", "convergence_figure", "plot_by_target",
-           "plot_convergence", "plot_series", "plot_stick_3d", "targets_figure"]
+           "plot_convergence", "plot_series", "plot_stick_3d", "stick_figure", "targets_figure"]
 
 DPI = 120
 MAX_PANELS = 12
@@ -247,8 +247,7 @@ def _item_points(it: Any) -> np.ndarray:
     return it.points
 
 
-def plot_stick_3d(
-    path: str | os.PathLike[str],
+def stick_figure(
     snapshots: Sequence[Sequence[np.ndarray | Stick | Plate | Triad]],
     title: str,
     labels: Sequence[str] | None = None,
@@ -258,8 +257,9 @@ def plot_stick_3d(
     view: tuple[float, float] = (25.0, -60.0),
     markers: Sequence[np.ndarray | None] | None = None,
     marker_label: str = "target",
-) -> Path:
-    """Draw mechanism configurations as 3-D stick figures (one panel each, or overlaid).
+) -> Figure:
+    """The figure of :func:`plot_stick_3d` (not saved): mechanism configurations as 3-D stick
+    figures, one panel each or overlaid.
 
     Like the stick drawings of mechanisms in papers (kim1995 Figs. 2, 4, 6), each panel is an
     orthographic view from ``view`` drawn on a plain 2-D axes: a ground grid at the lowest
@@ -272,8 +272,6 @@ def plot_stick_3d(
 
     Parameters
     ----------
-    path : path-like
-        Output ``.png``.
     snapshots : sequence of sequences of (array (p, 3), Stick, Plate or Triad)
         One entry per configuration; each is the list of items to draw: polylines (links,
         legs; an array is a plain polyline) [m], filled plates, coordinate triads. Up to 12
@@ -295,13 +293,8 @@ def plot_stick_3d(
 
     Returns
     -------
-    Path
-        ``path``.
-
-    Examples
-    --------
-    >>> legs = [np.array([[0, 0, 0], [0.1, 0, 0.5]]), np.array([[0.2, 0, 0], [0.1, 0, 0.5]])]
-    >>> plot_stick_3d(out / "poses.png", [legs], "Stewart platform")  # doctest: +SKIP
+    Figure
+        Constrained layout, on an Agg canvas.
     """
     from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.colors import to_rgba
@@ -452,7 +445,30 @@ def plot_stick_3d(
         # one legend for the figure, below the panels (never over a drawing)
         fig.legend(list(handles.values()), list(handles), loc="outside lower center",
                    ncols=min(len(handles), 4 if cols > 1 else 2), fontsize="small")
-    return _save(fig, path)
+    return fig
+
+
+def plot_stick_3d(
+    path: str | os.PathLike[str],
+    snapshots: Sequence[Sequence[np.ndarray | Stick | Plate | Triad]],
+    title: str,
+    labels: Sequence[str] | None = None,
+    planes: Sequence[tuple[np.ndarray, np.ndarray, float]] | None = None,
+    *,
+    overlay: bool = False,
+    view: tuple[float, float] = (25.0, -60.0),
+    markers: Sequence[np.ndarray | None] | None = None,
+    marker_label: str = "target",
+) -> Path:
+    """Save :func:`stick_figure` as the PNG ``path`` and return ``path``.
+
+    Examples
+    --------
+    >>> legs = [np.array([[0, 0, 0], [0.1, 0, 0.5]]), np.array([[0.2, 0, 0], [0.1, 0, 0.5]])]
+    >>> plot_stick_3d(out / "poses.png", [legs], "Stewart platform")  # doctest: +SKIP
+    """
+    return _save(stick_figure(snapshots, title, labels, planes, overlay=overlay, view=view,
+                              markers=markers, marker_label=marker_label), path)
 
 
 class _Camera:
