@@ -170,8 +170,17 @@ def write_plots(od: OutputDir, rec: MotionRecord) -> None:
         snaps = stick_snapshots(rec)
         T_E = _ee_poses(rec.columns)
         label_of = dict(zip(rec.snapshots, rec.snapshot_labels, strict=False))
-        markers = ([rec.targets[k] for k in snaps] if rec.targets is not None else None)
-        plot_stick_3d(od.path_for("stick.png"), [stick_items(rec, k, T_E) for k in snaps],
+        items = [stick_items(rec, k, T_E) for k in snaps]
+        markers = None
+        if rec.targets is not None:  # positions (m, 3) as crosses; poses (m, 4, 4) also triads
+            tg = np.asarray(rec.targets, dtype=float)
+            markers = [tg[k][:3, 3] if tg.ndim == 3 else tg[k] for k in snaps]
+            if tg.ndim == 3:
+                from mechkin.io.plots import Triad
+
+                for row, k in zip(items, snaps, strict=True):
+                    row.append(Triad(tg[k], label="target frame", style="--"))
+        plot_stick_3d(od.path_for("stick.png"), items,
                       f"{rec.title} ({rec.mechanism})",
                       labels=[label_of.get(k, f"#{k}") for k in snaps], markers=markers)
     if rec.convergence:
