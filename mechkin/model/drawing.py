@@ -299,9 +299,10 @@ def _layout(mech: Mechanism) -> tuple[tuple[PlateLayout, ...], tuple[tuple[Ref, 
                     or any(_on_polygon(pos([r])[0], pp, size) for _, pp in polys))
 
         hub_on = on_plate(hub)
+        x_hub = pos([hub])[0]
         for r in everyone:
-            if on_plate(r):
-                continue
+            if on_plate(r) or (r != hub and np.linalg.norm(pos([r])[0] - x_hub) <= _REL * size):
+                continue  # on the plate, or at the hub (drawn with it)
             if hub_on:  # off the plate, from the hub (a post on a base plate)
                 pairs.append((hub, r))
                 continue
