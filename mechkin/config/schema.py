@@ -10,6 +10,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from mechkin.config.drawing_spec import DrawingSpec
 from mechkin.config.load import YamlDoc, format_key_path
 from mechkin.errors import ConfigError
 
@@ -171,6 +172,7 @@ class MechanismSpec(Spec):
     independent: list[Name] | None = None
     end_effector: Name | None = None
     gravity: Vec3 | None = None  # in the file's length unit per s^2 (default -9.81 m/s^2 z)
+    drawing: DrawingSpec | None = None  # plates of the stick drawings (mechkin.model.drawing)
     closed_form: Literal["stewart", "direct_drive", "lee_spherical"] | None = Field(
         default=None,
         description="closed-form inverse kinematics that fits this structure; its parameters "

@@ -98,9 +98,25 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                         "points (kim1995 §5); needed by ik, track and workspace (unless they "
                         "name a frame).",
         "gravity": f"Gravity vector in the base frame {_L} per s^2; default [0, 0, -9.81] m/s^2.",
+        "drawing": "How stick drawings (stick.png, the MCAP scene) show the mechanism: plates "
+                   "as filled polygons; links are always drawn joint to joint.",
         "closed_form": "Closed-form inverse kinematics that fits this structure (kim1995 "
                        "stewart / direct_drive, lee_spherical); parameters read from the "
                        "geometry.",
+    },
+    "DrawingSpec": {
+        "plates": "Plates and platforms drawn as filled polygons (kim1995 Figs. 2, 4, 6: the "
+                  "Stewart base and moving plates), each through frames or joints of one link.",
+        "auto_plates": "Draw every other link that closes a loop (has a cut frame) or carries "
+                       "three or more joints as the convex hull of its joints and cut frames, "
+                       "when they span a plane. A declared plate on a link wins.",
+    },
+    "PlateSpec": {
+        "name": "Name of the plate (legend entry of stick.png).",
+        "frames": "At least three frame names (link frames or named frames) or joint names (the "
+                  "origin of the joint's axis frame; a universal or spherical joint by its "
+                  "written name), all fixed on one link, in drawing order around the polygon.",
+        "description": "Free text about the plate.",
     },
     "Units": {
         "length": "Length unit of the numbers in this file.",
@@ -512,6 +528,7 @@ EXAMPLES: dict[str, dict[str, list]] = {
     "JointSpec": {"dh": [{"a": 0.4318, "alpha": -90}], "limits": [[-160, 160]],
                   "origin": [{"xyz": [0, 0, 0.1], "rpy": [0, 0, 90]}]},
     "CutSpec": {"frames": [["leg1_top", "plate_s1"]]},
+    "PlateSpec": {"frames": [["b1", "b2", "b3"], ["u1", "u6", "u5", "u4", "u3", "u2"]]},
     "ExpectSpec": {"key": ["targets.0.q_v.q1"]},
     "GridSpec": {"N1": [50], "N2": [100]},
 }

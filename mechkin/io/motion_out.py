@@ -22,8 +22,12 @@ from mechkin.records import MotionRecord, Report
 
 
 def motion_scene(rec: MotionRecord) -> Scene:
-    """/scene of a motion: the stick segments as lines and the joint-axis points as spheres."""
+    """/scene of a motion: the stick segments and plate outlines as lines and the joint-axis
+    points as spheres."""
     seg = rec.segments
+    outlines = [np.stack([p, np.roll(p, -1, axis=1)], axis=2) for p in rec.plates.values()]
+    if outlines and seg is not None:
+        seg = np.concatenate([seg, *outlines], axis=1)
     m = seg.shape[0]
     size = float(np.ptp(seg.reshape(-1, 3), axis=0).max()) if seg.size else 1.0
     size = size if size > 0 else 1.0
@@ -109,10 +113,52 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
         od.write_json(f"{rec.task}.layout.json", motion_layout(rec))
 
 
+MAX_STICK_PANELS = 6  # stick.png panels at most (each 3-D panel costs about 0.1 s)
+PLATE_COLORS = ("tab:orange", "tab:olive", "tab:purple", "tab:cyan", "tab:pink", "tab:brown")
+
+
+def _ee_poses(cols: dict[str, Any]) -> np.ndarray | None:
+    """End-effector poses (m, 4, 4) from the CSV columns (``ee_x_m`` ... ``ee_qz``)."""
+    keys = ("ee_x_m", "ee_y_m", "ee_z_m", "ee_qw", "ee_qx", "ee_qy", "ee_qz")
+    if not all(k in cols for k in keys):
+        return None
+    from mechkin.spatial.rotations import matrix_from_quat
+
+    x, y, z, *e = (np.asarray(cols[k], dtype=float) for k in keys)
+    T = np.broadcast_to(np.eye(4), (len(x), 4, 4)).copy()
+    T[:, :3, :3] = matrix_from_quat(np.stack(e, axis=-1))
+    T[:, :3, 3] = np.stack([x, y, z], axis=-1)
+    return T
+
+
+def stick_items(rec: MotionRecord, k: int, T_E: np.ndarray | None) -> list[Any]:
+    """What ``stick.png`` draws for configuration ``k``: the plates (filled), the links joint
+    to joint (one colour, joints as dots), the end-effector frame as a triad."""
+    from mechkin.io.plots import Plate, Stick, Triad
+
+    items: list[Any] = [Plate(p[k], color=PLATE_COLORS[i % len(PLATE_COLORS)], label=name)
+                        for i, (name, p) in enumerate(rec.plates.items())]
+    seg = rec.segments
+    if seg is not None:
+        items += [Stick(s, color="0.15", label="links" if j == 0 else "")
+                  for j, s in enumerate(seg[k])]
+    if T_E is not None and np.isfinite(T_E[k]).all():
+        items.append(Triad(T_E[k], label="end effector (x, y, z)"))
+    return items
+
+
+def stick_snapshots(rec: MotionRecord) -> list[int]:
+    """The configurations drawn: ``rec.snapshots``, thinned evenly to ``MAX_STICK_PANELS``."""
+    snaps = list(rec.snapshots)
+    if len(snaps) <= MAX_STICK_PANELS:
+        return snaps
+    pick = np.linspace(0, len(snaps) - 1, MAX_STICK_PANELS).round().astype(int)
+    return [snaps[i] for i in pick]
+
+
 def write_plots(od: OutputDir, rec: MotionRecord) -> None:
     """``joints.png`` (over time for fk, per target for ik), ``stick.png``, ``convergence.png``."""
     from mechkin.io.plots import (
-        Stick,
         plot_by_target,
         plot_convergence,
         plot_series,
@@ -134,12 +180,23 @@ def write_plots(od: OutputDir, rec: MotionRecord) -> None:
         plot_series(od.path_for("joints.png"), rec.times, rec.q,
                     labels if n <= 12 else [""] * n,
                     "t [s]", "q [rad | m]", f"{rec.title}: joint trajectories")
-    seg = rec.segments
-    snaps: list[Any] = [[Stick(s, color="C0", label="links" if j == 0 else "")
-                         for j, s in enumerate(seg[k])] for k in rec.snapshots]
-    markers = ([rec.targets[k] for k in rec.snapshots] if rec.targets is not None else None)
-    plot_stick_3d(od.path_for("stick.png"), snaps, f"{rec.title} ({rec.mechanism})",
-                  labels=rec.snapshot_labels, markers=markers)
+    if rec.segments is not None and rec.snapshots:
+        snaps = stick_snapshots(rec)
+        T_E = _ee_poses(rec.columns)
+        label_of = dict(zip(rec.snapshots, rec.snapshot_labels, strict=False))
+        items = [stick_items(rec, k, T_E) for k in snaps]
+        markers = None
+        if rec.targets is not None:  # positions (m, 3) as crosses; poses (m, 4, 4) also triads
+            tg = np.asarray(rec.targets, dtype=float)
+            markers = [tg[k][:3, 3] if tg.ndim == 3 else tg[k] for k in snaps]
+            if tg.ndim == 3:
+                from mechkin.io.plots import Triad
+
+                for row, k in zip(items, snaps, strict=True):
+                    row.append(Triad(tg[k], label="target frame", style="--"))
+        plot_stick_3d(od.path_for("stick.png"), items,
+                      f"{rec.title} ({rec.mechanism})",
+                      labels=[label_of.get(k, f"#{k}") for k in snaps], markers=markers)
     if rec.convergence:
         plot_convergence(od.path_for("convergence.png"), rec.convergence,
                          rec.convergence_ylabel, title=rec.convergence_title)

@@ -441,7 +441,12 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         description=spec.description or "",
     )
     P.raise_if_any()
-    return _with_partition(mech, spec, P, names, groups)
+    mech = _with_partition(mech, spec, P, names, groups)
+    if spec.drawing is not None:  # plates of the stick drawings, names checked here
+        from mechkin.model.drawing import resolve_plates
+
+        mech = resolve_plates(mech, spec.drawing, P)
+    return mech
 
 
 def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:

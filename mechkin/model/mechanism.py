@@ -87,6 +87,10 @@ class Mechanism:
     gravity: np.ndarray
     virtual_links: frozenset[int] = field(default_factory=frozenset)
     description: str = ""
+    # stick drawings (mechkin.model.drawing): declared plates (name, link, ((kind, index), ...)),
+    # kind "frame" or "joint"; auto_plates: convex-hull plates on the other links
+    plates: tuple = ()
+    auto_plates: bool = True
 
     # ---- sizes -------------------------------------------------------------------------------
     @property

@@ -33,6 +33,8 @@ class MotionRecord:
     segments : array (m, s, 2, 3), optional
         Stick-drawing segments in the base frame, or in the world frame when the record has a
         moving base (plots and /scene); None when neither is asked.
+    plates : dict of str to array (m, p, 3)
+        Plates of the stick drawing (filled polygons, :mod:`mechkin.model.drawing`).
     axis_points : array (m, n, 3), optional
         A point on every joint axis (/scene spheres), in the frame of ``segments``.
     frame_root, frame_names, frame_parents, T_parent_child
@@ -67,6 +69,7 @@ class MotionRecord:
     columns: dict[str, Any]
     qd: np.ndarray | None = None
     segments: np.ndarray | None = None
+    plates: dict[str, np.ndarray] = field(default_factory=dict)
     axis_points: np.ndarray | None = None
     frame_root: str | None = None
     frame_names: list[str] = field(default_factory=list)

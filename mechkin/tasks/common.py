@@ -185,7 +185,7 @@ def motion_record(
     """The :class:`MotionRecord` of m configurations ``kin`` (CSV columns ``t_s``, joints,
     end-effector pose, ``closure_residual``, extras, ``status``; stick segments and the /tf
     frame tree only when the scenario asks for plots or an MCAP)."""
-    from mechkin.model.drawing import frame_tree, skeleton_segments
+    from mechkin.model.drawing import frame_tree, stick_drawing
 
     outs = scenario.spec.outputs
     m = len(times)
@@ -203,7 +203,8 @@ def motion_record(
         metadata={"scenario": scenario.name, "mechanism": mech.name, "task": task},
     )
     if outs.plots or outs.mcap:
-        rec.segments = skeleton_segments(mech, kin)
+        drawing = stick_drawing(mech, kin)  # links joint to joint, plates as polygons
+        rec.segments, rec.plates = drawing.segments, drawing.plates
         idx = snapshots if snapshots is not None else snapshot_indices(
             m, getattr(scenario.section, "snapshots", 4))
         rec.snapshots = list(idx)

@@ -265,7 +265,7 @@ def base_into_record(base: BaseTrajectory | None, rec: Any, T_e: np.ndarray | No
     """The motion record with a moving base: the end-effector columns in the world frame (from
     ``T_e`` (m, 4, 4), ``twist`` and ``accel`` (m, 6) of the end effector in the base frame),
     the base columns (before ``closure_residual``), the world -> base transform, and the stick
-    segments and axis points in world axes."""
+    segments, plates and axis points in world axes."""
     if base is None:
         return
     cols = rec.columns
@@ -279,6 +279,8 @@ def base_into_record(base: BaseTrajectory | None, rec: Any, T_e: np.ndarray | No
         if rec.axis_points is not None:
             rec.axis_points = (np.einsum("mij,mnj->mni", T0[:, :3, :3], rec.axis_points)
                                + T0[:, None, :3, 3])
+        rec.plates = {name: np.einsum("mij,mpj->mpi", T0[:, :3, :3], P) + T0[:, None, :3, 3]
+                      for name, P in rec.plates.items()}
     keys = list(cols)
     cut = keys.index("closure_residual") if "closure_residual" in keys else len(keys)
     new = {k: cols[k] for k in keys[:cut]}

@@ -199,7 +199,7 @@ def saved(monkeypatch) -> dict[str, dict[str, Any]]:
         m = re.match(r"^\.(.+)\.[0-9a-f]+\.part\.png$", path.name)  # atomic_path temp names
         name = f"{path.parent.name}/{m.group(1) if m else path.name}"
         axes = fig.get_axes()
-        legends = [ax.get_legend() for ax in axes]
+        legends = [ax.get_legend() for ax in axes] + list(fig.legends)  # figure legends too
         seen[name] = {
             "engine": fig.get_layout_engine(),
             "xticks": [[t.get_text() for t in ax.get_xticklabels()] for ax in axes],
