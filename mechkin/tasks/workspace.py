@@ -131,27 +131,30 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
                progress: bool | None) -> dict[str, Any]:
     """workers / dask address / progress flag from the options, else the scenario."""
+    from mechkin.tasks.distributed import Execution, resolve
+
     spec = sc.section
-    address = scheduler
+    ctx = resolve(workers, scheduler, None)
+    address = ctx.address
+    from_file = False
     if address is None and spec.executor is not None and spec.executor.kind == "dask":
-        address = spec.executor.address
-    jobs = spec.kind == "task_space" or (spec.kind == "lee_spherical" and spec.design is not None)
-    if address is not None and not jobs:
-        where = "--scheduler" if scheduler is not None else sc.doc.where(("workspace", "executor"))
-        what = "joint_sweep" if spec.kind == "joint_sweep" else "single lee_spherical map"
-        raise ConfigError(f"{where}: a {what} runs in this process; only design sweeps and "
-                          "task_space sweeps run on a Dask scheduler")
+        address, from_file = spec.executor.address, True
     if address is not None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            where = "--scheduler" if scheduler is not None else sc.doc.where(
-                ("workspace", "executor"))
+            where = sc.doc.where(("workspace", "executor")) if from_file else "--scheduler"
             raise ConfigError(f"{where}: running on a Dask cluster needs the optional extra "
                               "(pip install 'mechkin[dask]')") from None
+    n = ctx.workers if ctx.workers is not None else spec.workers
+    if progress is None:
+        progress = ctx.progress
+    ex = Execution(workers=n, address=address, progress=progress,
+                   where="--workers" if ctx.workers is not None else
+                   sc.doc.where(("workspace", "workers")))
     show = sys.stderr.isatty() if progress is None else bool(progress)
-    return {"workers": workers if workers is not None else spec.workers, "address": address,
-            "progress": show, "force_terminal": progress is True}
+    return {"workers": n, "address": address, "progress": show,
+            "force_terminal": progress is True, "ex": ex}
 
 
 def _progress_bar(ex: dict[str, Any], description: str) -> Any:
@@ -303,9 +306,17 @@ def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
     if listed is not None:
         params["poses"] = listed * angle_factor(sc.spec.units.angle)
     t0 = time.perf_counter()
+    split = ex["ex"].split
     try:
         with _progress_bar(ex, f"{sc.name}: maps") as cb:
-            rec = lee_workspace(**params, progress=cb)
+            if split:  # one job per map (mechkin.solvers.sweeps.lee_workspace_jobs)
+                from mechkin.solvers.sweeps import lee_map_jobs, lee_workspace_jobs
+
+                n_jobs = len(lee_map_jobs(params))
+                rec = lee_workspace_jobs(**params, workers=ex["workers"],
+                                         address=ex["address"], progress=cb)
+            else:
+                rec = lee_workspace(**params, progress=cb)
     except ValueError as exc:  # a grid the solver refuses (should not pass the schema)
         raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
     summary: dict[str, Any] = {
@@ -314,6 +325,8 @@ def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
         **rec.summary,
         "compute_time_s": time.perf_counter() - t0,
     }
+    if split:
+        summary["execution"] = ex["ex"].describe(n_jobs)
     return _report(sc, summary, WorkspaceOutput("lee_spherical", rec), first=rec.summary)
 
 
