@@ -578,10 +578,20 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     t0 = time.perf_counter()
     closed = mech.is_closed and len(mech.dependent) > 0
     grid_shape = tuple(spec.joints[n].n for n in swept) if spec.method == "grid" else None
-    with _progress_bar(ex, f"{sc.name}: samples") as cb:
+    split = ex["ex"].split
+    jobs_kw: dict[str, Any] = {}
+    if split:  # jobs of samples / continuation subtrees (mechkin.solvers.joint_sweep)
+        from mechkin.solvers.sweeps import mechanism_spec, run_jobs
+
+        n_w = ex["workers"] if ex["address"] is None else None
+        jobs_kw = {"run_jobs": lambda fn, jobs, prog: run_jobs(
+                       fn, jobs, workers=n_w, address=ex["address"], progress=prog),
+                   "n_jobs": 4 * (n_w or 4), "mechanism": mechanism_spec(sc.mechanism_path)}
+    with _progress_bar(ex, f"{sc.name}: {'jobs' if split else 'samples'}") as cb:
         rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
                           grid_shape=grid_shape, seed_from=spec.seed_from,
-                          mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc))
+                          mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc),
+                          **jobs_kw)
     reach = rec.reachable
     elapsed = time.perf_counter() - t0
     bbox, volume = point_cloud_volume(rec.position[reach],
@@ -630,6 +640,8 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
         },
         "compute_time_s": elapsed,
     }
+    if split:
+        summary["execution"] = ex["ex"].describe(jobs_kw["n_jobs"])
     if spec.manipulability:
         summary["manipulability"] = sigma_statistics(rec.manipulability[reach])
         summary["isotropy"] = sigma_statistics(rec.isotropy[reach])
