@@ -227,17 +227,20 @@ def _state(mech: Any, m: int, manipulability: bool) -> dict[str, np.ndarray]:
             "J": np.zeros((m, 6, nv)) if manipulability else np.zeros((0, 6, nv))}
 
 
-#: Per-row results a sweep job returns (the state minus the parents' inputs).
-_OUT_KEYS = ("q", "status", "ok", "S", "mode", "mode_change", "reseeded", "pos", "w", "iso",
-             "iso_pos", "J")
+#: Per-row results of a closure job and of an evaluation job.
+_CLOSE_KEYS = ("q", "status", "ok", "S", "mode", "mode_change", "reseeded")
+_EVAL_KEYS = ("q", "status", "pos", "w", "iso", "iso_pos", "J")
 
 
 def sweep_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     """One job of a distributed joint sweep (module level, so it pickles).
 
-    ``job``: ``mechanism`` (a Mechanism or its MechanismSpec), ``q_v`` (k, n_v) of its rows,
-    ``frame``, flags; a continuation job also ``parent`` / ``level`` (local parents; rows
-    ``[0, n_ext)`` are the solved parents from outside the job, given by ``ext``).
+    ``job["phase"]``: ``"close"``, the loop closure of whole continuation subtrees (local
+    ``parent`` / ``level``; rows ``[0, n_ext)`` are the solved parents from outside the job,
+    given by ``ext``); or ``"evaluate"``, positions and dexterity of consecutive blocks of
+    ``chunk`` rows (those of one process: the forward kinematics of a batch takes another
+    code path from :data:`mechkin.model.kinematics.LARGE_BATCH` rows on, so the blocks must
+    be the same for the same bits), with ``q`` and ``S`` of the continuation given.
     """
     mech = job["mechanism"]
     if not hasattr(mech, "dependent"):
@@ -247,17 +250,20 @@ def sweep_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     qv = job["q_v"]
     k = qv.shape[0]
     st = _state(mech, k, job["manipulability"])
-    n_ext = 0
-    if job["two_phase"]:
+    if job["phase"] == "close":
         n_ext = int(job["n_ext"])
         for key, val in job["ext"].items():
             st[key][:n_ext] = val
         _close_rows(mech, qv, job["parent"], job["level"], np.arange(n_ext, k), st,
                     job["chunk"], job["mode_jump"])
-    for a in range(n_ext, k, job["chunk"]):
+        return {key: st[key][n_ext:] for key in _CLOSE_KEYS}
+    for key in ("q", "S", "status"):
+        if key in job:
+            st[key][:] = job[key]
+    for a in range(0, k, job["chunk"]):
         _evaluate_rows(mech, qv, job["frame"], slice(a, min(k, a + job["chunk"])),
                        job["closed"], job["two_phase"], job["manipulability"], st)
-    return {key: st[key][n_ext:] for key in _OUT_KEYS if key != "J" or job["manipulability"]}
+    return {key: st[key] for key in _EVAL_KEYS if key != "J" or job["manipulability"]}
 
 
 def subtree_jobs(parent: np.ndarray, level: np.ndarray, target: int
@@ -361,10 +367,15 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         ``run_jobs(fn, jobs, progress) -> results in job order`` (``progress(done, total)``
         or None) (e.g. :func:`mechkin.solvers.sweeps.
         run_jobs` on workers): the sweep runs as about ``n_jobs`` jobs of :func:`sweep_job`.
-        Open chains and ``seed_from="home"``: ranges of samples. Continuation: the trunk of
-        the continuation tree here, then whole subtrees (:func:`subtree_jobs`), each from its
-        trunk parent's solution. Every sample is solved from the same start as in one
-        process, so the record is bitwise the same.
+        Continuation: the trunk of the continuation tree here, then whole subtrees
+        (:func:`subtree_jobs`) as closure jobs, each from its trunk parent's solution. Then
+        (every kind of sweep) the positions and dexterity as jobs of whole ``chunk`` blocks,
+        the blocks of one process. Every sample is solved from the same start, so the record
+        is bitwise the same as in one process except that a closure job's level batches hold
+        other samples than one process's: the forward kinematics of a batch switches code
+        path at :data:`mechkin.model.kinematics.LARGE_BATCH` rows, so a Newton iterate may
+        differ in the last bit (the converged joints have agreed bitwise in every test; at
+        worst they differ at round-off, 1e-15). Open chains and ``seed_from="home"``: bitwise.
     n_jobs : int
         Jobs to aim for with ``run_jobs``.
     mechanism : MechanismSpec, optional
@@ -434,53 +445,63 @@ def _sweep_in_jobs(mech: Any, qv: np.ndarray, frame: int, st: dict[str, np.ndarr
                    parent: np.ndarray, level: np.ndarray | None, closed: bool, two_phase: bool,
                    manipulability: bool, chunk: int, mode_jump: float,
                    progress: Callable[[int, int], None] | None,
-                   run_jobs: Callable[..., list[Any]],
-                   n_jobs: int, carried: Any) -> None:
-    """The sweep as jobs (see :func:`joint_sweep`), results written into ``st``."""
+                   run_jobs: Callable[..., list[Any]], n_jobs: int, carried: Any) -> None:
+    """The sweep as jobs (see :func:`joint_sweep`), results written into ``st``: with
+    continuation, the trunk here and the subtrees as closure jobs; then the evaluation as
+    jobs of whole ``chunk`` blocks."""
     m = qv.shape[0]
-    target = max(1, -(-m // max(1, int(n_jobs))))
+    n_jobs = max(1, int(n_jobs))
     base = {"mechanism": carried, "frame": frame, "manipulability": manipulability,
             "closed": closed, "two_phase": two_phase, "chunk": chunk, "mode_jump": mode_jump}
-    if not two_phase:
-        rows = [np.arange(a, min(m, a + target)) for a in range(0, m, target)]
-        jobs = [{**base, "q_v": qv[r]} for r in rows]
-        trunk = np.zeros(0, dtype=np.int64)
-    else:
+    blocks = -(-m // chunk)
+    per = -(-blocks // n_jobs) * chunk
+    ranges = [np.arange(a, min(m, a + per)) for a in range(0, m, per)]
+    close_rows: list[np.ndarray] = []
+    close_jobs: list[dict[str, Any]] = []
+    if two_phase:
         assert level is not None
-        trunk, rows = subtree_jobs(parent, level, target)
-        _close_rows(mech, qv, parent, level, trunk, st, chunk, mode_jump)
-        for a in range(0, trunk.size, chunk):
-            t = trunk[a : a + chunk]
-            sub = {k: st[k][t] for k in st if k not in ("J",) or manipulability}
-            tmp = _state(mech, t.size, manipulability)
-            tmp.update({k: v.copy() for k, v in sub.items()})
-            _evaluate_rows(mech, qv[t], frame, slice(0, t.size), closed, two_phase,
-                           manipulability, tmp)
-            for k in ("pos", "w", "iso", "iso_pos") + (("J",) if manipulability else ()):
-                st[k][t] = tmp[k]
-        jobs = []
-        for r in rows:
+        trunk, close_rows = subtree_jobs(parent, level, max(1, -(-m // n_jobs)))
+        for r in close_rows:
             ext = np.unique(parent[r][(parent[r] >= 0) & ~np.isin(parent[r], r)])
             loc = np.concatenate([ext, r])
             where = {int(g): i for i, g in enumerate(loc)}
-            lp = np.array([where.get(int(p), -1) if p >= 0 else -1 for p in parent[loc]],
+            lp = np.array([where.get(int(x), -1) if x >= 0 else -1 for x in parent[loc]],
                           dtype=np.int64)
             lp[: ext.size] = -1
-            lev = level[loc]
-            jobs.append({**base, "q_v": qv[loc], "parent": lp, "level": lev,
-                         "n_ext": ext.size,
-                         "ext": {k: st[k][ext] for k in ("q", "status", "ok", "S", "mode")}})
-    if progress is not None:
-        done0 = int(trunk.size > 0)
-        total = len(jobs) + done0
-        progress(done0, total)
+            close_jobs.append({**base, "phase": "close", "q_v": qv[loc], "parent": lp,
+                               "level": level[loc], "n_ext": ext.size, "ext": None,
+                               "ext_rows": ext})
+    total = len(close_jobs) + len(ranges) + int(two_phase)
+    done = [0]
 
-        def prog(k: int, _n: int) -> None:
-            progress(done0 + k, total)
-    else:
-        prog = None
-    parts = run_jobs(sweep_job, jobs, prog)
-    for r, out in zip(rows, parts, strict=True):
+    def prog(k: int, _n: int, base_done: int) -> None:
+        if progress is not None:
+            progress(base_done + k, total)
+
+    if progress is not None:
+        progress(0, total)
+    if two_phase:
+        _close_rows(mech, qv, parent, level, trunk, st, chunk, mode_jump)
+        done[0] = 1
+        prog(0, 0, done[0])
+        for job in close_jobs:  # the trunk parents' solutions, now known
+            ext = job.pop("ext_rows")
+            job["ext"] = {k: st[k][ext] for k in ("q", "status", "ok", "S", "mode")}
+        parts = run_jobs(sweep_job, close_jobs,
+                         lambda k, n: prog(k, n, done[0]) if progress is not None else None)
+        done[0] += len(close_jobs)
+        for r, out in zip(close_rows, parts, strict=True):
+            for k, v in out.items():
+                st[k][r] = v
+    eval_jobs = []
+    for r in ranges:
+        job = {**base, "phase": "evaluate", "q_v": qv[r]}
+        if two_phase:
+            job.update(q=st["q"][r], S=st["S"][r], status=st["status"][r])
+        eval_jobs.append(job)
+    parts = run_jobs(sweep_job, eval_jobs,
+                     lambda k, n: prog(k, n, done[0]) if progress is not None else None)
+    for r, out in zip(ranges, parts, strict=True):
         for k, v in out.items():
             st[k][r] = v
 

@@ -107,13 +107,20 @@ def resolve(workers: int | None = None, scheduler: str | None = None,
 
 def check(ex: Execution) -> None:
     """Bad options are bad input (exit 2) before any work: a worker count the machine cannot
-    hold (:func:`mechkin.tasks.budget.check_workers`), a scheduler without the dask extra."""
+    hold (:func:`mechkin.tasks.budget.check_workers`), a scheduler without the dask extra or
+    that does not answer, has no workers or workers without this mechkin version
+    (:func:`mechkin.solvers.sweeps.connect_cluster`)."""
     if ex.address is not None:
         try:
             import distributed  # noqa: F401
         except ImportError:
             raise ConfigError("--scheduler: running on a Dask cluster needs the optional extra "
                               "(pip install 'mechkin[dask]')") from None
+        from mechkin.solvers.sweeps import connect_cluster
+
+        # fail fast, before the output folder or any work: a wrong address, no workers,
+        # workers without this mechkin (ClusterError, one line, exit 2)
+        connect_cluster(ex.address).close()
     elif ex.workers is not None:
         if ex.workers < 1:
             raise ConfigError(f"{ex.where}: expected at least 1 worker, got {ex.workers}")

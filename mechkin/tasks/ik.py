@@ -209,8 +209,10 @@ def batch_results(br: Any, k: int) -> list[IkResult]:
 #: in one process too, so the result never depends on the executor; only seeded random
 #: restarts see the chunk (their draws follow the failed targets of a chunk).
 BATCH_CHUNK = 2000
-#: Most targets per job of a sequential (``batch: false``) solve split over workers.
+#: Most and fewest targets per job of a sequential (``batch: false``) solve split over
+#: workers (about four jobs per worker in between).
 SEQUENCE_CHUNK = 2000
+SEQUENCE_MIN_CHUNK = 25
 #: Targets a chunk of a warm-started chain solves before its own first target (from the
 #: initial guess), so that its first warm start is a solved configuration on the chain.
 WARM_OVERLAP = 8
@@ -299,7 +301,7 @@ def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
     spec: IkSpec = sc.section
     k = len(T_P)
     n = ex.n_workers(1) or 8
-    chunk = int(min(SEQUENCE_CHUNK, max(25, -(-k // (4 * n)))))
+    chunk = int(min(SEQUENCE_CHUNK, max(SEQUENCE_MIN_CHUNK, -(-k // (4 * n)))))
     warm = bool(spec.warm_start)
     mspec = mechanism_spec(sc.mechanism_path)
     jobs = []
