@@ -69,13 +69,13 @@ class Execution:
                 "jobs": int(jobs)}
 
 
-_EXECUTION: contextvars.ContextVar[Execution] = contextvars.ContextVar(
-    "mechkin_execution", default=Execution())
+_EXECUTION: contextvars.ContextVar[Execution | None] = contextvars.ContextVar(
+    "mechkin_execution", default=None)
 
 
 def current() -> Execution:
-    """The execution options in force (:func:`execution`)."""
-    return _EXECUTION.get()
+    """The execution options in force (:func:`execution`; outside one, the defaults)."""
+    return _EXECUTION.get() or Execution()
 
 
 @contextlib.contextmanager

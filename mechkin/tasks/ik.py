@@ -45,8 +45,6 @@ from mechkin.solvers.ik.all_solutions import (
     multistart_all,
     wrapped,
 )
-from mechkin.tasks.distributed import Execution, map_jobs
-from mechkin.tasks.distributed import resolve as resolve_execution
 from mechkin.tasks.common import (
     check_motion_budget,
     expect_messages,
@@ -55,6 +53,8 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
+from mechkin.tasks.distributed import Execution, map_jobs
+from mechkin.tasks.distributed import resolve as resolve_execution
 
 
 def _closed_form_kind(scenario: Scenario, mech: Mechanism) -> str:

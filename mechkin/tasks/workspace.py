@@ -17,9 +17,10 @@ Kinds of section (:mod:`mechkin.config.workspace_spec`):
 * ``task_space``: a grid (or seeded random set) of task-space poses through the batched ik
   (:func:`mechkin.solvers.sweeps.task_space_sweep`): reachability and dexterity.
 
-Design values and task-space chunks run as jobs on ``workers`` local processes or on a Dask
-cluster (``scheduler`` / ``executor: {kind: dask, address}``); joint sweeps and single lee
-maps run in this process and refuse a scheduler. A progress bar (jobs, map sets or samples)
+Every kind runs as jobs on ``workers`` local processes or on a Dask cluster (``scheduler`` /
+``executor: {kind: dask, address}``, or the run's :mod:`mechkin.tasks.distributed` options):
+design values, task-space chunks, joint-sweep subtrees and blocks, the maps of a single lee
+scenario; the record is the one of a single process. A progress bar (jobs, map sets or samples)
 is drawn on stderr when asked (``progress=True``; None: when stderr is a terminal).
 
 Imports: config, model, solvers, spatial, records, tasks.common (never io/ or cli/).
@@ -52,7 +53,7 @@ def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = 
     ----------
     scenario : Scenario
     workers : int, optional
-        Local worker processes of design and task-space sweeps (overrides ``workers:``).
+        Local worker processes (overrides ``workers:`` and the run's --workers).
     scheduler : str, optional
         Dask scheduler address (overrides ``executor:``).
     progress : bool, optional
