@@ -39,12 +39,12 @@ ForceOption = Annotated[bool, typer.Option(
 WorkersOption = Annotated[int | None, typer.Option(
     "--workers", "-j", min=1,
     help="Run the long jobs of this run (ik target chunks, sweeps, lee maps, grid studies, fk "
-         "chunks) on N local processes [default: one process; workspace sweeps: workers: of "
-         "the scenario, else min(cpu count, jobs)]")]
+         "chunks) on N local processes (default: one process; workspace sweeps: workers: of "
+         "the scenario, else min(cpu count, jobs))")]
 SchedulerOption = Annotated[str | None, typer.Option(
     "--scheduler", metavar="ADDRESS",
     help="Dask scheduler address (tcp://host:port): run the long jobs on that cluster (needs "
-         "mechkin[dask]; every worker must run this mechkin version)")]
+         "the dask extra; every worker must run this mechkin version)")]
 
 
 def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
