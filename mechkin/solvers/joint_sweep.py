@@ -377,7 +377,7 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         differ in the last bit (the converged joints have agreed bitwise in every test; at
         worst they differ at round-off, 1e-15). Open chains and ``seed_from="home"``: bitwise.
     n_jobs : int
-        Jobs to aim for with ``run_jobs``.
+        Evaluation jobs to aim for with ``run_jobs`` (a quarter as many closure jobs).
     mechanism : MechanismSpec, optional
         What the jobs carry to rebuild ``mech`` on a worker (default: ``mech`` pickled).
 
@@ -460,7 +460,10 @@ def _sweep_in_jobs(mech: Any, qv: np.ndarray, frame: int, st: dict[str, np.ndarr
     close_jobs: list[dict[str, Any]] = []
     if two_phase:
         assert level is not None
-        trunk, close_rows = subtree_jobs(parent, level, max(1, -(-m // n_jobs)))
+        # a quarter of the jobs for the closure: a subtree job solves its levels in
+        # batches of its own samples only, so fewer, larger jobs keep them vectorized
+        trunk, close_rows = subtree_jobs(parent, level,
+                                         max(1, -(-m // max(1, n_jobs // 4))))
         for r in close_rows:
             ext = np.unique(parent[r][(parent[r] >= 0) & ~np.isin(parent[r], r)])
             loc = np.concatenate([ext, r])
