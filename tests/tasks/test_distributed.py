@@ -3,8 +3,8 @@
 For each job kind (ik batches and sequential chunks, warm-started ik chains, joint sweeps,
 single lee maps, track grid studies, long closed-chain fk) the run on ``--workers 2`` local
 processes and on a Dask LocalCluster (two in-process workers bound to 127.0.0.1, dashboard
-off, stopped by the fixture) is compared with the run in one process: bitwise where every
-job solves from the same start as the single run, to the solver's tolerance where a chunk
+on a free 127.0.0.1 port, stopped by the fixture) is compared with the run in one process:
+bitwise where every job solves from the same start as the single run, to the solver's tolerance where a chunk
 starts from its own warm-up (warm-started ik chains, fk chunks). Progress bars: forced on,
 captured from stderr; off when stderr is not a terminal.
 """
@@ -36,10 +36,11 @@ VOLATILE = {"solve_time_s", "median_time_per_target_s", "compute_time_s", "time_
 @pytest.fixture(scope="module")
 def cluster():
     distributed = pytest.importorskip("distributed")
-    # in-process workers on TCP sockets bound to 127.0.0.1 (jobs pickled over the wire)
+    # in-process workers on TCP sockets bound to 127.0.0.1 (jobs pickled over the wire); the
+    # dashboard on a free port of 127.0.0.1 (None still binds its HTTP server to 8787)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   protocol="tcp://", host="127.0.0.1",
-                                  dashboard_address=None) as c:
+                                  dashboard_address="127.0.0.1:0") as c:
         yield c
 
 
