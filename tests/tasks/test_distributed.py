@@ -4,9 +4,9 @@ For each job kind (ik batches and sequential chunks, warm-started ik chains, joi
 single lee maps, track grid studies, long closed-chain fk) the run on ``--workers 2`` local
 processes and on a Dask LocalCluster (two in-process workers bound to 127.0.0.1, dashboard
 on a free 127.0.0.1 port, stopped by the fixture) is compared with the run in one process:
-bitwise where every job solves from the same start as the single run, to the solver's tolerance where a chunk
-starts from its own warm-up (warm-started ik chains, fk chunks). Progress bars: forced on,
-captured from stderr; off when stderr is not a terminal.
+bitwise where every job solves from the same start as the single run, to the solver's
+tolerance where a chunk starts from its own warm-up (warm-started ik chains, fk chunks).
+Progress bars: forced on, captured from stderr; off when stderr is not a terminal.
 """
 
 from __future__ import annotations
