@@ -36,6 +36,15 @@ ProgressOption = Annotated[bool | None, typer.Option(
     help="Progress bar on stderr for long runs [default: when stderr is a terminal]")]
 ForceOption = Annotated[bool, typer.Option(
     "--force", help="Replace an output folder that holds another scenario's results")]
+WorkersOption = Annotated[int | None, typer.Option(
+    "--workers", "-j", min=1,
+    help="Run the long jobs of this run (ik target chunks, sweeps, lee maps, grid studies, fk "
+         "chunks) on N local processes (default: one process; workspace sweeps: workers: of "
+         "the scenario, else min(cpu count, jobs))")]
+SchedulerOption = Annotated[str | None, typer.Option(
+    "--scheduler", metavar="ADDRESS",
+    help="Dask scheduler address (tcp://host:port): run the long jobs on that cluster (needs "
+         "the dask extra; every worker must run this mechkin version)")]
 
 
 def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
@@ -52,9 +61,12 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
         force: ForceOption = False,
         max_memory: MaxMemoryOption = None,
         progress: ProgressOption = None,
+        workers: WorkersOption = None,
+        scheduler: SchedulerOption = None,
     ) -> None:
         raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force,
-                                 max_memory=max_memory, progress=progress))
+                                 max_memory=max_memory, progress=progress, workers=workers,
+                                 scheduler=scheduler))
 
     command.__doc__ = doc
     command.__name__ = f"{task}_cli"
@@ -82,6 +94,7 @@ def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots:
     from mechkin.io.report import prepare_output
     from mechkin.tasks import budget, run
     from mechkin.tasks.common import load_task_scenario
+    from mechkin.tasks.distributed import execution
 
     try:
         limit = budget.parse_size(max_memory) if max_memory is not None else None
@@ -89,8 +102,9 @@ def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots:
         raise ConfigError(f"--max-memory: expected a size like 8G or 512M, got "
                           f"{max_memory[:40]!r}") from None
     sc = load_task_scenario(scenario, task)
-    with budget.memory_budget(limit), prepare_output(
-            default_out_dir(sc.name, out), sc.name, force=force) as out_dir:
+    with budget.memory_budget(limit), execution(
+            options.get("workers"), options.get("scheduler"), options.get("progress")
+    ), prepare_output(default_out_dir(sc.name, out), sc.name, force=force) as out_dir:
         with warnings.catch_warnings():
             # floating-point warnings of a diverging solve: the statuses and summary say it
             warnings.simplefilter("ignore", RuntimeWarning)

@@ -15,6 +15,9 @@ from mechkin.cli.common import (
     MaxMemoryOption,
     OutOption,
     PlotsOption,
+    ProgressOption,
+    SchedulerOption,
+    WorkersOption,
     execute,
 )
 
@@ -53,14 +56,9 @@ def workspace_cli(
     plots: PlotsOption = True,
     force: ForceOption = False,
     max_memory: MaxMemoryOption = None,
-    workers: int | None = typer.Option(None, "--workers", "-j", min=1, help="Local worker "
-                                       "processes for sweeps [default: workers: of the "
-                                       "scenario, else min(cpu count, jobs)]"),
-    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address "
-                                         "(tcp://host:port): run the sweep jobs on that "
-                                         "cluster (needs mechkin[dask])"),
-    progress: bool | None = typer.Option(None, "--progress/--no-progress", help="Progress bar "
-                                         "on stderr [default: when stderr is a terminal]"),
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
+    progress: ProgressOption = None,
 ) -> None:
     """Workspace and isotropy maps (lee's spherical mechanism), design sweeps, joint and
     task-space sweeps of any mechanism."""

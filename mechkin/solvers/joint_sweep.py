@@ -122,11 +122,203 @@ def _sensitivity_and_mode(mech: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndar
     return S, sign.astype(np.int8)
 
 
+def _close_rows(mech: Any, qv: np.ndarray, parent: np.ndarray, level: np.ndarray,
+                todo: np.ndarray, st: dict[str, np.ndarray], chunk: int, mode_jump: float,
+                tick: Callable[[int], None] | None = None) -> None:
+    """Close the loops of rows ``todo`` level by level, each from its parent's solution (the
+    rows of ``st``: ``q``, ``status``, ``ok``, ``S``, ``mode``, ``mode_change``, ``reseeded``,
+    filled in place; parents outside ``todo`` must be solved already).
+
+    Every row's Newton run, reseed, sensitivity and mode test depend on that row and its
+    parent only (:func:`mechkin.model.closure.solve_closure` freezes converged rows), so
+    the rows may be solved in any grouping of one level: a job solving a subtree gives the
+    same bits as the whole sweep in one process.
+    """
+    from mechkin.model.closure import ClosureStatus, solve_closure
+
+    if todo.size == 0:
+        return
+    q, status, ok, S, mode = st["q"], st["status"], st["ok"], st["S"], st["mode"]
+    dep = mech.dependent
+    q_w0 = mech.home[dep]
+    conv_val = ClosureStatus.CONVERGED.value
+    order = todo[np.argsort(level[todo], kind="stable")]
+    bounds = np.flatnonzero(np.diff(level[order])) + 1
+    for lev in np.split(order, bounds):
+        for a in range(0, lev.size, chunk):
+            idx = lev[a : a + chunk]
+            p = parent[idx]
+            use = (p >= 0) & ok[np.maximum(p, 0)]
+            guess = np.tile(q_w0, (idx.size, 1))
+            pred_step = np.zeros(idx.size)
+            if use.any():
+                pu = p[use]
+                dw = np.einsum("kij,kj->ki", S[pu], qv[idx[use]] - qv[pu])
+                big = np.abs(dw).max(axis=1) > PREDICTOR_CAP
+                dw[big] = 0.0
+                guess[use] = q[pu][:, dep] + dw
+                pred_step[use] = np.abs(dw).max(axis=1)  # 0 where capped: no jump test
+            res = solve_closure(mech, qv[idx], guess)
+            stv = np.array([x.value for x in res.status], dtype=object)
+            qq = res.q
+            bad = (stv != conv_val) & use
+            if bad.any():  # the neighbour's branch did not close: try from home
+                r2 = solve_closure(mech, qv[idx[bad]], q_w0)
+                good = np.array([x.value == conv_val for x in r2.status], dtype=bool)
+                bi = np.flatnonzero(bad)[good]
+                qq[bi] = r2.q[good]
+                stv[bi] = conv_val
+                st["reseeded"][idx[bi]] = True
+            q[idx] = qq
+            status[idx] = stv
+            done = stv == conv_val
+            ok[idx] = done
+            if done.any():
+                S[idx[done]], mode[idx[done]] = _sensitivity_and_mode(mech, qq[done])
+            chk = use & done
+            if chk.any():
+                pc, ic = p[chk], idx[chk]
+                err = np.abs(qq[chk][:, dep] - guess[chk]).max(axis=1)
+                ps = pred_step[chk]
+                jump = (ps > 0) & (err > mode_jump * ps)
+                st["mode_change"][ic] = (mode[ic] != mode[pc]) | jump
+            if tick is not None:
+                tick(idx.size)
+
+
+def _evaluate_rows(mech: Any, qv: np.ndarray, frame: int, rows: slice, closed: bool,
+                   two_phase: bool, manipulability: bool, st: dict[str, np.ndarray]) -> None:
+    """Positions and dexterity of the rows ``rows`` of ``st`` (in place); closed chains
+    without continuation close their loops here, from home. Row by row independent."""
+    from mechkin.model.closure import ClosureStatus, dependent_sensitivity, solve_closure
+    from mechkin.model.kinematics import forward_kinematics, frame_jacobian
+
+    a, b = rows.start, rows.stop
+    q, status = st["q"], st["status"]
+    if closed and not two_phase:
+        res = solve_closure(mech, qv[a:b], mech.home[mech.dependent])
+        q[a:b] = res.q
+        status[a:b] = [x.value for x in res.status]
+    elif not closed:
+        q[a:b] = mech.assemble(qv[a:b], np.zeros((b - a, 0)))
+        status[a:b] = ClosureStatus.CONVERGED.value
+    kin = forward_kinematics(mech, q[a:b])
+    st["pos"][a:b] = kin.frames(mech, [frame])[:, 0, :3, 3]
+    if manipulability:
+        J = frame_jacobian(mech, kin, frame)
+        Jr = J[:, :, mech.independent]
+        if closed:
+            sens = st["S"][a:b] if two_phase else dependent_sensitivity(mech, q[a:b])
+            Jr = Jr + J[:, :, mech.dependent] @ sens
+        st["J"][a:b] = Jr
+        dex = dexterity(Jr)
+        st["w"][a:b] = dex["manipulability"]
+        st["iso"][a:b] = dex["isotropy"]
+        st["iso_pos"][a:b] = dex["isotropy_position"]
+
+
+def _state(mech: Any, m: int, manipulability: bool) -> dict[str, np.ndarray]:
+    nv = len(mech.independent)
+    return {"q": np.empty((m, mech.n)), "status": np.empty(m, dtype=object),
+            "ok": np.zeros(m, dtype=bool), "S": np.zeros((m, len(mech.dependent), nv)),
+            "mode": np.zeros(m, dtype=np.int8), "mode_change": np.zeros(m, dtype=bool),
+            "reseeded": np.zeros(m, dtype=bool), "pos": np.empty((m, 3)),
+            "w": np.zeros(m), "iso": np.zeros(m), "iso_pos": np.zeros(m),
+            "J": np.zeros((m, 6, nv)) if manipulability else np.zeros((0, 6, nv))}
+
+
+#: Per-row results of a closure job and of an evaluation job.
+_CLOSE_KEYS = ("q", "status", "ok", "S", "mode", "mode_change", "reseeded")
+_EVAL_KEYS = ("q", "status", "pos", "w", "iso", "iso_pos", "J")
+
+
+def sweep_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
+    """One job of a distributed joint sweep (module level, so it pickles).
+
+    ``job["phase"]``: ``"close"``, the loop closure of whole continuation subtrees (local
+    ``parent`` / ``level``; rows ``[0, n_ext)`` are the solved parents from outside the job,
+    given by ``ext``); or ``"evaluate"``, positions and dexterity of consecutive blocks of
+    ``chunk`` rows (those of one process: the forward kinematics of a batch takes another
+    code path from :data:`mechkin.model.kinematics.LARGE_BATCH` rows on, so the blocks must
+    be the same for the same bits), with ``q`` and ``S`` of the continuation given.
+    """
+    mech = job["mechanism"]
+    if not hasattr(mech, "dependent"):
+        from mechkin.solvers.sweeps import job_mechanism
+
+        mech = job_mechanism(mech)
+    qv = job["q_v"]
+    k = qv.shape[0]
+    st = _state(mech, k, job["manipulability"])
+    if job["phase"] == "close":
+        n_ext = int(job["n_ext"])
+        for key, val in job["ext"].items():
+            st[key][:n_ext] = val
+        _close_rows(mech, qv, job["parent"], job["level"], np.arange(n_ext, k), st,
+                    job["chunk"], job["mode_jump"])
+        return {key: st[key][n_ext:] for key in _CLOSE_KEYS}
+    for key in ("q", "S", "status"):
+        if key in job:
+            st[key][:] = job[key]
+    for a in range(0, k, job["chunk"]):
+        _evaluate_rows(mech, qv, job["frame"], slice(a, min(k, a + job["chunk"])),
+                       job["closed"], job["two_phase"], job["manipulability"], st)
+    return {key: st[key] for key in _EVAL_KEYS if key != "J" or job["manipulability"]}
+
+
+def subtree_jobs(parent: np.ndarray, level: np.ndarray, target: int
+                 ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Split a continuation tree into a trunk and jobs of whole subtrees.
+
+    The **trunk** holds every sample whose subtree has more than ``target`` samples (closed
+    under parents; solved first, in the calling process); the other samples form subtrees
+    hanging from the trunk (or roots), packed in sample order into jobs of about ``target``
+    samples. A job needs only the solutions of its subtrees' trunk parents.
+
+    Returns
+    -------
+    trunk : ndarray of int
+    jobs : list of ndarray of int
+        The samples of each job (sorted).
+    """
+    m = parent.size
+    size = np.ones(m, dtype=np.int64)
+    for i in np.argsort(level, kind="stable")[::-1]:
+        if parent[i] >= 0:
+            size[parent[i]] += size[i]
+    trunk_mask = size > target
+    top = np.flatnonzero(~trunk_mask & ((parent < 0) | trunk_mask[np.maximum(parent, 0)]))
+    # the top of each hanging subtree labels its samples (parents before children)
+    label = np.full(m, -1, dtype=np.int64)
+    label[top] = top
+    for i in np.argsort(level, kind="stable"):
+        if label[i] < 0 and not trunk_mask[i]:
+            label[i] = label[parent[i]]
+    jobs: list[np.ndarray] = []
+    members = np.argsort(label, kind="stable")
+    members = members[label[members] >= 0]
+    groups = np.split(members, np.flatnonzero(np.diff(label[members])) + 1) if members.size \
+        else []
+    cur: list[np.ndarray] = []
+    n = 0
+    for g in groups:
+        cur.append(g)
+        n += g.size
+        if n >= target:
+            jobs.append(np.sort(np.concatenate(cur)))
+            cur, n = [], 0
+    if cur:
+        jobs.append(np.sort(np.concatenate(cur)))
+    return np.flatnonzero(trunk_mask), jobs
+
+
 def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
                 manipulability: bool = True, grid_shape: tuple[int, ...] | None = None,
                 seed_from: str = "neighbour", mode_jump: float = 2.0,
                 progress: Callable[[int, int], None] | None = None,
-                length: float | None = None) -> JointSweepRecord:
+                length: float | None = None,
+                run_jobs: Callable[..., list[Any]] | None = None,
+                n_jobs: int = 8, mechanism: Any = None) -> JointSweepRecord:
     r"""Positions, reachability and dexterity of ``frame`` at the samples ``q_v``.
 
     For a closed chain the loop closure of every sample starts from a solved neighbour
@@ -164,116 +356,71 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     mode_jump : float
         Threshold of the jump test (dimensionless ratio).
     progress : callable, optional
-        ``progress(done, total)`` after every block (closure blocks, then evaluation blocks).
+        ``progress(done, total)``: samples (closure blocks, then evaluation blocks); with
+        ``run_jobs``, jobs (the trunk counts as one).
     length : float, optional
         Characteristic length [m] of the normalized isotropy
         (:func:`mechkin.solvers.dexterity.normalized_isotropy`); None: the one that best
         conditions the reachable samples (:func:`mechkin.solvers.dexterity.characteristic_length`).
         The Jacobians of all samples are kept for it (48 n_v bytes per sample).
+    run_jobs : callable, optional
+        ``run_jobs(fn, jobs, progress) -> results in job order`` (``progress(done, total)``
+        or None) (e.g. :func:`mechkin.solvers.sweeps.
+        run_jobs` on workers): the sweep runs as about ``n_jobs`` jobs of :func:`sweep_job`.
+        Continuation: the trunk of the continuation tree here, then whole subtrees
+        (:func:`subtree_jobs`) as closure jobs, each from its trunk parent's solution. Then
+        (every kind of sweep) the positions and dexterity as jobs of whole ``chunk`` blocks,
+        the blocks of one process. Every sample is solved from the same start, so the record
+        is bitwise the same as in one process except that a closure job's level batches hold
+        other samples than one process's: the forward kinematics of a batch switches code
+        path at :data:`mechkin.model.kinematics.LARGE_BATCH` rows, so a Newton iterate may
+        differ in the last bit (the converged joints have agreed bitwise in every test; at
+        worst they differ at round-off, 1e-15). Open chains and ``seed_from="home"``: bitwise.
+    n_jobs : int
+        Evaluation jobs to aim for with ``run_jobs`` (a quarter as many closure jobs).
+    mechanism : MechanismSpec, optional
+        What the jobs carry to rebuild ``mech`` on a worker (default: ``mech`` pickled).
 
     Returns
     -------
     JointSweepRecord
         Dexterity is 0 at samples that are not reachable.
     """
-    from mechkin.model.closure import ClosureStatus, dependent_sensitivity, solve_closure
-    from mechkin.model.kinematics import forward_kinematics, frame_jacobian
+    from mechkin.model.closure import ClosureStatus
 
     qv = np.asarray(q_v, dtype=np.float64)
     m = qv.shape[0]
     closed = mech.is_closed and len(mech.dependent) > 0
-    q = np.empty((m, mech.n))
-    status = np.empty(m, dtype=object)
-    pos = np.empty((m, 3))
-    w_full = np.zeros(m)
-    iso_full = np.zeros(m)
-    iso_pos = np.zeros(m)
-    J_all = np.zeros((m, 6, len(mech.independent))) if manipulability else None
-    parent = np.full(m, -1, dtype=np.int64)
-    mode_change = np.zeros(m, dtype=bool)
-    reseeded = np.zeros(m, dtype=bool)
-    q_w0 = mech.home[mech.dependent]
-    conv_val = ClosureStatus.CONVERGED.value
-    dep = mech.dependent
     two_phase = closed and seed_from == "neighbour"
-    total = 2 * m if two_phase else m
-    done_n = 0
-    if progress is not None:
-        progress(0, total)
+    st = _state(mech, m, manipulability)
+    parent = np.full(m, -1, dtype=np.int64)
     if two_phase:
         parent, level = continuation_tree(qv, grid_shape, mech.home[mech.independent])
-        order = np.argsort(level, kind="stable")
-        bounds = np.flatnonzero(np.diff(level[order])) + 1
-        ok = np.zeros(m, dtype=bool)
-        S = np.zeros((m, len(dep), len(mech.independent)))
-        mode = np.zeros(m, dtype=np.int8)
-        for lev in np.split(order, bounds):
-            for a in range(0, lev.size, chunk):
-                idx = lev[a : a + chunk]
-                p = parent[idx]
-                use = (p >= 0) & ok[np.maximum(p, 0)]
-                guess = np.tile(q_w0, (idx.size, 1))
-                pred_step = np.zeros(idx.size)
-                if use.any():
-                    pu = p[use]
-                    dw = np.einsum("kij,kj->ki", S[pu], qv[idx[use]] - qv[pu])
-                    big = np.abs(dw).max(axis=1) > PREDICTOR_CAP
-                    dw[big] = 0.0
-                    guess[use] = q[pu][:, dep] + dw
-                    pred_step[use] = np.abs(dw).max(axis=1)  # 0 where capped: no jump test
-                res = solve_closure(mech, qv[idx], guess)
-                st = np.array([s.value for s in res.status], dtype=object)
-                qq = res.q
-                bad = (st != conv_val) & use
-                if bad.any():  # the neighbour's branch did not close: try from home
-                    r2 = solve_closure(mech, qv[idx[bad]], q_w0)
-                    good = np.array([s.value == conv_val for s in r2.status], dtype=bool)
-                    bi = np.flatnonzero(bad)[good]
-                    qq[bi] = r2.q[good]
-                    st[bi] = conv_val
-                    reseeded[idx[bi]] = True
-                q[idx] = qq
-                status[idx] = st
-                done = st == conv_val
-                ok[idx] = done
-                if done.any():
-                    S[idx[done]], mode[idx[done]] = _sensitivity_and_mode(mech, qq[done])
-                chk = use & done
-                if chk.any():
-                    pc, ic = p[chk], idx[chk]
-                    err = np.abs(qq[chk][:, dep] - guess[chk]).max(axis=1)
-                    ps = pred_step[chk]
-                    jump = (ps > 0) & (err > mode_jump * ps)
-                    mode_change[ic] = (mode[ic] != mode[pc]) | jump
-                done_n += idx.size
-                if progress is not None:
-                    progress(done_n, total)
-    for a in range(0, m, chunk):
-        b = min(m, a + chunk)
-        if closed and not two_phase:
-            res = solve_closure(mech, qv[a:b], q_w0)
-            q[a:b] = res.q
-            status[a:b] = [s.value for s in res.status]
-        elif not closed:
-            q[a:b] = mech.assemble(qv[a:b], np.zeros((b - a, 0)))
-            status[a:b] = ClosureStatus.CONVERGED.value
-        kin = forward_kinematics(mech, q[a:b])
-        pos[a:b] = kin.frames(mech, [frame])[:, 0, :3, 3]
-        if manipulability:
-            J = frame_jacobian(mech, kin, frame)
-            Jr = J[:, :, mech.independent]
-            if closed:
-                sens = S[a:b] if two_phase else dependent_sensitivity(mech, q[a:b])
-                Jr = Jr + J[:, :, mech.dependent] @ sens
-            J_all[a:b] = Jr
-            dex = dexterity(Jr)
-            w_full[a:b] = dex["manipulability"]
-            iso_full[a:b] = dex["isotropy"]
-            iso_pos[a:b] = dex["isotropy_position"]
-        done_n += b - a
+    if run_jobs is not None and m > 0:
+        _sweep_in_jobs(mech, qv, frame, st, parent, level if two_phase else None, closed,
+                       two_phase, manipulability, chunk, mode_jump, progress, run_jobs,
+                       n_jobs, mech if mechanism is None else mechanism)
+    else:
+        total = 2 * m if two_phase else m
+        done_n = [0]
+
+        def tick(n: int) -> None:
+            done_n[0] += n
+            if progress is not None:
+                progress(done_n[0], total)
+
         if progress is not None:
-            progress(done_n, total)
-    converged = status == conv_val
+            progress(0, total)
+        if two_phase:
+            _close_rows(mech, qv, parent, level, np.arange(m), st, chunk, mode_jump, tick)
+        for a in range(0, m, chunk):
+            b = min(m, a + chunk)
+            _evaluate_rows(mech, qv, frame, slice(a, b), closed, two_phase, manipulability,
+                           st)
+            tick(b - a)
+    q, status, pos = st["q"], st["status"], st["pos"]
+    w_full, iso_full, iso_pos, J_all = st["w"], st["iso"], st["iso_pos"], st["J"]
+    converged = status == ClosureStatus.CONVERGED.value
     within = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
     finite = np.all(np.isfinite(pos), axis=1) & np.all(np.isfinite(q), axis=1)
     reach = converged & within & finite
@@ -291,7 +438,75 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
                    "isotropy_normalized": iso_n, "characteristic_length": L}
     return JointSweepRecord(q_v=qv, q=q, position=pos, status=status, converged=converged,
                             within_limits=within, reachable=reach, seed=parent,
-                            mode_change=mode_change, reseeded=reseeded, **dex_out)
+                            mode_change=st["mode_change"], reseeded=st["reseeded"], **dex_out)
+
+
+def _sweep_in_jobs(mech: Any, qv: np.ndarray, frame: int, st: dict[str, np.ndarray],
+                   parent: np.ndarray, level: np.ndarray | None, closed: bool, two_phase: bool,
+                   manipulability: bool, chunk: int, mode_jump: float,
+                   progress: Callable[[int, int], None] | None,
+                   run_jobs: Callable[..., list[Any]], n_jobs: int, carried: Any) -> None:
+    """The sweep as jobs (see :func:`joint_sweep`), results written into ``st``: with
+    continuation, the trunk here and the subtrees as closure jobs; then the evaluation as
+    jobs of whole ``chunk`` blocks."""
+    m = qv.shape[0]
+    n_jobs = max(1, int(n_jobs))
+    base = {"mechanism": carried, "frame": frame, "manipulability": manipulability,
+            "closed": closed, "two_phase": two_phase, "chunk": chunk, "mode_jump": mode_jump}
+    blocks = -(-m // chunk)
+    per = -(-blocks // n_jobs) * chunk
+    ranges = [np.arange(a, min(m, a + per)) for a in range(0, m, per)]
+    close_rows: list[np.ndarray] = []
+    close_jobs: list[dict[str, Any]] = []
+    if two_phase:
+        assert level is not None
+        # a quarter of the jobs for the closure: a subtree job solves its levels in
+        # batches of its own samples only, so fewer, larger jobs keep them vectorized
+        trunk, close_rows = subtree_jobs(parent, level,
+                                         max(1, -(-m // max(1, n_jobs // 4))))
+        for r in close_rows:
+            ext = np.unique(parent[r][(parent[r] >= 0) & ~np.isin(parent[r], r)])
+            loc = np.concatenate([ext, r])
+            where = {int(g): i for i, g in enumerate(loc)}
+            lp = np.array([where.get(int(x), -1) if x >= 0 else -1 for x in parent[loc]],
+                          dtype=np.int64)
+            lp[: ext.size] = -1
+            close_jobs.append({**base, "phase": "close", "q_v": qv[loc], "parent": lp,
+                               "level": level[loc], "n_ext": ext.size, "ext": None,
+                               "ext_rows": ext})
+    total = len(close_jobs) + len(ranges) + int(two_phase)
+    done = [0]
+
+    def prog(k: int, _n: int, base_done: int) -> None:
+        if progress is not None:
+            progress(base_done + k, total)
+
+    if progress is not None:
+        progress(0, total)
+    if two_phase:
+        _close_rows(mech, qv, parent, level, trunk, st, chunk, mode_jump)
+        done[0] = 1
+        prog(0, 0, done[0])
+        for job in close_jobs:  # the trunk parents' solutions, now known
+            ext = job.pop("ext_rows")
+            job["ext"] = {k: st[k][ext] for k in ("q", "status", "ok", "S", "mode")}
+        parts = run_jobs(sweep_job, close_jobs,
+                         lambda k, n: prog(k, n, done[0]) if progress is not None else None)
+        done[0] += len(close_jobs)
+        for r, out in zip(close_rows, parts, strict=True):
+            for k, v in out.items():
+                st[k][r] = v
+    eval_jobs = []
+    for r in ranges:
+        job = {**base, "phase": "evaluate", "q_v": qv[r]}
+        if two_phase:
+            job.update(q=st["q"][r], S=st["S"][r], status=st["status"][r])
+        eval_jobs.append(job)
+    parts = run_jobs(sweep_job, eval_jobs,
+                     lambda k, n: prog(k, n, done[0]) if progress is not None else None)
+    for r, out in zip(ranges, parts, strict=True):
+        for k, v in out.items():
+            st[k][r] = v
 
 
 def point_cloud_volume(P: np.ndarray, voxel: float | None = None

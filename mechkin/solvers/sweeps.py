@@ -63,7 +63,11 @@ __all__ = [
     "design_comparison",
     "design_summary",
     "dexterity",
+    "job_mechanism",
     "lee_design_sweep",
+    "lee_map_jobs",
+    "lee_workspace_jobs",
+    "mechanism_spec",
     "run_jobs",
     "task_space_grid",
     "task_space_random",
@@ -342,6 +346,61 @@ def lee_design_sweep(
                                                                              recs))
 
 
+def lee_map_jobs(params: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The independent maps of one :func:`lee_workspace` call as jobs: one per gamma set, one
+    for the gamma range, one for the pose list (each the same call with only that map)."""
+    base = {k: v for k, v in params.items()
+            if k not in ("gamma_sets", "gamma_sweep", "poses", "progress")}
+    jobs = [{**base, "gamma_sets": {name: g}} for name, g in
+            (params.get("gamma_sets") or {}).items()]
+    if params.get("gamma_sweep") is not None:
+        jobs.append({**base, "gamma_sweep": params["gamma_sweep"]})
+    if params.get("poses") is not None:
+        jobs.append({**base, "poses": params["poses"]})
+    return jobs or [base]
+
+
+def lee_workspace_jobs(
+    *,
+    workers: int | None = None,
+    address: str | None = None,
+    progress: ProgressCallback | None = None,
+    **params: Any,
+) -> LeeWorkspaceRecord:
+    """:func:`lee_workspace` with its maps (:func:`lee_map_jobs`) run as jobs
+    (:func:`run_jobs`) and merged: the same functions on the same grids, so the record equals
+    the single call's bitwise (summary keys in the same order).
+
+    Parameters
+    ----------
+    workers, address, progress
+        See :func:`run_jobs` (``progress`` counts maps).
+    **params
+        Keyword arguments of :func:`lee_workspace`.
+    """
+    jobs = lee_map_jobs(params)
+    recs = run_jobs(_lee_job, jobs, workers=workers, address=address, progress=progress)
+    head = {k: v for k, v in recs[0].summary.items()
+            if k not in ("isotropy", "gamma_range", "poses")}
+    summary: dict[str, Any] = dict(head)
+    isotropy: dict[str, Any] = {}
+    gr = None
+    plist = None
+    for rec in recs:
+        isotropy.update(rec.isotropy)
+        if "isotropy" in rec.summary:
+            summary.setdefault("isotropy", {}).update(rec.summary["isotropy"])
+    for rec in recs:
+        if rec.gamma_range is not None:
+            gr = rec.gamma_range
+            summary["gamma_range"] = rec.summary["gamma_range"]
+    for rec in recs:
+        if rec.poses is not None:
+            plist = rec.poses
+            summary["poses"] = rec.summary["poses"]
+    return LeeWorkspaceRecord(recs[0].geometry, isotropy, gr, summary, plist)
+
+
 def design_comparison(parameter: str, values: Sequence[float],
                       records: Sequence[LeeWorkspaceRecord]) -> list[dict[str, Any]]:
     """Comparison table of a design sweep: one row per (value, gamma set, gamma).
@@ -449,6 +508,9 @@ def _mechanism_spec(mechanism: Any) -> Any:
     return mechanism
 
 
+mechanism_spec = _mechanism_spec
+
+
 _BUILT: dict[str, Any] = {}
 
 
@@ -462,6 +524,9 @@ def _job_mechanism(spec: Any) -> Any:
             _BUILT.clear()
         _BUILT[key] = build_mechanism(spec)
     return _BUILT[key]
+
+
+job_mechanism = _job_mechanism
 
 
 def _task_job(job: dict[str, Any]) -> dict[str, np.ndarray]:

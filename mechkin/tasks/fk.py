@@ -203,6 +203,31 @@ def _check_steps(scenario: Scenario, mech: Mechanism, m: int) -> None:
 CHUNK_STEPS = 20_000
 
 
+#: Fewest steps per chunk of a motion split over workers (``--workers`` / ``--scheduler``).
+SPLIT_MIN_STEPS = 2_000
+
+
+def _solve_split(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, kw: dict[str, Any],
+                 ex: Any) -> Any:
+    """The loop closure in chunks with overlapping warm starts on the run's workers
+    (:func:`mechkin.solvers.distributed.solve_trajectory_chunks`: same assembly mode as one
+    process, joints equal within the closure tolerance)."""
+    from mechkin.solvers.distributed import solve_trajectory_chunks
+    from mechkin.solvers.sweeps import run_jobs
+    from mechkin.tasks.progress import progress_bar
+
+    m = len(qv)
+    n = ex.n_workers(1) or 8
+    chunk = int(min(CHUNK_STEPS, max(SPLIT_MIN_STEPS, -(-m // (2 * n)))))
+    with progress_bar(ex.progress, f"fk: {m} steps in chunks") as update:
+        res, _ = solve_trajectory_chunks(
+            mech, qv, q_w0, chunk_steps=chunk, progress=update,
+            run_jobs=lambda fn, jobs, prog: run_jobs(fn, jobs, workers=ex.n_workers(1),
+                                                     address=ex.address, progress=prog),
+            **kw)
+    return res
+
+
 def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any,
                      progress: bool | None) -> Any:
     """solve_trajectory over the whole motion; a motion longer than :data:`CHUNK_STEPS` is
@@ -223,6 +248,11 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
                              status=np.full(m, ClosureStatus.CONVERGED, dtype=object),
                              iterations=np.zeros(m, dtype=int), residual=np.zeros(m),
                              cond=np.ones(m))
+    from mechkin.tasks.distributed import resolve
+
+    ex = resolve(progress=progress)
+    if ex.split and m >= 2 * SPLIT_MIN_STEPS:
+        return _solve_split(mech, qv, q_w0, kw, ex)
     if m <= CHUNK_STEPS:
         return solve_trajectory(mech, qv, q_w0, **kw)
     parts = []

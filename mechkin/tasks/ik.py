@@ -53,6 +53,8 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
+from mechkin.tasks.distributed import Execution, map_jobs
+from mechkin.tasks.distributed import resolve as resolve_execution
 
 
 def _closed_form_kind(scenario: Scenario, mech: Mechanism) -> str:
@@ -203,6 +205,157 @@ def batch_results(br: Any, k: int) -> list[IkResult]:
         f_history=np.array([br.f[i]]), method="lm") for i in range(k)]
 
 
+#: Targets per job of a batched solve (``batch: true``). The batch is solved in these chunks
+#: in one process too, so the result never depends on the executor; only seeded random
+#: restarts see the chunk (their draws follow the failed targets of a chunk).
+BATCH_CHUNK = 2000
+#: Most and fewest targets per job of a sequential (``batch: false``) solve split over
+#: workers (about four jobs per worker in between).
+SEQUENCE_CHUNK = 2000
+SEQUENCE_MIN_CHUNK = 25
+#: Targets a chunk of a warm-started chain solves before its own first target (from the
+#: initial guess), so that its first warm start is a solved configuration on the chain.
+WARM_OVERLAP = 8
+
+
+def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndarray,
+                   method: str, kind: str | None, opts: IkOptions, qv: np.ndarray,
+                   qw: np.ndarray, warm: bool, update: Any = None, offset: int = 0,
+                   total: int | None = None
+                   ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]],
+                              tuple[np.ndarray, np.ndarray]]:
+    """Solve the targets in order, each warm-started from the previous solution when
+    ``warm`` (kim1995 §5.2 Step 2; a singular solve does not move the start).
+
+    Returns
+    -------
+    results, guesses, (q_v, q_w)
+        One result and its start per target, and the start of the next target.
+    """
+    results: list[IkResult] = []
+    guesses: list[tuple[np.ndarray, np.ndarray]] = []
+    total = len(T_P) if total is None else total
+    for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
+        guesses.append((qv, qw))
+        if far[i]:
+            results.append(_out_of_reach(mech, qv, qw))
+        else:
+            if method == "closed-form":
+                r = _closed_form(mech, T, qw, kind)
+            else:
+                r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
+            results.append(r)
+            if warm and r.status is not IkStatus.SINGULAR:
+                qv, qw = r.q_v, r.q_w
+        if update is not None and (i % 50 == 49 or i == len(T_P) - 1):
+            update(offset + i + 1, total)
+    return results, guesses, (qv, qw)
+
+
+def _sequence_job(job: dict[str, Any]) -> dict[str, Any]:
+    """One chunk of a sequential solve (a worker job): the ``overlap`` targets before the
+    chunk (warm-up of a warm-started chain, from the initial guess), then the chunk."""
+    from mechkin.solvers.sweeps import job_mechanism
+
+    mech = job_mechanism(job["mechanism"])
+    o = job["overlap"]
+    qv, qw = job["q_v0"], job["q_w0"]
+    if o:
+        _, _, (qv, qw) = solve_sequence(mech, job["T_P"][:o], job["W"][:o], job["far"][:o],
+                                        job["method"], job["kind"], job["options"], qv, qw,
+                                        job["warm"])
+    entry = (qv, qw)
+    res, guesses, last = solve_sequence(mech, job["T_P"][o:], job["W"][o:], job["far"][o:],
+                                        job["method"], job["kind"], job["options"], qv, qw,
+                                        job["warm"])
+    return {"results": res, "guesses": guesses, "entry": entry, "last": last}
+
+
+def _same_start(mech: Mechanism, a: tuple[np.ndarray, np.ndarray],
+                b: tuple[np.ndarray, np.ndarray]) -> bool:
+    """Two warm starts on the same solution branch (joints within SAME_TOL, revolute ones
+    wrapped)."""
+    dv = wrapped(mech, mech.independent, np.asarray(a[0]) - np.asarray(b[0]))
+    dw = wrapped(mech, mech.dependent, np.asarray(a[1]) - np.asarray(b[1]))
+    return bool(np.all(np.abs(dv) < SAME_TOL) and np.all(np.abs(dw) < SAME_TOL))
+
+
+def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
+                 far: np.ndarray, kind: str | None, opts: IkOptions, qv0: np.ndarray,
+                 qw0: np.ndarray, ex: Execution
+                 ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]],
+                            dict[str, Any]]:
+    """A sequential solve in chunks of targets on the run's executor.
+
+    Independent targets (``warm_start: false``) give bitwise the results of one process.
+    A warm-started chain: every chunk but the first solves the :data:`WARM_OVERLAP` targets
+    before it first (from the initial guess), so its first warm start is a solved
+    configuration; where that start is not on the branch the previous chunk ended on (joints
+    differ by more than SAME_TOL), the chunk is solved again here from the previous chunk's
+    end (``repaired_chunks``). Each target is then solved from a start equal to the one of a
+    single run within the solver's tolerance, so the solutions agree within the ik
+    tolerances (``tolerances.position`` / ``orientation``), on the same branch.
+    """
+    from mechkin.solvers.sweeps import mechanism_spec
+
+    spec: IkSpec = sc.section
+    k = len(T_P)
+    n = ex.n_workers(1) or 8
+    chunk = int(min(SEQUENCE_CHUNK, max(SEQUENCE_MIN_CHUNK, -(-k // (4 * n)))))
+    warm = bool(spec.warm_start)
+    mspec = mechanism_spec(sc.mechanism_path)
+    jobs = []
+    for a in range(0, k, chunk):
+        o = min(WARM_OVERLAP, a) if warm else 0
+        sl = slice(a - o, min(k, a + chunk))
+        jobs.append({"mechanism": mspec, "T_P": T_P[sl], "W": W[sl], "far": far[sl],
+                     "method": spec.method, "kind": kind, "options": opts, "q_v0": qv0,
+                     "q_w0": qw0, "warm": warm, "overlap": o, "start": a})
+    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex)
+    repaired = []
+    for j in range(1, len(parts)):
+        if warm and not _same_start(mech, parts[j]["entry"], parts[j - 1]["last"]):
+            job = jobs[j]
+            o = job["overlap"]
+            res, guesses, last = solve_sequence(
+                mech, job["T_P"][o:], job["W"][o:], job["far"][o:], spec.method, kind, opts,
+                *parts[j - 1]["last"], warm)
+            parts[j] = {"results": res, "guesses": guesses, "entry": parts[j - 1]["last"],
+                        "last": last}
+            repaired.append(j)
+    results = [r for p in parts for r in p["results"]]
+    guesses = [g for p in parts for g in p["guesses"]]
+    info = {**ex.describe(len(jobs)), "chunk": chunk,
+            "overlap": WARM_OVERLAP if warm else 0, "repaired_chunks": repaired}
+    return results, guesses, info
+
+
+def _batch_job(job: dict[str, Any]) -> list[IkResult]:
+    """One chunk of a batched solve (a worker job)."""
+    from mechkin.solvers.sweeps import job_mechanism
+
+    mech = job_mechanism(job["mechanism"])
+    br = solve_ik_batch(mech, job["T_P"], q_v0=job["q_v0"], q_w0=job["q_w0"],
+                        weights=job["W"], options=job["options"])
+    return batch_results(br, len(job["T_P"]))
+
+
+def _solve_batch(sc: Scenario, T_P: np.ndarray, W: np.ndarray, qv0: np.ndarray,
+                 qw0: np.ndarray, opts: IkOptions, ex: Execution
+                 ) -> tuple[list[IkResult], dict[str, Any] | None]:
+    """``batch: true``: the batched lm in chunks of :data:`BATCH_CHUNK` targets on the run's
+    executor (bitwise the same results in one process and on any number of workers)."""
+    from mechkin.solvers.sweeps import mechanism_spec
+
+    k = len(T_P)
+    mspec = mechanism_spec(sc.mechanism_path)
+    jobs = [{"mechanism": mspec, "T_P": T_P[a:a + BATCH_CHUNK], "W": W[a:a + BATCH_CHUNK],
+             "q_v0": qv0, "q_w0": qw0, "options": opts} for a in range(0, k, BATCH_CHUNK)]
+    parts = map_jobs(_batch_job, jobs, f"ik: {k} targets (batch)", ex)
+    info = ({**ex.describe(len(jobs)), "chunk": BATCH_CHUNK} if ex.split else None)
+    return [r for p in parts for r in p], info
+
+
 def _all_solutions(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
                    results: list[IkResult], guesses: list[tuple[np.ndarray, np.ndarray]],
                    far: np.ndarray, opts: IkOptions) -> list[IkSolutions]:
@@ -327,32 +480,21 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     far = beyond_reach(mech, T_P, W)
     opts = ik_options(spec, scenario.spec.units)
     t0 = time.perf_counter()
-    results: list[IkResult] = []
-    guesses: list[tuple[np.ndarray, np.ndarray]] = []
+    ex = resolve_execution(progress=progress)
+    execution_info: dict[str, Any] | None = None
     if spec.batch and not far.any():
-        br = solve_ik_batch(mech, T_P, q_v0=qv0, q_w0=qw0, weights=W, options=opts)
-        results = batch_results(br, len(T_P))
+        results, execution_info = _solve_batch(scenario, T_P, W, qv0, qw0, opts, ex)
         guesses = [(qv0, qw0)] * len(T_P)
+    elif ex.split:
+        results, guesses, execution_info = _solve_split(scenario, mech, T_P, W, far, kind,
+                                                        opts, qv0, qw0, ex)
     else:
         from mechkin.tasks.progress import progress_bar
 
-        qv, qw = qv0, qw0
         show = progress if progress is not None or len(T_P) >= 1000 else False
         with progress_bar(show, f"ik: {len(T_P)} targets") as update:
-            for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
-                guesses.append((qv, qw))
-                if far[i]:
-                    results.append(_out_of_reach(mech, qv, qw))
-                    continue
-                if spec.method == "closed-form":
-                    r = _closed_form(mech, T, qw, kind)
-                else:
-                    r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
-                results.append(r)
-                if spec.warm_start and r.status is not IkStatus.SINGULAR:
-                    qv, qw = r.q_v, r.q_w
-                if update is not None and (i % 50 == 49 or i == len(T_P) - 1):
-                    update(i + 1, len(T_P))
+            results, guesses, _ = solve_sequence(mech, T_P, W, far, spec.method, kind, opts,
+                                                 qv0, qw0, spec.warm_start, update)
     solve_s = time.perf_counter() - t0
     all_sols = (_all_solutions(scenario, mech, T_P, W, results, guesses, far, opts)
                 if spec.solutions == "all" else None)
@@ -412,6 +554,8 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         "end_effector": mech.frame_names[mech.end_effector],
         "targets": records,
     }
+    if execution_info is not None:
+        summary["execution"] = execution_info
     if all_sols is not None:
         n_sol = [a.count for a in all_sols]
         summary["solutions"] = {

@@ -251,10 +251,15 @@ def run(scenario: Scenario) -> Report:
     study: list[dict[str, Any]] | None = None
     study_results: list[TrackResult] = []
     if spec.grid_study is not None:
-        for g in spec.grid_study:
-            study_results.append(res if g == spec.grid
-                                 else _solve(spec, g, dyn, path, ref, limits,
-                                             list(mech.joint_names)))
+        # the other grids are independent jobs (mechkin.tasks.distributed): one process,
+        # --workers N or --scheduler; the same solve on the same inputs, so bitwise the same
+        from mechkin.tasks.distributed import call, map_jobs
+
+        todo = [g for g in spec.grid_study if g != spec.grid]
+        solved = iter(map_jobs(call, [(_solve, (spec, g, dyn, path, ref, limits,
+                                                list(mech.joint_names))) for g in todo],
+                               f"track: grid study ({len(todo)} grids)"))
+        study_results = [res if g == spec.grid else next(solved) for g in spec.grid_study]
         study = [_grid_record(r) for r in study_results]
     cases = solve_cases(scenario, mech, res, lambda lm, dp: _solve(
         spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # parkvar: cases

@@ -17,9 +17,10 @@ Kinds of section (:mod:`mechkin.config.workspace_spec`):
 * ``task_space``: a grid (or seeded random set) of task-space poses through the batched ik
   (:func:`mechkin.solvers.sweeps.task_space_sweep`): reachability and dexterity.
 
-Design values and task-space chunks run as jobs on ``workers`` local processes or on a Dask
-cluster (``scheduler`` / ``executor: {kind: dask, address}``); joint sweeps and single lee
-maps run in this process and refuse a scheduler. A progress bar (jobs, map sets or samples)
+Every kind runs as jobs on ``workers`` local processes or on a Dask cluster (``scheduler`` /
+``executor: {kind: dask, address}``, or the run's :mod:`mechkin.tasks.distributed` options):
+design values, task-space chunks, joint-sweep subtrees and blocks, the maps of a single lee
+scenario; the record is the one of a single process. A progress bar (jobs, map sets or samples)
 is drawn on stderr when asked (``progress=True``; None: when stderr is a terminal).
 
 Imports: config, model, solvers, spatial, records, tasks.common (never io/ or cli/).
@@ -52,7 +53,7 @@ def run(scenario: Scenario, workers: int | None = None, scheduler: str | None = 
     ----------
     scenario : Scenario
     workers : int, optional
-        Local worker processes of design and task-space sweeps (overrides ``workers:``).
+        Local worker processes (overrides ``workers:`` and the run's --workers).
     scheduler : str, optional
         Dask scheduler address (overrides ``executor:``).
     progress : bool, optional
@@ -131,27 +132,30 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
                progress: bool | None) -> dict[str, Any]:
     """workers / dask address / progress flag from the options, else the scenario."""
+    from mechkin.tasks.distributed import Execution, resolve
+
     spec = sc.section
-    address = scheduler
+    ctx = resolve(workers, scheduler, None)
+    address = ctx.address
+    from_file = False
     if address is None and spec.executor is not None and spec.executor.kind == "dask":
-        address = spec.executor.address
-    jobs = spec.kind == "task_space" or (spec.kind == "lee_spherical" and spec.design is not None)
-    if address is not None and not jobs:
-        where = "--scheduler" if scheduler is not None else sc.doc.where(("workspace", "executor"))
-        what = "joint_sweep" if spec.kind == "joint_sweep" else "single lee_spherical map"
-        raise ConfigError(f"{where}: a {what} runs in this process; only design sweeps and "
-                          "task_space sweeps run on a Dask scheduler")
+        address, from_file = spec.executor.address, True
     if address is not None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            where = "--scheduler" if scheduler is not None else sc.doc.where(
-                ("workspace", "executor"))
+            where = sc.doc.where(("workspace", "executor")) if from_file else "--scheduler"
             raise ConfigError(f"{where}: running on a Dask cluster needs the optional extra "
                               "(pip install 'mechkin[dask]')") from None
+    n = ctx.workers if ctx.workers is not None else spec.workers
+    if progress is None:
+        progress = ctx.progress
+    ex = Execution(workers=n, address=address, progress=progress,
+                   where="--workers" if ctx.workers is not None else
+                   sc.doc.where(("workspace", "workers")))
     show = sys.stderr.isatty() if progress is None else bool(progress)
-    return {"workers": workers if workers is not None else spec.workers, "address": address,
-            "progress": show, "force_terminal": progress is True}
+    return {"workers": n, "address": address, "progress": show,
+            "force_terminal": progress is True, "ex": ex}
 
 
 def _progress_bar(ex: dict[str, Any], description: str) -> Any:
@@ -303,9 +307,17 @@ def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
     if listed is not None:
         params["poses"] = listed * angle_factor(sc.spec.units.angle)
     t0 = time.perf_counter()
+    split = ex["ex"].split
     try:
         with _progress_bar(ex, f"{sc.name}: maps") as cb:
-            rec = lee_workspace(**params, progress=cb)
+            if split:  # one job per map (mechkin.solvers.sweeps.lee_workspace_jobs)
+                from mechkin.solvers.sweeps import lee_map_jobs, lee_workspace_jobs
+
+                n_jobs = len(lee_map_jobs(params))
+                rec = lee_workspace_jobs(**params, workers=ex["workers"],
+                                         address=ex["address"], progress=cb)
+            else:
+                rec = lee_workspace(**params, progress=cb)
     except ValueError as exc:  # a grid the solver refuses (should not pass the schema)
         raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
     summary: dict[str, Any] = {
@@ -314,6 +326,8 @@ def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
         **rec.summary,
         "compute_time_s": time.perf_counter() - t0,
     }
+    if split:
+        summary["execution"] = ex["ex"].describe(n_jobs)
     return _report(sc, summary, WorkspaceOutput("lee_spherical", rec), first=rec.summary)
 
 
@@ -565,10 +579,20 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     t0 = time.perf_counter()
     closed = mech.is_closed and len(mech.dependent) > 0
     grid_shape = tuple(spec.joints[n].n for n in swept) if spec.method == "grid" else None
-    with _progress_bar(ex, f"{sc.name}: samples") as cb:
+    split = ex["ex"].split
+    jobs_kw: dict[str, Any] = {}
+    if split:  # jobs of samples / continuation subtrees (mechkin.solvers.joint_sweep)
+        from mechkin.solvers.sweeps import mechanism_spec, run_jobs
+
+        n_w = ex["workers"] if ex["address"] is None else None
+        jobs_kw = {"run_jobs": lambda fn, jobs, prog: run_jobs(
+                       fn, jobs, workers=n_w, address=ex["address"], progress=prog),
+                   "n_jobs": 4 * (n_w or 4), "mechanism": mechanism_spec(sc.mechanism_path)}
+    with _progress_bar(ex, f"{sc.name}: {'jobs' if split else 'samples'}") as cb:
         rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
                           grid_shape=grid_shape, seed_from=spec.seed_from,
-                          mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc))
+                          mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc),
+                          **jobs_kw)
     reach = rec.reachable
     elapsed = time.perf_counter() - t0
     bbox, volume = point_cloud_volume(rec.position[reach],
@@ -617,6 +641,8 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
         },
         "compute_time_s": elapsed,
     }
+    if split:
+        summary["execution"] = ex["ex"].describe(jobs_kw["n_jobs"])
     if spec.manipulability:
         summary["manipulability"] = sigma_statistics(rec.manipulability[reach])
         summary["isotropy"] = sigma_statistics(rec.isotropy[reach])

@@ -367,13 +367,16 @@ def test_bad_task_space_exit_2(tmp_path, extra, pattern):
 
 
 @pytest.mark.parametrize("name", ["puma560_workspace.yaml", "lee_fig3_isotropy_r025.yaml"])
-def test_scheduler_refused_where_nothing_runs_on_it(tmp_path, name):
+def test_wrong_scheduler_fails_before_work(tmp_path, name, monkeypatch):
+    # joint sweeps and single lee maps run on a scheduler too (issue 16); a wrong address is
+    # one line, exit 2, before the output folder exists
+    monkeypatch.setenv("MECHKIN_DASK_TIMEOUT", "3")
     res = _run(_coarse_copy(tmp_path, name), tmp_path / "o", "--no-plots",
                "--scheduler", "tcp://127.0.0.1:1")
     assert res.exit_code == 2
     lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and "--scheduler: " in lines[0]
-    assert "runs in this process" in lines[0]
+    assert len(lines) == 1 and "--scheduler " in lines[0]
+    assert "no Dask scheduler answered" in lines[0]
     assert not (tmp_path / "o").exists()
 
 
