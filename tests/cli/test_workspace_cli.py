@@ -261,7 +261,7 @@ def test_design_sweep_on_dask_scheduler_option(tmp_path):
     ref = tmp_path / "ref"
     assert _run(p, ref, "--no-plots", "--workers", "1").exit_code == 0
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address="127.0.0.1:0") as cluster:
         out = tmp_path / "o"
         res = _run(p, out, "--no-plots", "--scheduler", cluster.scheduler_address)
     assert res.exit_code == 0, res.output

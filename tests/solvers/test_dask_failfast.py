@@ -84,7 +84,7 @@ def test_a_port_that_is_not_a_scheduler():
 def _cluster(n_workers: int):
     return distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1,
                                     processes=False, protocol="tcp", host="127.0.0.1",
-                                    dashboard_address=None)
+                                    dashboard_address="127.0.0.1:0")
 
 
 def test_a_scheduler_without_workers():

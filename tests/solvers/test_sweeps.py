@@ -89,7 +89,7 @@ def test_design_sweep_on_dask_local_cluster():
     pytest.importorskip("dask")
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address="127.0.0.1:0") as cluster:
         seen: list[int] = []
         sw = lee_design_sweep("r", [0.25, 0.75], address=cluster.scheduler_address,
                               progress=lambda d, t: seen.append(d), **SMALL)
