@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -72,6 +73,7 @@ def test_readme_api_example_runs(tmp_path):
     proc = subprocess.run([sys.executable, "-c", block], cwd=ROOT, capture_output=True,
                           text=True, timeout=300,
                           env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin",
+                               "NUMBA_CACHE_DIR": os.environ["NUMBA_CACHE_DIR"],
                                "MPLBACKEND": "Agg", "MECHKIN_OUT": str(tmp_path)})
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "ok" in proc.stdout

@@ -137,6 +137,8 @@ class JointSpec(Spec):
                 raise ValueError(f"limits: expected one [lo, hi] pair (for every axis) or {n}, "
                                  f"got {len(pairs)}")
             for lo_hi in pairs:
+                if len(lo_hi) != 2:  # type: ignore[arg-type]
+                    raise ValueError(f"limits: expected a [lo, hi] pair, got {lo_hi}")
                 if not lo_hi[0] < lo_hi[1]:  # type: ignore[index]
                     raise ValueError(f"limits: expected lo < hi, got {lo_hi}")
         return self

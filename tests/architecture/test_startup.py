@@ -7,6 +7,7 @@ what was imported, never on time.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -34,7 +35,8 @@ def _modules(args: list[str]) -> set[str]:
     roots = ", ".join(repr(h.split(".")[0]) for h in HEAVY)
     proc = subprocess.run([sys.executable, "-c", PROBE % roots, json.dumps(args)],
                           cwd=ROOT, capture_output=True, text=True, timeout=120,
-                          env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
+                          env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin",
+                               "NUMBA_CACHE_DIR": os.environ["NUMBA_CACHE_DIR"]})
     line = [ln for ln in proc.stderr.splitlines() if ln.startswith("MODULES ")]
     assert line, proc.stderr
     return set(json.loads(line[-1][len("MODULES "):]))

@@ -53,6 +53,8 @@ CASES = {
     "yaml syntax": ("name: fourbar\nlinks: [\n", r"m\.yaml:\d+: YAML syntax error"),
     "unknown key": (_mutate(["links", 1, "colour"], "red"),
                     r"m\.yaml:\d+: links\[1\]\.colour: unknown key \(valid keys: name"),
+    "empty limits": (_mutate(["joints", 0, "limits"], []),  # once an IndexError (exit 3)
+                     r"m\.yaml:\d+: joints\[0\]: limits: expected a \[lo, hi\] pair, got \[\]"),
     "wrong type": (_mutate(["joints", 0, "home"], "sixty"),
                    r"m\.yaml:\d+: joints\[0\]\.home: "),
     "missing link": (_mutate(["joints", 1, "child"], "couplr"),

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -20,7 +21,8 @@ def _run(tmp_path: Path, task: str, doc: dict) -> tuple[subprocess.CompletedProc
     out = tmp_path / "o"
     r = subprocess.run([sys.executable, "-m", "mechkin", task, str(p), "--out", str(out),
                         "--no-plots"], capture_output=True, text=True, timeout=300,
-                       env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin", "MECHKIN_JIT": "0",
+                       env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin",
+                            "NUMBA_CACHE_DIR": os.environ["NUMBA_CACHE_DIR"], "MECHKIN_JIT": "0",
                             "MPLBACKEND": "Agg"})
     return r, out
 

@@ -19,6 +19,7 @@ anchor or axis would show at 1e-3).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -165,7 +166,8 @@ def test_cli_import_mjcf_with_sidecar(tmp_path):
     run = subprocess.run([sys.executable, "-m", "mechkin", "import",
                           str(DATA / "five_bar_mjcf.xml"), "--sidecar", str(side), "-o", str(out)],
                          capture_output=True, text=True, timeout=120,
-                         env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"})
+                         env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin",
+                              "NUMBA_CACHE_DIR": os.environ["NUMBA_CACHE_DIR"]})
     assert run.returncode == 0, run.stderr
     a, b = load_mechanism(DATA / "five_bar_mjcf.xml"), load_mechanism(out)
     assert b.name == "five_bar_from_mjcf" and b.frame_names[b.end_effector] == "P"

@@ -348,7 +348,8 @@ def test_inertial_to_link_axes_and_fixed_links_lumped(tmp_path):
 
 
 def test_cli_import_export(tmp_path):
-    env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}
+    env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin",
+           "NUMBA_CACHE_DIR": os.environ["NUMBA_CACHE_DIR"]}
     yml = tmp_path / "ur5.yaml"
     run = subprocess.run([sys.executable, "-m", "mechkin", "import", str(DATA / "ur5.urdf"),
                           "-o", str(yml)], capture_output=True, text=True, env=env, timeout=120)
