@@ -17,6 +17,9 @@ def _line(s: dict[str, Any]) -> str:
     head = (f"t_a = {s['t_a_s']:.4g} s" if s["t_a_s"] is not None
             else f"duration {s['duration_s']:.4g} s")
     peaks = ", ".join(f"{v:.4g}" for v in s["peak_torque"])
+    act, by = s.get("actuated_joints"), s.get("peak_torque_by_joint")
+    if act and by and len(act) < len(by):  # a closed chain: the motors (passive joints: 0)
+        peaks = ", ".join(f"{n} {by[n]:.4g}" for n in act)
     g = s["grid"]
     how = (f"TOPP-RA on {g['N1'] + 1} points" if s.get("planner") == "topp"
            else f"{g['N1']}x{g['N2']} grid")

@@ -20,7 +20,8 @@ Example (park §5.3, all limits)::
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from collections.abc import Sequence
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -337,13 +338,20 @@ def point_si(p: list[float], units: Units) -> np.ndarray:
 
 
 def limits_si(
-    spec: LimitsSpec, units: Units, prismatic: np.ndarray
+    spec: LimitsSpec, units: Units, prismatic: np.ndarray,
+    independent: Sequence[int] | None = None,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``name -> (lo (n,), hi (n,))`` in SI; q/qd/qdd/jerk of revolute joints scaled by the
-    angle unit, of prismatic joints by the length unit; torques as given (N m | N)."""
+    angle unit, of prismatic joints by the length unit; torques as given (N m | N).
+
+    ``independent`` (a closed chain's independent joints): a list with one value per
+    independent joint is accepted too and widened to every joint, the dependent (passive)
+    joints unbounded (their torque is 0; their position limits come from the mechanism).
+    A list of any other length is returned as given (the caller names the count)."""
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     pris = np.asarray(prismatic, dtype=bool)
     motion = np.where(pris, length_factor(units.length), angle_factor(units.angle))
+    iv = None if independent is None else np.asarray(independent, dtype=int)
     for name in ("torque", "qd", "qdd", "jerk", "q"):
         lim = getattr(spec, name)
         if lim is None:
@@ -353,10 +361,34 @@ def limits_si(
         else:
             hi = np.asarray(lim, dtype=float)
             lo = -hi
+        if iv is not None and lo.shape == iv.shape and lo.shape != motion.shape:
+            wide_lo, wide_hi = np.full(motion.shape, -np.inf), np.full(motion.shape, np.inf)
+            wide_lo[iv], wide_hi[iv] = lo, hi
+            lo, hi = wide_lo, wide_hi
         if name != "torque" and lo.shape == motion.shape:
             lo, hi = lo * motion, hi * motion
         out[name] = (lo, hi)
     return out
+
+
+def limit_count_message(mech: Any, got: int) -> str:
+    """What a limits list of the wrong length should have been (one per joint, or for a
+    closed chain one per independent joint)."""
+    names = list(mech.joint_names)
+    short = ", ".join(names) if len(names) <= 8 else ", ".join(names[:6]) + f", ... ({len(names)})"
+    msg = f"expected {mech.n} values (one per joint: {short})"
+    if getattr(mech, "is_closed", False) and len(mech.dependent):
+        iv = [names[j] for j in mech.independent]
+        msg += f" or {len(iv)} (one per independent joint: {', '.join(iv)})"
+    return f"{msg}, got {got}"
+
+
+def mechanism_limits_si(spec: LimitsSpec, units: Units, mech: Any
+                        ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """:func:`limits_si` for ``mech`` (independent-joint lists of a closed chain widened)."""
+    closed = getattr(mech, "is_closed", False) and len(mech.dependent)
+    return limits_si(spec, units, np.asarray(mech.s) == 1,
+                     independent=mech.independent if closed else None)
 
 
 register_task_section("track", TrackSpec)

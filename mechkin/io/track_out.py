@@ -489,26 +489,30 @@ def case_figures(rec: TrackRecord) -> dict[str, Any]:
 
 
 def figures(rec: TrackRecord) -> dict[str, Any]:
-    """Every figure of a track run by file name (constrained layout; nothing is drawn yet)."""
+    """Every figure of a track run by file name (constrained layout; nothing is drawn yet). The
+    per-joint figures show ``rec.actuated`` (a closed chain's motors) or every joint."""
     traj = rec.trajectory
-    jn = list(rec.joint_names)
-    lim = rec.limits
-    pris = rec.prismatic
+    cols = list(range(len(rec.joint_names))) if rec.actuated is None else list(rec.actuated)
+    jn = [rec.joint_names[j] for j in cols]
+    lim = {k: (np.asarray(lo)[cols], np.asarray(hi)[cols]) for k, (lo, hi) in rec.limits.items()}
+    pris = [rec.prismatic[j] for j in cols]
     name = rec.title
     out: dict[str, Any] = {"phase.png": phase_figure(rec), "hand_part.png": hand_part_figure(rec)}
     if rec.hand_T is not None or rec.segments is not None:
         out["path_3d.png"] = path_3d_figure(rec)
-    out["joint_positions.png"] = _panels(traj.t, traj.q, jn, _unit(pris, "rad", "m"),
+    out["joint_positions.png"] = _panels(traj.t, traj.q[:, cols], jn, _unit(pris, "rad", "m"),
                                          f"{name}: joint positions (Eq. 9)", lim.get("q"))
-    out["joint_velocities.png"] = _panels(traj.t, traj.qd, jn, _unit(pris, "rad/s", "m/s"),
+    out["joint_velocities.png"] = _panels(traj.t, traj.qd[:, cols], jn,
+                                          _unit(pris, "rad/s", "m/s"),
                                           f"{name}: joint velocities", lim.get("qd"))
     out["joint_accelerations.png"] = _panels(
-        traj.t, traj.qdd, jn, _unit(pris, "rad/s^2", "m/s^2"),
+        traj.t, traj.qdd[:, cols], jn, _unit(pris, "rad/s^2", "m/s^2"),
         f"{name}: joint accelerations (Eq. 32)", lim.get("qdd"), steps=True)
-    out["joint_jerks.png"] = _panels(traj.t, traj.jerk, jn, _unit(pris, "rad/s^3", "m/s^3"),
+    out["joint_jerks.png"] = _panels(traj.t, traj.jerk[:, cols], jn,
+                                     _unit(pris, "rad/s^3", "m/s^3"),
                                      f"{name}: joint jerks (Eq. 33)", lim.get("jerk"),
                                      steps=True)
-    out["torques.png"] = _panels(traj.t, traj.torque, _torque_labels(jn),
+    out["torques.png"] = _panels(traj.t, traj.torque[:, cols], _torque_labels(jn),
                                  _unit(pris, "N m", "N"), f"{name}: joint torques",
                                  lim.get("torque"), steps=True)
     out.update(case_figures(rec))

@@ -141,6 +141,9 @@ class TrackRecord:
         The hand frame's pose in the base frame at every sample (the triads of ``path_3d.png``).
     hand_frame : str, optional
         The hand frame's name.
+    actuated : list of int, optional
+        The joints the per-joint figures show (a closed chain's independent joints, the motors;
+        None: every joint).
     """
 
     title: str
@@ -166,3 +169,4 @@ class TrackRecord:
     cases: list[CaseTrace] = field(default_factory=list)
     hand_T: np.ndarray | None = None
     hand_frame: str | None = None
+    actuated: list[int] | None = None

@@ -23,7 +23,14 @@ from typing import Any
 import numpy as np
 
 from mechkin.config.scenario import Scenario
-from mechkin.config.track_spec import GridSpec, TrackSpec, limits_si, path_mask, point_si
+from mechkin.config.track_spec import (
+    GridSpec,
+    TrackSpec,
+    limit_count_message,
+    mechanism_limits_si,
+    path_mask,
+    point_si,
+)
 from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
@@ -225,14 +232,13 @@ def run(scenario: Scenario) -> Report:
     mech = load_mechanism(scenario.mechanism_path)
     _check_budget(scenario, mech)
     dyn = _dynamics(scenario, mech)
-    lim = limits_si(spec.limits, units, np.asarray(mech.s) == 1)
+    lim = mechanism_limits_si(spec.limits, units, mech)
     if "q" not in lim:  # the mechanism's joint limits are DP constraints (dpct reading 8)
         lim["q"] = (np.asarray(mech.lower, dtype=float), np.asarray(mech.upper, dtype=float))
     for name, (lo, _) in lim.items():
         if lo.shape != (mech.n,):
-            raise ConfigError(f"{doc.where(('track', 'limits', name))}: expected {mech.n} "
-                              f"values (one per joint: {', '.join(mech.joint_names)}), got "
-                              f"{lo.shape[0]}")
+            raise ConfigError(f"{doc.where(('track', 'limits', name))}: "
+                              f"{limit_count_message(mech, lo.shape[0])}")
     limits = TrackLimits(**lim)
     ik = path = hand_ik(scenario, mech)
     p0, p1 = ik.p0, ik.p1
@@ -271,6 +277,8 @@ def run(scenario: Scenario) -> Report:
         "dynamics": spec.dynamics,
         **res.summary(),
     }
+    summary["actuated_joints"] = [mech.joint_names[j] for j in (
+        mech.independent if mech.is_closed and len(mech.dependent) else range(mech.n))]
     summary["peak_torque_by_joint"] = (
         None if res.peak_torque is None
         else {n: float(v) for n, v in zip(mech.joint_names, res.peak_torque, strict=True)})
@@ -323,6 +331,8 @@ def run(scenario: Scenario) -> Report:
                       ref)
         rec.cases = case_traces(cases)  # parkvar: overlays of park Figs. 5-8
         rec.hand_frame = mech.frame_names[ik.f]
+        if mech.is_closed and len(mech.dependent):  # the motors' panels, not 30 zero torques
+            rec.actuated = [int(j) for j in mech.independent]
     return Report(task="track", scenario=scenario.name, summary=summary, checks=checks,
                   solver_ok=ok, writer="track", data=rec, outputs=output_flags(scenario),
                   scenario_path=scenario.path, messages=messages)

@@ -16,7 +16,14 @@ from typing import Any
 import numpy as np
 
 from mechkin.config.scenario import Scenario
-from mechkin.config.track_spec import CaseSpec, DpSpec, LimitsSpec, TrackSpec, limits_si
+from mechkin.config.track_spec import (
+    CaseSpec,
+    DpSpec,
+    LimitsSpec,
+    TrackSpec,
+    limit_count_message,
+    mechanism_limits_si,
+)
 from mechkin.errors import ConfigError
 from mechkin.records.track import CaseTrace
 from mechkin.solvers.dpct import DPOptions, TrackLimits, TrackResult
@@ -34,14 +41,13 @@ def case_limits(scenario: Scenario, mech: Any, limits: LimitsSpec,
                 key: tuple[Any, ...]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``limits`` in SI with the mechanism's joint position limits as the default ``q``; a
     wrong count is a ConfigError at ``key + (name,)``."""
-    lim = limits_si(limits, scenario.spec.units, np.asarray(mech.s) == 1)
+    lim = mechanism_limits_si(limits, scenario.spec.units, mech)
     if "q" not in lim:
         lim["q"] = (np.asarray(mech.lower, dtype=float), np.asarray(mech.upper, dtype=float))
     for name, (lo, _) in lim.items():
         if lo.shape != (mech.n,):
-            raise ConfigError(f"{scenario.doc.where(key + (name,))}: expected {mech.n} values "
-                              f"(one per joint: {', '.join(mech.joint_names)}), got "
-                              f"{lo.shape[0]}")
+            raise ConfigError(f"{scenario.doc.where(key + (name,))}: "
+                              f"{limit_count_message(mech, lo.shape[0])}")
     return lim
 
 

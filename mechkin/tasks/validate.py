@@ -257,7 +257,7 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
     """What ``mechkin track`` refuses before the DP: dynamics that cannot be built (inertial
     data missing, not a serial chain, not a planar 2R arm for closed_form_2link), limits not
     one per joint, an unknown hand frame, initial guess or branch joints."""
-    from mechkin.config.track_spec import limits_si
+    from mechkin.config.track_spec import limit_count_message, mechanism_limits_si
     from mechkin.solvers.dynamics_from_mechanism import (
         dynamics_from_mechanism,
         planar_two_link_from_mechanism,
@@ -279,20 +279,18 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
         msg = msg[len(mech.name) + 2:] if msg.startswith(f"{mech.name}: ") else msg
         msg = msg[len("dynamics: "):] if msg.startswith("dynamics: ") else msg
         out.append(f"{doc.where(('track', 'dynamics'))}: {spec.dynamics}: {msg}")
-    lim = limits_si(spec.limits, sc.spec.units, np.asarray(mech.s) == 1)
+    lim = mechanism_limits_si(spec.limits, sc.spec.units, mech)
     for name, (lo, _) in lim.items():
         if lo.shape != (mech.n,):
-            out.append(f"{doc.where(('track', 'limits', name))}: expected {mech.n} values (one "
-                       f"per joint: {short_list(mech.joint_names)}), got {lo.shape[0]}")
-    for k, case in enumerate(spec.cases or []):  # parkvar: track.cases[k].limits
+            out.append(f"{doc.where(('track', 'limits', name))}: "
+                       f"{limit_count_message(mech, lo.shape[0])}")
+    for k, case in enumerate(spec.cases or []):  # track.cases[k].limits
         if case.limits is None:
             continue
-        for name, (lo, _) in limits_si(case.limits, sc.spec.units,
-                                       np.asarray(mech.s) == 1).items():
+        for name, (lo, _) in mechanism_limits_si(case.limits, sc.spec.units, mech).items():
             if lo.shape != (mech.n,):
-                out.append(f"{doc.where(('track', 'cases', k, 'limits', name))}: expected "
-                           f"{mech.n} values (one per joint: {short_list(mech.joint_names)}), "
-                           f"got {lo.shape[0]}")
+                out.append(f"{doc.where(('track', 'cases', k, 'limits', name))}: "
+                           f"{limit_count_message(mech, lo.shape[0])}")
     if spec.path.frame is None:
         if mech.end_effector is None:
             out.append(f"{doc.where(('track', 'path'))}: the mechanism has no end_effector; "
@@ -428,8 +426,8 @@ _BIPED_KEYS = {"scenario", "task", "section", "mechanism", "method", "status", "
 _TRACK_KEYS = {"scenario", "task", "mechanism", "dynamics", "status", "message", "objective",
                "t_a_s", "t_start_s", "duration_s", "peak_torque", "limits_ok", "active_limits",
                "limit_usage", "grid", "cost", "solve_time_s", "blocked_at_r",
-               "blocking_limits", "peak_torque_by_joint", "path", "reference", "limits_si",
-               "grid_study", "n_samples", "csv_notes", "time_penalty", "dp", "cases",
+               "blocking_limits", "peak_torque_by_joint", "actuated_joints", "path", "reference",
+               "limits_si", "grid_study", "n_samples", "csv_notes", "time_penalty", "dp", "cases",
                "planner", "intercept_r"}
 _HEAD = {"scenario", "task", "kind", "status"}
 _LEE_KEYS = _HEAD | {"design_source", "mechanism", "r", "R", "center", "stroke", "threshold",

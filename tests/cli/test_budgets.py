@@ -81,23 +81,36 @@ def test_oversized_job_is_refused_before_any_work(tmp_path, case):
                MPLBACKEND="Agg")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "mechkin", task, str(p), "--out", str(out)],
+    # the run under a fresh parent whose only child it is: RUSAGE_CHILDREN's ru_maxrss of this
+    # test process is the largest child it ever had (worker pools of earlier tests)
+    r = subprocess.run([sys.executable, "-c", _PEAK, sys.executable, "-m", "mechkin", task,
+                        str(p), "--out", str(out)],
                        capture_output=True, text=True, timeout=120, env=env)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     assert r.returncode == 2, (r.returncode, r.stderr[-500:])
-    lines = r.stderr.strip().splitlines()
+    *rest, peak_line = r.stderr.strip().splitlines()
+    assert peak_line.startswith("PEAK_RSS_KIB "), r.stderr[-500:]
+    peak_kib = int(peak_line.split()[1])
+    lines = "\n".join(rest).strip().splitlines()
     assert len(lines) == 1 and len(lines[0]) <= 300, lines
     assert "Traceback" not in r.stderr
     assert "s.yaml:" in lines[0] and key in lines[0]
     assert not out.exists()
     cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     assert cpu < 10.0 and wall < 60, (cpu, wall)  # refused at once (imports dominate)
-    assert after.ru_maxrss < 400 * 1024, after.ru_maxrss  # peak RSS of the child [KiB]
+    assert peak_kib < 400 * 1024, peak_kib  # peak RSS of the run [KiB]
     # mechkin check makes the same refusal (check-ok means the run will not refuse it)
     c = subprocess.run([sys.executable, "-m", "mechkin", "check", str(p)], capture_output=True,
                        text=True, timeout=120, env=env)
     assert c.returncode == 2 and key in c.stderr, c.stderr[-300:]
+
+
+_PEAK = ("import resource, subprocess, sys\n"
+         "r = subprocess.run(sys.argv[1:])\n"
+         "peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss\n"
+         "sys.stderr.write(f'\\nPEAK_RSS_KIB {peak}\\n')\n"
+         "sys.exit(r.returncode)\n")
 
 
 def test_budget_message_says_how_to_raise_it(tmp_path):
