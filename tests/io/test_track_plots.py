@@ -5,7 +5,6 @@ figure drawn well under a second, the belt animated in the MCAP."""
 from __future__ import annotations
 
 import os
-import time
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +32,9 @@ def records(tmp_path_factory):
 
 
 @pytest.mark.parametrize("name", ["puma560_track_line", "park_cases_overlay"])
-def test_every_figure_constrained_unclipped_and_fast(records, name, tmp_path) -> None:
+def test_every_figure_constrained_and_unclipped(records, name, tmp_path) -> None:
+    """Constrained layout, nothing drawn outside the figure, no empty panel (drawing time is a
+    benchmark, `benchmarks/bench_track_plots.py`, never a timed assertion here)."""
     figs = track_out.figures(records[name])
     expected = {"phase.png", "hand_part.png", "path_3d.png", "joint_positions.png",
                 "joint_velocities.png", "joint_accelerations.png", "joint_jerks.png",
@@ -44,12 +45,7 @@ def test_every_figure_constrained_unclipped_and_fast(records, name, tmp_path) ->
     assert set(figs) == expected
     for fname, fig in figs.items():
         assert isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine), fname
-        cpu = []
-        for _ in range(3):  # the best of three: CPU time still grows on a loaded machine
-            t0 = time.process_time()
-            fig.savefig(tmp_path / fname, dpi=110, format="png")
-            cpu.append(time.process_time() - t0)
-        assert min(cpu) < 1.0, f"{fname}: {min(cpu):.2f} s CPU to draw"
+        fig.savefig(tmp_path / fname, dpi=110, format="png")
         box = fig.get_tightbbox(fig.canvas.get_renderer())  # every drawn artist, in inches
         w, h = fig.get_size_inches()
         assert box.x0 >= -0.01 and box.y0 >= -0.01, (fname, box)
