@@ -2,7 +2,7 @@ r"""Path inverse kinematics of a closed chain: in the independent joints, the lo
 
 Design
 ------
-:class:`mechkin.solvers.path_ik.HandLineIK` continues ``q = f(r)`` along the hand's path by
+:class:`mechkin.solvers.path_ik.HandPathIK` continues ``q = f(r)`` along the hand's path by
 Newton's method on the task coordinates (park Eq. (9)-(11)). For a closed chain the unknowns
 are the independent joints ``q_v`` (kim1995 Eq. (3)); every evaluation closes the loops for the
 dependent ones, ``phi_R(q_v, q_w) = 0`` (kim1995 Eq. (4), :func:`mechkin.model.closure.
@@ -10,8 +10,9 @@ solve_closure`), and the task Jacobian is the reduced one through the closure,
 
 .. math:: J_r = J_E (L_v + L_w S), \qquad S = -\Phi_w^+ \Phi_v
 
-(kim1995 Eq. (10), :func:`mechkin.model.reduced.reduced_jacobian`). :class:`ClosedHandLineIK`
-is that subclass: it hands the parent a view of the mechanism with the independent joints only
+(kim1995 Eq. (10), :func:`mechkin.model.reduced.reduced_jacobian`). :class:`ClosedHandPathIK`
+is that subclass (any path geometry and orientation; :class:`ClosedHandLineIK` the line): it
+hands the parent a view of the mechanism with the independent joints only
 (so the continuation table, the rank, the redundancy and the branch signs are those of
 ``q_v``) and overrides the parent's kinematics hooks ``_poses``, ``_task`` and ``jacobian``.
 The loops are closed from the nearest configuration already closed (first-order predictor
@@ -40,16 +41,17 @@ from mechkin.model.kinematics import forward_kinematics
 from mechkin.model.mechanism import Mechanism
 from mechkin.model.reduced import reduced_jacobian
 from mechkin.solvers.closed_dynamics import closed_motion, sensitivity
+from mechkin.solvers.path_geometry import LineGeometry, PathGeometry, SlerpOrientation
 from mechkin.solvers.path_ik import (
     FD_F2,
     FD_F2_REDUNDANT,
-    HandLineIK,
+    HandPathIK,
     PathIKError,
     left_jacobian_inverse,
 )
 from mechkin.spatial.rotations import rotation_log
 
-__all__ = ["ClosedHandLineIK"]
+__all__ = ["ClosedHandLineIK", "ClosedHandPathIK"]
 
 #: Closed configurations kept as starting points of the loop closure.
 MAX_ANCHORS = 4000
@@ -81,10 +83,11 @@ class _IndependentJoints:
         return getattr(self._mech, key)
 
 
-class ClosedHandLineIK(HandLineIK):
-    """:class:`HandLineIK` of a closed chain, solved in the independent joints (module docstring).
+class ClosedHandPathIK(HandPathIK):
+    """:class:`HandPathIK` of a closed chain, solved in the independent joints (module
+    docstring): any path geometry (line, arc, spline) and orientation (held, slerped, free).
 
-    Parameters are those of :class:`HandLineIK` with ``mech`` a closed chain, ``q0 (n,)`` all
+    Parameters are those of :class:`HandPathIK` with ``mech`` a closed chain, ``q0 (n,)`` all
     joints (the dependent ones are the first guess of the loop closure) and ``branch`` keyed by
     mechanism joint index (independent or dependent joints).
 
@@ -92,14 +95,15 @@ class ClosedHandLineIK(HandLineIK):
     ------
     PathIKError
         ``start`` when the initial guess does not close the loops; otherwise as
-        :class:`HandLineIK`.
+        :class:`HandPathIK`.
     """
 
-    def __init__(self, mech: Mechanism, frame: int, p0: np.ndarray, p1: np.ndarray,
-                 q0: np.ndarray, tol: float, branch: dict[int, int] | None = None,
-                 mask: Sequence[str] | None = None, tol_rot: float | None = None) -> None:
+    def __init__(self, mech: Mechanism, frame: int, geometry: PathGeometry, q0: np.ndarray,
+                 tol: float, branch: dict[int, int] | None = None,
+                 mask: Sequence[str] | None = None, tol_rot: float | None = None,
+                 orientation: SlerpOrientation | None = None) -> None:
         if not len(mech.dependent):
-            raise ValueError(f"{mech.name}: no dependent joints; use HandLineIK")
+            raise ValueError(f"{mech.name}: no dependent joints; use HandPathIK")
         self.closed_mech = mech
         self._iv = np.asarray(mech.independent)
         self._iw = np.asarray(mech.dependent)
@@ -118,8 +122,8 @@ class ClosedHandLineIK(HandLineIK):
         branch = branch or {}
         branch_v = {col[j]: s for j, s in branch.items() if j in col}
         branch_w = {j: s for j, s in branch.items() if j not in col}
-        super().__init__(_IndependentJoints(mech), frame, p0, p1, q0[self._iv], tol, branch_v,
-                         mask=mask, tol_rot=tol_rot)
+        super().__init__(_IndependentJoints(mech), frame, geometry, q0[self._iv], tol, branch_v,
+                         mask=mask, tol_rot=tol_rot, orientation=orientation)
         self.tab_full = self._close(self.tab)[0]
         if not np.all(np.isfinite(self.tab_full)):
             k = int(np.flatnonzero(~np.isfinite(self.tab_full).all(axis=1))[0])
@@ -204,11 +208,12 @@ class ClosedHandLineIK(HandLineIK):
     def _task(self, q: np.ndarray, r: np.ndarray | None = None
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Hand poses (m, 4, 4), task coordinates x (m, 6) and the reduced task Jacobian
-        (m, 6, n_v) (rows that do not close: x nan, Jacobian 0). ``r`` is unused: the
-        orientation of a line is held or free, never interpolated."""
+        (m, 6, n_v) (rows that do not close: x nan, Jacobian 0); the orientation relative to
+        ``R*(r)`` (r only matters when the orientation varies)."""
         mech = self.closed_mech
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        key = (q.shape, q.tobytes())
+        varying = self._varying and r is not None
+        key = (q.shape, q.tobytes(), None if not varying else np.asarray(r, float).tobytes())
         hit = self._task_cache.get(key)
         if hit is not None:
             return tuple(a.copy() for a in hit)
@@ -225,7 +230,9 @@ class ClosedHandLineIK(HandLineIK):
             x[ok, :3] = Tk[:, :3, 3]
             A[ok, :3] = J[:, 3:]
             if self.orientation_held:
-                phi = rotation_log(Tk[:, :3, :3] @ self.R0.T)
+                ref = (np.swapaxes(self._ref(np.broadcast_to(r, (m,))[ok]), 1, 2) if varying
+                       else self.R0.T)
+                phi = rotation_log(Tk[:, :3, :3] @ ref)
                 x[ok, 3:] = phi
                 A[ok, 3:] = left_jacobian_inverse(phi) @ J[:, :3]
             else:
@@ -269,11 +276,15 @@ class ClosedHandLineIK(HandLineIK):
     def _derivatives(self, r: np.ndarray, second: bool):
         qf = self.q(r)
         qv = qf[:, self._iv]
-        f1 = self.dq_of(qv)
+        # a line with the orientation held or free: f'(q) only
+        f1 = self.dq_of(qv) if self._const_rate else self.dq_of(qv, r)
         f2 = None
         if second:
             h = FD_F2_REDUNDANT if self.redundancy else FD_F2
-            f2 = (self.dq_of(qv + h * f1) - self.dq_of(qv - h * f1)) / (2.0 * h)
+            if self._const_rate:
+                f2 = (self.dq_of(qv + h * f1) - self.dq_of(qv - h * f1)) / (2.0 * h)
+            else:
+                f2 = (self.dq_of(qv + h * f1, r + h) - self.dq_of(qv - h * f1, r - h)) / (2.0 * h)
         return qf, f1, f2
 
     def dq(self, r: np.ndarray) -> np.ndarray:
@@ -286,3 +297,13 @@ class ClosedHandLineIK(HandLineIK):
         ``f'_v``) and ``f''_w = -Phi_w^+ (Phi_v f''_v + gamma(q, f'))``."""
         qf, f1, f2 = self._derivatives(np.atleast_1d(np.asarray(r, dtype=float)), True)
         return closed_motion(self.closed_mech, qf, f1, f2).qdd
+
+
+class ClosedHandLineIK(ClosedHandPathIK):
+    """:class:`ClosedHandPathIK` on the straight line ``p0 -> p1`` (the signature of
+    :class:`~mechkin.solvers.path_ik.HandLineIK`)."""
+
+    def __init__(self, mech: Mechanism, frame: int, p0: np.ndarray, p1: np.ndarray,
+                 q0: np.ndarray, tol: float, branch: dict[int, int] | None = None,
+                 mask: Sequence[str] | None = None, tol_rot: float | None = None) -> None:
+        super().__init__(mech, frame, LineGeometry(p0, p1), q0, tol, branch, mask, tol_rot)

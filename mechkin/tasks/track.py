@@ -147,15 +147,15 @@ def hand_ik(sc: Scenario, mech: Mechanism) -> HandPathIK:
     orientation = path_orientation(sc, geometry)
     try:
         if mech.is_closed and len(mech.dependent):  # closed chain: IK in q_v, loops closed
-            if not (geometry.straight and orientation is None):
-                raise ConfigError(f"{doc.where(('track', 'path'))}: a closed chain "
-                                  f"({mech.name}) tracks straight lines only (type: line, "
-                                  "orientation fixed or free) in this release")
-            from mechkin.solvers.closed_path_ik import ClosedHandLineIK
+            from mechkin.solvers.closed_path_ik import ClosedHandLineIK, ClosedHandPathIK
 
-            return ClosedHandLineIK(mech, f, geometry.p0, geometry.p1, q0, tol, branch,
-                                    mask=path_mask(spec.path, len(mech.independent)),
-                                    tol_rot=spec.ik.orientation_tolerance)
+            cmask = path_mask(spec.path, len(mech.independent))
+            if geometry.straight and orientation is None:
+                return ClosedHandLineIK(mech, f, geometry.p0, geometry.p1, q0, tol, branch,
+                                        mask=cmask, tol_rot=spec.ik.orientation_tolerance)
+            return ClosedHandPathIK(mech, f, geometry, q0, tol, branch, mask=cmask,
+                                    tol_rot=spec.ik.orientation_tolerance,
+                                    orientation=orientation)
         if geometry.straight and orientation is None:
             return HandLineIK(mech, f, geometry.p0, geometry.p1, q0, tol, branch,
                               mask=path_mask(spec.path, mech.n),

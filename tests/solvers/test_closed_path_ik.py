@@ -24,7 +24,9 @@ from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.solvers.closed_dynamics import ClosedChainDynamics
-from mechkin.solvers.closed_path_ik import ClosedHandLineIK
+from mechkin.solvers.closed_path_ik import ClosedHandLineIK, ClosedHandPathIK
+from mechkin.solvers.path_geometry import ArcGeometry, SlerpOrientation
+from mechkin.spatial.rotations import matrix_from_rpy
 from mechkin.tasks import track
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -136,7 +138,31 @@ def _stewart_ik() -> ClosedHandLineIK:
                             mask=("x", "y", "z", "rx", "ry", "rz"), tol_rot=1e-10)
 
 
-@pytest.mark.parametrize("make", [_dd_ik, _stewart_ik], ids=["direct_drive", "stewart"])
+def _dd_arc_ik() -> ClosedHandPathIK:
+    """The direct-drive arm's tool on a horizontal arc (position only: 3 motors)."""
+    mech = load_mechanism(ROOT / "mechanisms" / "kim1995_direct_drive.yaml")
+    q0 = mech.home.copy()
+    q0[mech.independent] = np.deg2rad([20.0, 20.0, 10.0])
+    p0 = np.array([-0.28793852, -0.10480105, 0.65711504])
+    arc = ArcGeometry(p0, p0 + [-0.05, 0.15, 0.0], p0 + [0.0, 0.3, 0.0])
+    return ClosedHandPathIK(mech, mech.end_effector, arc, q0, 1e-10)
+
+
+def _stewart_arc_slerp_ik() -> ClosedHandPathIK:
+    """The Stewart plate on a vertical arc while it turns 10 deg about z and 5 deg about x
+    (slerp): the whole 6-D pose varies with r."""
+    mech = load_mechanism(ROOT / "mechanisms" / "kim1995_stewart.yaml")
+    arc = ArcGeometry(np.array([0.0, 0, 12]), np.array([1.0, 0, 12.5]), np.array([2.0, 0, 12]))
+    R0 = forward_kinematics(mech, mech.home[None]).frames(mech, [mech.end_effector])[0, 0, :3, :3]
+    R1 = matrix_from_rpy(np.deg2rad([5.0, 0.0, 10.0])) @ R0
+    slerp = SlerpOrientation(np.stack([R0, R1]), np.array([0.0, 1.0]))
+    return ClosedHandPathIK(mech, mech.end_effector, arc, mech.home, 1e-10,
+                            mask=("x", "y", "z", "rx", "ry", "rz"), tol_rot=1e-10,
+                            orientation=slerp)
+
+
+@pytest.mark.parametrize("make", [_dd_ik, _stewart_ik, _dd_arc_ik, _stewart_arc_slerp_ik],
+                         ids=["direct_drive", "stewart", "direct_drive_arc", "stewart_arc_slerp"])
 def test_closed_path_ik_closes_the_loops_and_follows_the_line(make) -> None:
     ik = make()
     mech = ik.closed_mech
