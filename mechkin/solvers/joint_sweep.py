@@ -374,8 +374,9 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         is bitwise the same as in one process except that a closure job's level batches hold
         other samples than one process's: the forward kinematics of a batch switches code
         path at :data:`mechkin.model.kinematics.LARGE_BATCH` rows, so a Newton iterate may
-        differ in the last bit (the converged joints have agreed bitwise in every test; at
-        worst they differ at round-off, 1e-15). Open chains and ``seed_from="home"``: bitwise.
+        differ in the last bit (the tests' sweeps agree bitwise; a 700 x 700 five-bar grid:
+        4e-16 in 439 of 490,000 samples, statuses and mode changes identical). Open chains
+        and ``seed_from="home"``: bitwise.
     n_jobs : int
         Evaluation jobs to aim for with ``run_jobs`` (a quarter as many closure jobs).
     mechanism : MechanismSpec, optional
