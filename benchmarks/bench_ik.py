@@ -21,10 +21,10 @@ import numpy as np
 
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import forward_kinematics
-from mechkin.solvers.ik import accel
 from mechkin.solvers.ik import (
     IkKernel,
     IkOptions,
+    accel,
     pose_errors,
     solve_ik,
     solve_ik_batch,
