@@ -13,8 +13,8 @@ scenarios/puma560_track_line.yaml (6-D path IK, orientation held; torque and vel
    N = 4000 on the same path; "equal accuracy" pairs runs on the same grid (both solve the
    same LPs). The intercept uses a part 0.1 m ahead of the hand (the scenario's part, 0.05 m
    behind, is met at r = 0.005). toppra has no intercept: it is timed on its one
-   rest-to-moving-state solve to the intercept point mechkin found (a lower bound of any toppra-based intercept, which needs a
-   root-find over such solves).
+   rest-to-moving-state solve to the intercept point mechkin found (a lower bound of any
+   toppra-based intercept, which needs a root-find over such solves).
 
 Timing: median of ``repeats`` (default 5) interleaved rounds (every method once per round);
 ratios are mechkin / toppra (below 1: mechkin faster).
