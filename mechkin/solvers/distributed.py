@@ -54,12 +54,19 @@ def trajectory_job(job: dict[str, Any]) -> ClosureResult:
 
 
 def _cat(parts: list[ClosureResult]) -> ClosureResult:
-    return ClosureResult(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
-                            for f in fields(ClosureResult)})
+    """The chunks' results end to end (optional fields, e.g. the kept kinematics, only when
+    every chunk has them)."""
+    out = {}
+    for f in fields(ClosureResult):
+        vals = [getattr(p, f.name) for p in parts]
+        out[f.name] = None if any(v is None for v in vals) else np.concatenate(vals)
+    return ClosureResult(**out)
 
 
 def _cut(r: ClosureResult, a: int) -> ClosureResult:
-    return ClosureResult(**{f.name: getattr(r, f.name)[a:] for f in fields(ClosureResult)})
+    """``r`` without its first ``a`` steps (optional fields that are None stay None)."""
+    return ClosureResult(**{f.name: None if getattr(r, f.name) is None
+                            else getattr(r, f.name)[a:] for f in fields(ClosureResult)})
 
 
 def _same(mech: Any, qa: np.ndarray, qb: np.ndarray) -> bool:
