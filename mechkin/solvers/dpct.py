@@ -447,6 +447,20 @@ class TrackLimits:
         """The limit families that are set, by name."""
         return {k: getattr(self, k) for k in _FAMILIES if getattr(self, k) is not None}
 
+    def checked(self, n: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """:meth:`families`, each with one value per joint of an ``n``-joint path.
+
+        Raises
+        ------
+        ConfigError
+            ``limits.<name>: expected n values`` for a family of another length.
+        """
+        lim = self.families()
+        for name, (lo, _) in lim.items():
+            if lo.shape != (n,):
+                raise ConfigError(f"limits.{name}: expected {n} values, got {lo.shape[0]}")
+        return lim
+
 
 @dataclass(frozen=True)
 class DPGrid:
@@ -1192,11 +1206,8 @@ def solve_conveyor_tracking(
     if N1 < 1 or N2 < 1:
         raise ConfigError(f"grid: expected N1, N2 >= 1, got {N1} x {N2}")
     limits = limits or TrackLimits()
-    lim = limits.families()
     n = dynamics.n_joints
-    for name, (lo, _) in lim.items():
-        if lo.shape != (n,):
-            raise ConfigError(f"limits.{name}: expected {n} values, got {lo.shape[0]}")
+    lim = limits.checked(n)
 
     x1 = np.linspace(0.0, 1.0, N1 + 1)
     pc = phase_coefficients(dynamics, path, x1)  # park Eq. (9)-(12) at every stage

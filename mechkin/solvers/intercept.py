@@ -290,11 +290,8 @@ def plan_track_topp(
     if limits.jerk is not None:
         raise ConfigError("planner: topp (TOPP-RA) cannot impose jerk limits (limits.jerk); "
                           "use planner dp")
-    lim = limits.families()
     n = dynamics.n_joints
-    for name, (lo, _) in lim.items():
-        if lo.shape != (n,):
-            raise ConfigError(f"limits.{name}: expected {n} values, got {lo.shape[0]}")
+    lim = limits.checked(n)
     s = np.linspace(0.0, 1.0, N + 1)
     pc = phase_coefficients(dynamics, path, s)
     grid0 = DPGrid(N1=N, N2=0, Nt=None, x2_max=0.0)
@@ -512,11 +509,8 @@ def plan_intercept_dp(
     if not 1 <= Nt <= N2:
         raise ConfigError(f"nt_fraction: N_t = {Nt} is outside 1..N2 = {N2}")
     limits = limits or TrackLimits()
-    lim = limits.families()
     n = dynamics.n_joints
-    for name, (lo, _) in lim.items():
-        if lo.shape != (n,):
-            raise ConfigError(f"limits.{name}: expected {n} values, got {lo.shape[0]}")
+    lim = limits.checked(n)
     pm = reference.motion(path)
     objective = "intercept"
     if pm.r0 >= 1.0:
