@@ -185,7 +185,7 @@ def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandPath
         objective=spec.objective, nt_fraction=grid.nt_fraction,
         x2_max=grid.x2_max if spec.objective == "time" else None, joint_names=joint_names,
         planner=spec.resolved_planner(),
-        dp=dp_options(spec.dp) if dp is None else dp,  # parkvar: track.dp / track.cases
+        dp=dp_options(spec.dp) if dp is None else dp,  # track.dp, or a case's dp
     )
 
 
@@ -268,7 +268,7 @@ def run(scenario: Scenario) -> Report:
         study_results = [res if g == spec.grid else next(solved) for g in spec.grid_study]
         study = [_grid_record(r) for r in study_results]
     cases = solve_cases(scenario, mech, res, lambda lm, dp: _solve(
-        spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # parkvar: cases
+        spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # track.cases
 
     summary: dict[str, Any] = {
         "scenario": scenario.name,
@@ -329,7 +329,7 @@ def run(scenario: Scenario) -> Report:
                       summary.get("reference"),
                       (p0, p1) if ik.geometry.straight else tuple(ik.hand(np.linspace(0, 1, 129))),
                       ref)
-        rec.cases = case_traces(cases)  # parkvar: overlays of park Figs. 5-8
+        rec.cases = case_traces(cases)  # overlays of park Figs. 5-8
         rec.hand_frame = mech.frame_names[ik.f]
         if mech.is_closed and len(mech.dependent):  # the motors' panels, not 30 zero torques
             rec.actuated = [int(j) for j in mech.independent]
@@ -365,7 +365,7 @@ def _record(scenario: Scenario, mech: Mechanism, res: TrackResult, others: list[
         kin = forward_kinematics(mech, traj.q)
         fname = spec.path.frame
         f = mech.frame_index(fname) if fname is not None else int(mech.end_effector)
-        rec.hand_T = kin.frames(mech, f)  # parkvar: the hand triads of path_3d.png
+        rec.hand_T = kin.frames(mech, f)  # the hand triads of path_3d.png
         rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child = \
             frame_tree(mech, kin)
         rec.segments = skeleton_segments(mech, kin)
