@@ -968,6 +968,29 @@ def _usage_interval(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
     return np.max(np.where(np.isnan(x), -np.inf, u), axis=0)
 
 
+
+def limit_usage(values: dict[str, np.ndarray], lim: dict[str, tuple[np.ndarray, np.ndarray]],
+                extra: dict[str, float] | None = None
+                ) -> tuple[dict[str, float], bool, tuple[str, ...]]:
+    """Usage of every limit by the realised values (``values[name] (K, n)``; families without
+    values are skipped): ``{"torque_1": u, ...}`` (1 = at the limit; joint positions by
+    :func:`_usage_interval`, the others by :func:`_usage`), merged by maximum with ``extra``
+    (another planner's own usage), whether all hold (within ``LIMIT_RTOL``) and the active
+    ones (used to at least ``ACTIVE_FRACTION``)."""
+    extra = extra or {}
+    usage: dict[str, float] = {}
+    for name, (lo, hi) in lim.items():
+        if name not in values:
+            continue
+        use = _usage_interval if name == "q" else _usage
+        for k, u in enumerate(use(values[name], lo, hi)):
+            key = f"{name}_{k + 1}"
+            usage[key] = max(float(u), extra.get(key, 0.0))
+    ok = all(u <= 1.0 + LIMIT_RTOL for u in usage.values())
+    active = tuple(k for k, u in usage.items() if u >= ACTIVE_FRACTION)
+    return usage, ok, active
+
+
 def _position_block(
     pc: PhaseCoefficients, q_lim: tuple[np.ndarray, np.ndarray]
 ) -> tuple[int, list[int]] | None:
@@ -1302,13 +1325,7 @@ def solve_conveyor_tracking(
               "q": traj.q}
     if jerk_start is not None:  # the step from rest (DPOptions.jerk_ends), also without a wait
         values["jerk"] = np.vstack([jerk_start[None, :], traj.jerk])
-    usage: dict[str, float] = {}
-    for name, (lo, hi) in lim.items():
-        use = _usage_interval if name == "q" else _usage
-        for k, u in enumerate(use(values[name], lo, hi)):
-            usage[f"{name}_{k + 1}"] = float(u)
-    limits_ok = all(u <= 1.0 + LIMIT_RTOL for u in usage.values())
-    active = tuple(k for k, u in usage.items() if u >= ACTIVE_FRACTION)
+    usage, limits_ok, active = limit_usage(values, lim)
     peak_idx = np.argmax(np.abs(traj.torque), axis=0)
     peak = traj.torque[peak_idx, np.arange(n)]
 

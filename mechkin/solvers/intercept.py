@@ -75,7 +75,6 @@ import numpy as np
 from mechkin.errors import ConfigError
 from mechkin.records.track import TrackTrajectory
 from mechkin.solvers.dpct import (
-    ACTIVE_FRACTION,
     LIMIT_RTOL,
     ConveyorReference,
     DPGrid,
@@ -85,8 +84,7 @@ from mechkin.solvers.dpct import (
     TrackStatus,
     _describe,
     _position_block,
-    _usage,
-    _usage_interval,
+    limit_usage,
     position_limit_message,
 )
 from mechkin.solvers.dynamics import InverseDynamics
@@ -202,16 +200,7 @@ def _usage_of(traj: TrackTrajectory, lim: dict[str, tuple[np.ndarray, np.ndarray
     """Limit usage at the nodes (as the DP reports it), merged with TOPP-RA's own usage of the
     moving segment (``extra``: its interpolation rows too)."""
     values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "q": traj.q}
-    usage: dict[str, float] = {}
-    for name, (lo, hi) in lim.items():
-        if name not in values:
-            continue
-        use = _usage_interval if name == "q" else _usage
-        for k, u in enumerate(use(values[name], lo, hi)):
-            usage[f"{name}_{k + 1}"] = max(float(u), extra.get(f"{name}_{k + 1}", 0.0))
-    ok = all(u <= 1.0 + LIMIT_RTOL for u in usage.values())
-    active = tuple(k for k, u in usage.items() if u >= ACTIVE_FRACTION)
-    return usage, ok, active
+    return limit_usage(values, lim, extra)
 
 
 def _infeasible(message: str, objective: str, grid: DPGrid, t0: float,
@@ -682,13 +671,7 @@ def plan_intercept_dp(
     traj = _dp_trajectory(rows, path, t, rd, pm.ra, wait > 1e-12, reference)
     values = {"torque": traj.torque, "qd": traj.qd, "qdd": traj.qdd, "jerk": traj.jerk,
               "q": traj.q}
-    usage: dict[str, float] = {}
-    for name, (lo, hi) in lim.items():
-        use = _usage_interval if name == "q" else _usage
-        for j, u in enumerate(use(values[name], lo, hi)):
-            usage[f"{name}_{j + 1}"] = float(u)
-    ok = all(u <= 1.0 + LIMIT_RTOL for u in usage.values())
-    active = tuple(nm for nm, u in usage.items() if u >= ACTIVE_FRACTION)
+    usage, ok, active = limit_usage(values, lim)
     peak = traj.torque[np.argmax(np.abs(traj.torque), axis=0), np.arange(n)]
     where = "ahead of" if pm.r0 > 0 else "behind"
     msg = (f"ok: intercepts the part at t_a = {t_a:.4g} s on the {N1}x{N2} grid (r = "
