@@ -14,6 +14,7 @@ from mechkin.cli.app import app
 from mechkin.config.scenario import load_scenario
 from mechkin.io.csv_out import read_csv
 from mechkin.tasks.track import run
+from tests.scenario_copy import local_scenario as _local
 
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "scenarios"
@@ -22,18 +23,6 @@ PARK = ["park_conveyor_none", "park_conveyor_torque", "park_conveyor_full", "par
         "park_time_optimal_torque", "park_time_optimal_full"]
 KEYS = {"status", "message", "t_a_s", "peak_torque", "duration_s", "limits_ok", "active_limits",
         "grid", "solve_time_s", "files", "limit_usage"}
-
-
-def _local(tmp_path: Path, name: str, *edits: tuple[str, str]) -> Path:
-    """A copy of a bundled scenario with its mechanism path made absolute, and text edits."""
-    s = (SCEN / f"{name}.yaml").read_text()
-    s = s.replace("../mechanisms/", f"{ROOT / 'mechanisms'}/")
-    for a, b in edits:
-        assert a in s, a
-        s = s.replace(a, b)
-    p = tmp_path / f"{name}.yaml"
-    p.write_text(s)
-    return p
 
 
 def _mcap(path: Path):

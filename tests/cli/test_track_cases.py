@@ -10,20 +10,11 @@ import pytest
 from typer.testing import CliRunner
 
 from mechkin.cli.app import app
+from tests.scenario_copy import local_scenario as _local
 
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "scenarios"
 runner = CliRunner()
-
-
-def _local(tmp_path: Path, name: str, *edits: tuple[str, str]) -> Path:
-    s = (SCEN / f"{name}.yaml").read_text().replace("../mechanisms/", f"{ROOT / 'mechanisms'}/")
-    for a, b in edits:
-        assert a in s, a
-        s = s.replace(a, b)
-    p = tmp_path / f"{name}.yaml"
-    p.write_text(s)
-    return p
 
 
 @pytest.fixture(scope="module")

@@ -17,22 +17,12 @@ from mechkin.io.csv_out import read_csv
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.spatial.rotations import matrix_from_rpy, rotation_log
+from tests.scenario_copy import local_scenario as _local
 
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "scenarios"
 runner = CliRunner()
 DEG = np.pi / 180.0
-
-
-def _local(tmp_path: Path, name: str, *edits: tuple[str, str]) -> Path:
-    s = (SCEN / f"{name}.yaml").read_text()
-    s = s.replace("../mechanisms/", f"{ROOT / 'mechanisms'}/")
-    for a, b in edits:
-        assert a in s, a
-        s = s.replace(a, b)
-    p = tmp_path / f"{name}.yaml"
-    p.write_text(s)
-    return p
 
 
 def _run(tmp_path: Path, p: Path, *extra: str):

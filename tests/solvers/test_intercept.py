@@ -24,6 +24,7 @@ from mechkin.solvers.path import PlanarTwoLinkLinePath, phase_coefficients
 from mechkin.solvers.result import Status
 from mechkin.solvers.topp import plan_time_optimal
 from mechkin.solvers.track_plan import plan_track as solve_conveyor_tracking
+from tests.scenario_copy import local_scenario as _local
 
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "scenarios"
@@ -239,17 +240,6 @@ def test_rest_to_moving_state_matches_toppra(sd_end: float) -> None:
 
 
 # --- through the task -------------------------------------------------------------------------
-
-
-def _local(tmp_path: Path, name: str, *edits: tuple[str, str]) -> Path:
-    s = (SCEN / f"{name}.yaml").read_text()
-    s = s.replace("../mechanisms/", f"{ROOT / 'mechanisms'}/")
-    for a, b in edits:
-        assert a in s, a
-        s = s.replace(a, b)
-    p = tmp_path / f"{name}.yaml"
-    p.write_text(s)
-    return p
 
 
 def test_time_objective_through_the_task_auto_is_topp(tmp_path: Path) -> None:
