@@ -165,6 +165,17 @@ def _bad_names(masks: dict[str, np.ndarray], rows: np.ndarray | slice) -> list[s
     return names
 
 
+def _with_wait(r0: float, g0: np.ndarray, t: np.ndarray, r: np.ndarray, rd: np.ndarray,
+               rdd: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+               jerk: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The samples with a first one at ``t = 0``: the hand at rest at ``r0`` during the wait
+    before the start, holding the torque ``g0 (n,)`` (jerk undefined across the wait)."""
+    return (np.append(0.0, t), np.append(r0, r), np.append(0.0, rd), np.append(0.0, rdd),
+            np.vstack([q[:1], q]), np.vstack([np.zeros_like(qd[:1]), qd]),
+            np.vstack([np.zeros_like(qdd[:1]), qdd]),
+            np.vstack([np.full_like(jerk[:1], np.nan), jerk]), np.vstack([g0[None], torque]))
+
+
 def _trajectory(nd: _Nodes, t: np.ndarray, rd: np.ndarray, rdd: np.ndarray, wait: bool,
                 path: JointPath, reference: ConveyorReference | None) -> TrackTrajectory:
     """The trajectory at the nodes (module docstring): ``rdd`` of the segment leaving each."""
@@ -178,15 +189,8 @@ def _trajectory(nd: _Nodes, t: np.ndarray, rd: np.ndarray, rdd: np.ndarray, wait
         jerk[:-1] = np.where(dt[:, None] > 0, np.diff(qdd, axis=0) / dt[:, None], np.nan)
     r = nd.r.copy()
     if wait:  # the hand waits at rest at r = 0 (holding: torque g, checked by the caller)
-        t = np.append(0.0, t)
-        r = np.append(r[0], r)
-        rd = np.append(0.0, rd)
-        rdd = np.append(0.0, rdd)
-        q = np.vstack([q[:1], q])
-        qd = np.vstack([np.zeros_like(qd[:1]), qd])
-        qdd = np.vstack([np.zeros_like(qdd[:1]), qdd])
-        jerk = np.vstack([np.full_like(jerk[:1], np.nan), jerk])
-        torque = np.vstack([nd.g[:1], torque])
+        t, r, rd, rdd, q, qd, qdd, jerk, torque = _with_wait(
+            r[0], nd.g[0], t, r, rd, rdd, q, qd, qdd, jerk, torque)
     hand = path.hand(r)
     part = err = None
     if reference is not None:
@@ -718,15 +722,8 @@ def _dp_trajectory(pc: PhaseCoefficients, path: JointPath, t: np.ndarray, rd: np
     jerk[:-2] = (qdd[1:-1] - qdd[:-2]) / dt[:-1, None]  # park Eq. (33)
     torque = pc.torque(rd, rdd)  # park Eq. (12)
     if wait:
-        t = np.append(0.0, t)
-        r = np.append(0.0, r)
-        rd = np.append(0.0, rd)
-        rdd = np.append(0.0, rdd)
-        q = np.vstack([q[:1], q])
-        qd = np.vstack([np.zeros_like(qd[:1]), qd])
-        qdd = np.vstack([np.zeros_like(qdd[:1]), qdd])
-        jerk = np.vstack([np.full_like(jerk[:1], np.nan), jerk])
-        torque = np.vstack([pc.g[:1], torque])
+        t, r, rd, rdd, q, qd, qdd, jerk, torque = _with_wait(
+            0.0, pc.g[0], t, r, rd, rdd, q, qd, qdd, jerk, torque)
     hand = path.hand(r)
     part = reference.position(t)
     return TrackTrajectory(t, r, rd, rdd, q, qd, qdd, jerk, torque, hand, part, hand - part)
