@@ -34,6 +34,9 @@ sys.path.insert(0, str(ROOT))
 from mechkin.model import load_mechanism  # noqa: E402
 from mechkin.model.kinematics import forward_kinematics, frame_poses  # noqa: E402
 
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from speed_table import FK100K  # noqa: E402  (the same CLI fk motion as the speed table)
+
 RTB_WORKER = r"""
 import sys, time, json
 import numpy as np
@@ -92,21 +95,7 @@ def _once(fn) -> float:
 
 def _cli_fk(mech_path: Path, steps: int, tmp: Path) -> tuple[float, dict]:
     sc = tmp / "puma_fk_100k.yaml"
-    sc.write_text(f"""name: puma_fk_bench
-task: fk
-mechanism: {mech_path}
-units: {{length: m, angle: deg}}
-fk:
-  time: {{start: 0, stop: {(steps - 1) * 0.001:.3f}, step: 0.001}}
-  motion:
-    q1: {{type: sinusoid, amplitude: 60, frequency: 0.25}}
-    q2: {{type: sinusoid, offset: 90, amplitude: 20, frequency: 0.5}}
-    q3: {{type: sinusoid, offset: -90, amplitude: 30, frequency: 0.5, phase: 90}}
-    q4: {{type: ramp, from: 0, to: 90}}
-    q5: {{type: sinusoid, amplitude: 45, frequency: 1}}
-    q6: {{type: constant, value: 0}}
-outputs: {{csv: true, plots: false, mcap: false}}
-""")
+    sc.write_text(FK100K.format(mech=mech_path, stop=(steps - 1) * 0.001))
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "mechkin", "fk", str(sc), "-o", str(tmp / "out")],
