@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from mechkin.config.load import YamlDoc, read_yaml, short, short_str, short_tail
 from mechkin.config.schema import Name, Num, PosNum, Spec, Units, Vec3, validate_model
@@ -148,9 +148,31 @@ class FkSpec(Spec):
 
 
 class OutputsSpec(Spec):
+    """What a run writes: CSV tables (``csv``), PNG plots (``plots``), an MCAP log (``mcap``);
+    ``table`` is the format of the tables: ``csv`` (text, the default), ``npz`` (numpy, one
+    array per column) or ``parquet`` (needs pyarrow: ``pip install "mechkin[parquet]"``)."""
+
     csv: bool = True
     plots: bool = True
     mcap: bool = True
+    table: Literal["csv", "npz", "parquet"] = Field(
+        "csv", description="format of the tables: csv (text), npz (numpy arrays, one per CSV "
+        "column, same names) or parquet (needs pyarrow)")
+
+    @field_validator("table")
+    @classmethod
+    def _table_writer_installed(cls, v: str) -> str:
+        if v == "parquet":
+            import importlib.util
+
+            try:
+                found = importlib.util.find_spec("pyarrow") is not None
+            except (ImportError, ValueError, AttributeError):
+                found = False
+            if not found:
+                raise ValueError('parquet tables need pyarrow, which is not installed: pip '
+                                 'install "mechkin[parquet]" (or use table: npz)')
+        return v
 
 
 class ExpectSpec(Spec):

@@ -1,4 +1,5 @@
-"""The files of a motion record (fk steps, ik targets): ``<task>.csv``, ``joints.png``,
+"""The files of a motion record (fk steps, ik targets): ``<task>.csv`` (or ``<task>.npz`` /
+``<task>.parquet``, ``outputs.table``: :mod:`mechkin.io.table_out`), ``joints.png``,
 ``stick.png``, ``convergence.png`` (ik), ``<task>.mcap`` and its Foxglove layout
 ``<task>.layout.json``.
 
@@ -6,7 +7,7 @@ fk's ``joints.png`` draws the joints against time; ik's draws them per target (a
 the target names, with the position and orientation errors below), since ik targets are not a
 trajectory. ``/mechkin/state`` has one fixed JSON schema per task (:func:`state_schema`).
 
-Imports: records (types), io.mcap_out, io.foxglove_layout, io.plots (lazily).
+Imports: records (types), io.table_out, io.mcap_out, io.foxglove_layout, io.plots (lazily).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 from mechkin.io.foxglove_layout import layout, state_path
 from mechkin.io.mcap_out import Lines, MotionLog, Scene, Spheres, write_mcap
 from mechkin.io.output_dir import OutputDir
+from mechkin.io.table_out import write_table
 from mechkin.records import MotionRecord, Report
 
 
@@ -104,8 +106,8 @@ def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog
 def write(od: OutputDir, report: Report, plots: bool) -> None:
     rec: MotionRecord = report.data
     outs = report.outputs
-    if outs.csv:
-        od.write_csv(f"{rec.task}.csv", rec.columns)
+    if outs.csv:  # the table: <task>.csv, or .npz / .parquet (outputs.table)
+        write_table(od, rec.task, rec.columns, getattr(outs, "table", rec.table))
     if plots and outs.plots:
         write_plots(od, rec)
     if outs.mcap:

@@ -57,6 +57,9 @@ class MotionRecord:
         transform world -> ``frame_root``.
     T_world_base : array (m, 4, 4), optional
         The base pose in the world frame at each configuration.
+    table : str
+        Format of the ``<task>`` table: ``csv`` (``<task>.csv``), ``npz`` or ``parquet``
+        (``outputs.table``; :mod:`mechkin.io.table_out`).
     """
 
     task: str
@@ -85,3 +88,4 @@ class MotionRecord:
     targets: np.ndarray | None = None
     world_frame: str | None = None
     T_world_base: np.ndarray | None = None
+    table: str = "csv"

@@ -42,6 +42,13 @@ from mechkin.tasks.common import (
     with_expect,
 )
 from mechkin.tasks.fk_base import base_into_record, base_into_summary, base_trajectory
+from mechkin.tasks.fk_batch import (
+    is_open_chain,
+    label_counts,
+    open_chain_derivatives,
+    singular_masks,
+    status_values,
+)
 
 # CSV column suffixes of joint values and their SI factors
 SUFFIX_TO_SI = {k: UNIT_TO_SI[k] for k in ("rad", "deg", "m", "mm")}
@@ -294,17 +301,23 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(t))
     # overflow (e.g. legs driven to 1e300 m) is a solver failure, never inf in a file
     phin = np.nan_to_num(phin, nan=np.finfo(float).max, posinf=np.finfo(float).max)
-    status = [s.value for s in res.status]
+    status, by_status = status_values(res.status, ClosureStatus)
+    conv = by_status[ClosureStatus.CONVERGED]
+    counts = {s.value: int(by_status[s].sum()) for s in ClosureStatus}
     t1 = time.perf_counter()
     ee = [int(mech.end_effector)] if mech.end_effector is not None else []
-    q_ok = np.where(res.ok[:, None], res.q, np.nan)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
+        if is_open_chain(mech) and conv.all() and np.isfinite(res.q).all():
+            # every step converged by construction: the same numbers from the run's own FK
+            md = open_chain_derivatives(mech, kin, qd_v, qdd_v, ee)
+        else:
+            q_ok = np.where(conv[:, None], res.q, np.nan)
+            md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
     rates_s = time.perf_counter() - t1
     sing = md.singularity
-    n_ok = int(sum(s is ClosureStatus.CONVERGED for s in res.status))
+    n_ok = int(conv.sum())
     overall = "ok" if n_ok == len(t) else next(
-        s for s in ("singular", "not converged") if s in status)
+        s for s in ("singular", "not converged") if counts.get(s))
     lim_lo = res.q < mech.lower - 1e-9
     lim_hi = res.q > mech.upper + 1e-9
     outside = sorted({mech.joint_names[j] for j in np.flatnonzero((lim_lo | lim_hi).any(0))})
@@ -314,9 +327,8 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         "mechanism": mech.name,
         "status": overall,
         "n_steps": len(t),
-        "steps": {s: status.count(s) for s in ("converged", "not converged", "singular")},
-        "first_failure_step": None if n_ok == len(t) else int(
-            next(i for i, s in enumerate(res.status) if s is not ClosureStatus.CONVERGED)),
+        "steps": {s: counts.get(s, 0) for s in ("converged", "not converged", "singular")},
+        "first_failure_step": None if n_ok == len(t) else int(np.flatnonzero(~conv)[0]),
         "closure": {
             "n_cuts": mech.n_cuts,
             "n_equations": mech.n_equations,
@@ -346,11 +358,15 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     checks = with_expect(summary, scenario)
     extra = rate_columns(mech, md, ee)
     extra.update(singularity_columns(sing))
-    state = [{"singularity": str(sing.label[k]),
-              "cond_constraint": _finite(sing.cond_constraint[k]),
-              "cond_reduced": _finite(sing.cond_reduced[k])} for k in range(len(t))]
+    state = None
+    if scenario.spec.outputs.mcap:  # /mechkin/state messages: only for an MCAP
+        state = [{"singularity": lab, "cond_constraint": cc, "cond_reduced": cr}
+                 for lab, cc, cr in zip(extra["singularity"],
+                                        extra["cond_constraint"].tolist(),
+                                        extra["cond_reduced"].tolist(), strict=True)]
     rec = motion_record(scenario=scenario, mech=mech, kin=kin, times=t, step_status=status,
                         residual=phin, task="fk", extra_columns=extra, extra_state=state)
+    rec.table = scenario.spec.outputs.table
     rec.qd = np.nan_to_num(md.qd, nan=0.0)
     if base is not None:
         base_into_record(base, rec, T_e=kin.frames(mech, ee)[:, 0] if ee else None,
@@ -490,17 +506,15 @@ def singularity_columns(sing: Any) -> dict[str, Any]:
 
     return {"cond_constraint": finite(sing.cond_constraint),
             "cond_reduced": finite(sing.cond_reduced),
-            "singularity": [str(x) for x in sing.label]}
+            "singularity": list(map(str, sing.label))}
 
 
 def singularity_summary(sing: Any, t: np.ndarray) -> dict[str, Any]:
     """Counts of each class, the worst condition numbers and the first singular / near step."""
-    labels = [str(x) for x in sing.label]
-    counts: dict[str, int] = {}
-    for lab in labels:
-        counts[lab] = counts.get(lab, 0) + 1
-    singular = np.flatnonzero(np.asarray(sing.singular, bool))
-    near = np.flatnonzero(np.asarray(sing.near, bool) & ~np.asarray(sing.singular, bool))
+    counts = label_counts(sing.label)
+    is_singular, is_near = singular_masks(sing)
+    singular = np.flatnonzero(is_singular)
+    near = np.flatnonzero(is_near)
 
     def worst(c: np.ndarray) -> float | None:
         c = np.asarray(c, float)

@@ -1,0 +1,179 @@
+"""`mechkin fk` of a long PUMA run through the CLI against the batched API (issue 15).
+
+Run: ``python benchmarks/bench_cli_fk.py [--steps 100000] [--rounds 3]``.
+
+The scenario is FK100K of benchmarks/speed_table.py (a PUMA 560 motion of ``--steps`` steps,
+CSV on, plots and MCAP off), written three times with ``outputs.table`` csv / npz / parquet.
+Each round runs, interleaved: the three CLI calls (wall of the whole process), ``python -m
+mechkin --version`` (the fixed cost of one call: interpreter, imports, typer), and the batched
+API ``frame_poses(puma, q, [ee])`` on the same configurations in this process. Reported:
+medians, the ratio CLI / API of the whole wall, and of the wall minus the ``--version`` start-up
+(both honestly: the API's time is below the interpreter's start-up).
+
+Then a breakdown of one CLI run, in this process, each part timed alone (medians of the rounds):
+scenario load, motion (the independent joints and their rates), FK (all links), rates (joint
+rates, twists and accelerations of the end effector), singularity (reduced Jacobian, batched
+SVD, classes), records (the rest of ``tasks.fk.run``: summary, columns), and each table writer
+(csv / npz / parquet, to a temporary folder, with the atomic write's fsync for csv as the CLI).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics as st
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from mechkin.config.scenario import load_scenario  # noqa: E402
+from mechkin.model import load_mechanism  # noqa: E402
+from mechkin.model.kinematics import forward_kinematics, frame_poses  # noqa: E402
+
+#: The FK100K scenario of benchmarks/speed_table.py, with the table format as a parameter.
+SCENARIO = """name: puma_fk_100k
+task: fk
+mechanism: {mech}
+units: {{length: m, angle: deg}}
+fk:
+  time: {{start: 0, stop: {stop:.3f}, step: 0.001}}
+  motion:
+    q1: {{type: sinusoid, amplitude: 60, frequency: 0.25}}
+    q2: {{type: sinusoid, offset: 90, amplitude: 20, frequency: 0.5}}
+    q3: {{type: sinusoid, offset: -90, amplitude: 30, frequency: 0.5, phase: 90}}
+    q4: {{type: ramp, from: 0, to: 90}}
+    q5: {{type: sinusoid, amplitude: 45, frequency: 1}}
+    q6: {{type: constant, value: 0}}
+outputs: {{csv: true, plots: false, mcap: false, table: {table}}}
+"""
+
+
+def wall(cmd: list[str], env: dict[str, str]) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t0
+
+
+def timed(fn) -> tuple[float, object]:
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
+
+
+def breakdown(path: Path, tmp: Path) -> dict[str, float]:
+    """One in-process fk run cut into its parts (each timed alone)."""
+    from mechkin.io.atomic import atomic_write_text
+    from mechkin.io.csv_out import format_csv
+    from mechkin.io.table_out import write_table_file
+    from mechkin.model.reduced import reduced_jacobian
+    from mechkin.model.singularity import _cond_cols, reduced_scaling, resolve_length_scale
+    from mechkin.tasks import fk as fk_task
+    from mechkin.tasks.fk_batch import open_chain_derivatives
+
+    out: dict[str, float] = {}
+    out["scenario load"], sc = timed(lambda: load_scenario(path))
+    mech = load_mechanism(sc.mechanism_path)
+    out["motion"], (t, qv, qd, qdd) = timed(lambda: fk_task.independent_motion_rates(sc, mech))
+    q = mech.assemble(qv, np.zeros((len(t), 0)))
+    out["FK (all links)"], kin = timed(lambda: forward_kinematics(mech, q))
+    ee = [int(mech.end_effector)]
+    out["rates + singularity"], _ = timed(
+        lambda: open_chain_derivatives(mech, kin, qd, qdd, ee))
+
+    def sing() -> None:
+        Jr = reduced_jacobian(mech, q, ee[0], kin=kin)
+        row, col = reduced_scaling(mech, resolve_length_scale(mech, None))
+        _cond_cols(np.linalg.svd(Jr * row[None, :, None] * col[None, None, :],
+                                 compute_uv=False), 6)
+
+    out["  of which singularity (J_r, SVD)"], _ = timed(sing)
+    out["tasks.fk.run (all of the above)"], rep = timed(lambda: fk_task.run(sc))
+    out["records (run - parts)"] = (out["tasks.fk.run (all of the above)"] - out["motion"]
+                                    - out["FK (all links)"] - out["rates + singularity"])
+    cols = rep.data.columns
+    out["csv text (format_csv)"], text = timed(lambda: format_csv(cols))
+    out["csv write (encode + fsync)"], _ = timed(
+        lambda: atomic_write_text(tmp / "fk.csv", text))
+    out["npz writer"], _ = timed(lambda: write_table_file(tmp / "fk.npz", cols, "npz"))
+    try:
+        import pyarrow  # noqa: F401
+
+        out["parquet writer"], _ = timed(
+            lambda: write_table_file(tmp / "fk.parquet", cols, "parquet"))
+    except ImportError:
+        pass
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--steps", type=int, default=100_000)
+    ap.add_argument("--rounds", type=int, default=3)
+    a = ap.parse_args()
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    py = sys.executable
+    puma = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
+    ee = [int(puma.end_effector)]
+    with tempfile.TemporaryDirectory() as td:
+        tmp = Path(td)
+        tables = ["csv", "npz"]
+        try:
+            import pyarrow  # noqa: F401
+
+            tables.append("parquet")
+        except ImportError:
+            print("pyarrow not installed: no parquet rows")
+        paths = {}
+        for tab in tables:
+            paths[tab] = tmp / f"fk_{tab}.yaml"
+            paths[tab].write_text(SCENARIO.format(mech=ROOT / "mechanisms" / "puma560.yaml",
+                                                  stop=(a.steps - 1) * 0.001, table=tab))
+        from mechkin.tasks.fk import independent_motion
+
+        _, qv = independent_motion(load_scenario(paths["csv"]), puma)
+        q_all = puma.assemble(qv, np.zeros((len(qv), 0)))
+        frame_poses(puma, q_all, ee)  # warm (path plan)
+        cmds = {tab: [py, "-m", "mechkin", "fk", str(p), "--no-plots", "-o",
+                      str(tmp / f"out_{tab}")] for tab, p in paths.items()}
+        version = [py, "-m", "mechkin", "--version"]
+        wall(cmds["csv"], env)  # warm the file cache
+        T: dict[str, list[float]] = {k: [] for k in [*tables, "start-up", "API"]}
+        parts: dict[str, list[float]] = {}
+        for _ in range(a.rounds):
+            for tab in tables:
+                T[tab].append(wall(cmds[tab], env))
+            T["start-up"].append(wall(version, env))
+            T["API"].append(timed(lambda: frame_poses(puma, q_all, ee))[0])
+            for k, v in breakdown(paths["csv"], tmp).items():
+                parts.setdefault(k, []).append(v)
+        med = {k: st.median(v) for k, v in T.items()}
+        api, start = med["API"], med["start-up"]
+        print(f"mechkin fk of {a.steps:,} PUMA configurations, {a.rounds} interleaved rounds "
+              f"(medians; load average at the end {os.getloadavg()[0]:.2f})")
+        print(f"  batched API frame_poses: {api:.4f} s; `python -m mechkin --version`: "
+              f"{start:.3f} s")
+        print("  | table | CLI wall [s] | CLI / API | (CLI - start-up) / API | rounds |")
+        print("  |---|---|---|---|---|")
+        for tab in tables:
+            w = med[tab]
+            print(f"  | {tab} | {w:.3f} | {w / api:.1f} | {(w - start) / api:.1f} | "
+                  f"{', '.join(f'{x:.2f}' for x in T[tab])} |")
+        print("  breakdown of one run (in process, each part alone, medians) [s]:")
+        for k, v in parts.items():
+            print(f"    {k:36s} {st.median(v):8.3f}")
+        sizes = {tab: sum(f.stat().st_size for f in (tmp / f"out_{tab}").iterdir()
+                          if f.name.startswith("fk.")) for tab in tables}
+        print("  table file sizes: " + ", ".join(f"{k} {v / 1e6:.1f} MB"
+                                                 for k, v in sizes.items()))
+
+
+if __name__ == "__main__":
+    main()
