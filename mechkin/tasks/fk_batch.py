@@ -133,6 +133,52 @@ def open_chain_derivatives(mech: Mechanism, kin: Kinematics, qd_v: np.ndarray,
     qd_v = np.broadcast_to(np.asarray(qd_v, dtype=np.float64), (m, len(iv)))
     qdd_v = np.broadcast_to(np.asarray(qdd_v, dtype=np.float64), (m, len(iv)))
     L = resolve_length_scale(mech, length_scale)
+    if m <= RATE_CHUNK:
+        return _open_chunk(mech, kin, qd_v, qdd_v, idx, L, tol_singular, tol_near)
+    axes = kin.__dict__.get("_axes")
+    parts = []
+    for i in range(0, m, RATE_CHUNK):
+        j = min(i + RATE_CHUNK, m)
+        k = Kinematics(q=q[i:j], T_links=kin.T_links[i:j], mech=mech)
+        if axes is not None:
+            object.__setattr__(k, "_axes", (axes[0][i:j], axes[1][i:j]))
+        parts.append(_open_chunk(mech, k, qd_v[i:j], qdd_v[i:j], idx, L, tol_singular,
+                                 tol_near))
+    return _concat(parts)
+
+
+#: Samples per chunk of :func:`open_chain_derivatives` (the intermediates, (chunk, links, 6)
+#: and (chunk, joints, 4, 4) arrays, stay in cache). Every operation is per sample (elementwise
+#: products, one small matrix product or SVD per sample), so the numbers do not depend on it.
+RATE_CHUNK = 8192
+
+
+def _concat(parts: list[MotionDerivatives]) -> MotionDerivatives:
+    """One MotionDerivatives of consecutive chunks (sample axis first)."""
+    import dataclasses
+
+    def cat(objs, name):
+        return np.concatenate([getattr(o, name) for o in objs])
+
+    first, sings = parts[0], [p.singularity for p in parts]
+    sing = dataclasses.replace(
+        sings[0], **{f: cat(sings, f) for f in ("cond_constraint", "cond_reduced",
+                                                 "constraint_level", "inverse_level", "kind",
+                                                 "label", "phi_w")})
+    return dataclasses.replace(
+        first, **{f: cat(parts, f) for f in ("q", "qd", "qdd", "S", "gamma",
+                                             "closure_rate_residual", "closure_accel_residual",
+                                             "twists", "accelerations", "positions")},
+        singularity=sing)
+
+
+def _open_chunk(mech: Mechanism, kin: Kinematics, qd_v: np.ndarray, qdd_v: np.ndarray,
+                idx: np.ndarray, L: float, tol_singular: float | None,
+                tol_near: float | None) -> MotionDerivatives:
+    """:func:`open_chain_derivatives` of one chunk."""
+    q = kin.q
+    m = q.shape[0]
+    iv = mech.independent
     empty_w = np.zeros((m, 0))
     qd = mech.assemble(qd_v, empty_w)
     qdd = mech.assemble(qdd_v, empty_w)
