@@ -56,11 +56,25 @@ outputs: {{csv: true, plots: false, mcap: false, table: {table}}}
 """
 
 
-def wall(cmd: list[str], env: dict[str, str]) -> float:
+#: CPU seconds (user + sys) of the last child run by :func:`wall`, per command label
+CPU: dict[str, list[float]] = {}
+
+
+def wall(cmd: list[str], env: dict[str, str], label: str | None = None) -> float:
+    """Wall time of one run of ``cmd`` (cwd: a temporary folder, so ``python -m mechkin``
+    imports the tree on ``PYTHONPATH``, not the current directory); its CPU time (user + sys,
+    less sensitive to other processes on a shared machine) is kept in :data:`CPU`."""
     t0 = time.perf_counter()
-    subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.DEVNULL)
-    return time.perf_counter() - t0
+    proc = subprocess.Popen(cmd, env=env, cwd=tempfile.gettempdir(),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    _, status, ru = os.wait4(proc.pid, 0)
+    dt = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode not in (0, 1):
+        raise RuntimeError(f"{cmd}: exit {proc.returncode}")
+    if label is not None:
+        CPU.setdefault(label, []).append(ru.ru_utime + ru.ru_stime)
+    return dt
 
 
 def timed(fn) -> tuple[float, object]:
@@ -118,6 +132,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--steps", type=int, default=100_000)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="another mechkin source tree (e.g. `git archive` of an older commit) "
+                    "whose `mechkin fk` (csv) is timed in the same rounds")
     a = ap.parse_args()
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
     py = sys.executable
@@ -152,12 +169,22 @@ def main() -> None:
                   f"load_mechanism(load_scenario({str(paths['csv'])!r}).mechanism_path)"]
         wall(cmds["csv"], env)  # warm the file cache
         T: dict[str, list[float]] = {k: [] for k in [*tables, "start-up", "loaded", "API"]}
+        base_env = None
+        if a.baseline is not None:
+            base_env = dict(env, PYTHONPATH=str(a.baseline.resolve()))
+            T["baseline csv"] = []
+            base_cmd = [py, "-m", "mechkin", "fk", str(tmp / "fk_base.yaml"), "--no-plots",
+                        "-o", str(tmp / "out_base")]
+            (tmp / "fk_base.yaml").write_text(paths["csv"].read_text().replace(
+                ", table: csv", ""))
         parts: dict[str, list[float]] = {}
         for _ in range(a.rounds):
             for tab in tables:
-                T[tab].append(wall(cmds[tab], env))
-            T["start-up"].append(wall(version, env))
-            T["loaded"].append(wall(loaded, env))
+                T[tab].append(wall(cmds[tab], env, tab))
+            if base_env is not None:
+                T["baseline csv"].append(wall(base_cmd, base_env, "baseline csv"))
+            T["start-up"].append(wall(version, env, "start-up"))
+            T["loaded"].append(wall(loaded, env, "loaded"))
             T["API"].append(timed(lambda: frame_poses(puma, q_all, ee))[0])
             for k, v in breakdown(paths["csv"], tmp).items():
                 parts.setdefault(k, []).append(v)
@@ -175,6 +202,17 @@ def main() -> None:
             w = med[tab]
             print(f"  | {tab} | {w:.3f} | {w / api:.1f} | {(w - start) / api:.1f} | "
                   f"{(w - loaded_s) / api:.1f} | {', '.join(f'{x:.2f}' for x in T[tab])} |")
+        if base_env is not None:
+            same = (tmp / "out_base" / "fk.csv").read_bytes() == (
+                tmp / "out_csv" / "fk.csv").read_bytes()
+            w = med["baseline csv"]
+            print(f"  | baseline ({a.baseline}) csv | {w:.3f} | {w / api:.1f} | "
+                  f"{(w - start) / api:.1f} | {(w - loaded_s) / api:.1f} | "
+                  f"{', '.join(f'{x:.2f}' for x in T['baseline csv'])} |")
+            print(f"  fk.csv of the baseline and of this tree byte for byte the same: {same}; "
+                  f"csv wall this / baseline: {med['csv'] / w:.2f}")
+        print("  CPU time of the child processes (user + sys, medians) [s]: " + ", ".join(
+            f"{k} {st.median(v):.3f}" for k, v in CPU.items()))
         print("  breakdown of one run (in process, each part alone, medians) [s]:")
         for k, v in parts.items():
             print(f"    {k:36s} {st.median(v):8.3f}")
