@@ -77,13 +77,14 @@ def wall(cmd: list[str], env: dict[str, str], label: str | None = None) -> float
     return dt
 
 
-def timed(fn) -> tuple[float, object]:
-    t0 = time.perf_counter()
+def timed(fn) -> tuple[tuple[float, float], object]:
+    """(wall, CPU) seconds of one call, and its result."""
+    t0, c0 = time.perf_counter(), time.process_time()
     out = fn()
-    return time.perf_counter() - t0, out
+    return (time.perf_counter() - t0, time.process_time() - c0), out
 
 
-def breakdown(path: Path, tmp: Path) -> dict[str, float]:
+def breakdown(path: Path, tmp: Path) -> dict[str, tuple[float, float]]:
     """One in-process fk run cut into its parts (each timed alone)."""
     from mechkin.io.atomic import atomic_write_text
     from mechkin.io.csv_out import format_csv
@@ -93,7 +94,7 @@ def breakdown(path: Path, tmp: Path) -> dict[str, float]:
     from mechkin.tasks import fk as fk_task
     from mechkin.tasks.fk_batch import open_chain_derivatives
 
-    out: dict[str, float] = {}
+    out: dict[str, tuple[float, float]] = {}
     out["scenario load"], sc = timed(lambda: load_scenario(path))
     mech = load_mechanism(sc.mechanism_path)
     out["motion"], (t, qv, qd, qdd) = timed(lambda: fk_task.independent_motion_rates(sc, mech))
@@ -111,8 +112,10 @@ def breakdown(path: Path, tmp: Path) -> dict[str, float]:
 
     out["  of which singularity (J_r, SVD)"], _ = timed(sing)
     out["tasks.fk.run (all of the above)"], rep = timed(lambda: fk_task.run(sc))
-    out["records (run - parts)"] = (out["tasks.fk.run (all of the above)"] - out["motion"]
-                                    - out["FK (all links)"] - out["rates + singularity"])
+    out["records (run - parts)"] = tuple(
+        r - a - b - c for r, a, b, c in zip(out["tasks.fk.run (all of the above)"],
+                                            out["motion"], out["FK (all links)"],
+                                            out["rates + singularity"], strict=True))
     cols = rep.data.columns
     out["csv text (format_csv)"], text = timed(lambda: format_csv(cols))
     out["csv write (encode + fsync)"], _ = timed(
@@ -177,7 +180,7 @@ def main() -> None:
                         "-o", str(tmp / "out_base")]
             (tmp / "fk_base.yaml").write_text(paths["csv"].read_text().replace(
                 ", table: csv", ""))
-        parts: dict[str, list[float]] = {}
+        parts: dict[str, list[tuple[float, float]]] = {}
         for _ in range(a.rounds):
             for tab in tables:
                 T[tab].append(wall(cmds[tab], env, tab))
@@ -185,7 +188,7 @@ def main() -> None:
                 T["baseline csv"].append(wall(base_cmd, base_env, "baseline csv"))
             T["start-up"].append(wall(version, env, "start-up"))
             T["loaded"].append(wall(loaded, env, "loaded"))
-            T["API"].append(timed(lambda: frame_poses(puma, q_all, ee))[0])
+            T["API"].append(timed(lambda: frame_poses(puma, q_all, ee))[0][0])
             for k, v in breakdown(paths["csv"], tmp).items():
                 parts.setdefault(k, []).append(v)
         med = {k: st.median(v) for k, v in T.items()}
@@ -214,8 +217,10 @@ def main() -> None:
         print("  CPU time of the child processes (user + sys, medians) [s]: " + ", ".join(
             f"{k} {st.median(v):.3f}" for k, v in CPU.items()))
         print("  breakdown of one run (in process, each part alone, medians) [s]:")
+        print(f"    {'':36s} {'wall':>8s} {'CPU':>8s}")
         for k, v in parts.items():
-            print(f"    {k:36s} {st.median(v):8.3f}")
+            print(f"    {k:36s} {st.median(x[0] for x in v):8.3f} "
+                  f"{st.median(x[1] for x in v):8.3f}")
         sizes = {tab: sum(f.stat().st_size for f in (tmp / f"out_{tab}").iterdir()
                           if f.name.startswith("fk.")) for tab in tables}
         print("  table file sizes: " + ", ".join(f"{k} {v / 1e6:.1f} MB"
