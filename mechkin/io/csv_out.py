@@ -18,8 +18,8 @@ take 4-6 s. :func:`format_csv` therefore formats runs of adjacent float columns 
   ``5e-05``) are written again with ``repr`` (their rows, or their columns when they are
   many); a self-check against ``repr`` on boundary values runs once per process and turns the
   path off if this orjson formats differently;
-- without it, ``str(block.tolist())`` (``repr`` called from C) with the list punctuation
-  replaced.
+- without it, ``repr`` mapped over each column and the rows joined, from C (``map``): the
+  text of today's writer without its per-cell Python loop.
 
 Either way the bytes are those of ``",".join(repr(v) ...)`` row by row (tests/io/
 test_csv_fast.py compares them with the reference writer); string, integer and boolean columns
@@ -128,9 +128,10 @@ def _float_column(name: str, arr: np.ndarray) -> np.ndarray:
 
 def _repr_block_text(B: np.ndarray) -> str:
     """Rows of the float block B (r, k), cells ``repr`` joined by ``,``, rows by ``\\n``:
-    ``str`` of the nested list (``repr`` of each float, called from C) with the list
-    punctuation replaced (a float's repr holds neither ``, `` nor ``]``)."""
-    return str(B.tolist())[2:-2].replace("], [", "\n").replace(", ", ",")
+    ``map(repr, ...)`` per column and ``map(",".join, zip(...))`` per row, all called from C
+    (measured faster than ``str`` of the nested list with its punctuation replaced)."""
+    cells = [list(map(repr, c)) for c in B.T.tolist()]
+    return "\n".join(map(",".join, zip(*cells, strict=True)))
 
 
 _ORJSON: Any = None  # the orjson module once checked, False when absent or not exact
