@@ -161,6 +161,22 @@ def use_compiled(kind: str, rows: int) -> bool:
     return True
 
 
+def compiled_next(kind: str, rows: int) -> bool:
+    """Whether :func:`use_compiled` would answer True for this call, without counting the
+    call's numpy estimate (a peek: the fast single-solve path of
+    :func:`mechkin.solvers.ik.solve.solve_ik` is taken only then, so the job's choice of back
+    end is the same as without it)."""
+    if not compiled_lm_available():
+        return False
+    if compiled_lm_available is not _AVAILABLE or os.environ.get("MECHKIN_JIT") == "1":
+        return True
+    if kind in _loaded:
+        return True
+    load, per_call, per_row = _COSTS[kind]
+    with _lock:
+        return _spent[kind] + per_call + per_row * max(int(rows), 0) > load
+
+
 def reset_job() -> None:
     """Forget the numpy time spent (tests; a new job in a long-lived process)."""
     with _lock:

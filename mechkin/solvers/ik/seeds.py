@@ -65,6 +65,29 @@ def seed_starts(kern: IkKernel, T_P: np.ndarray, w: np.ndarray, ranks=(0,),
     return out
 
 
+def seed_rows(kern: IkKernel, T_P: np.ndarray, w: np.ndarray, first: int, count: int,
+              size: int = SEED_CODEBOOK) -> np.ndarray:
+    """The same starts as ``seed_starts(kern, T_P[None], w[None], range(first, first +
+    count))[0]`` for one target T_P (4, 4) with weights w (6,) on an open chain: (count, n_v),
+    with fewer array calls (the single solve's path)."""
+    wp = bool(w[0] > 0 or w[1] > 0 or w[2] > 0)
+    wo = bool(w[3] > 0 or w[4] > 0 or w[5] > 0)
+    cols = _COLS[wp * 2 + wo]
+    if not cols:
+        return codebook(kern, size)[0][first:first + count]
+    feats = np.empty(12)
+    feats[:3] = T_P[:3, 3]
+    feats[3:] = 0.5 * T_P[:3, :3].reshape(9)
+    qs, tree = codebook(kern, size, cols)
+    _, nearest = tree.query(feats[None, list(cols)], k=first + count, eps=1.0, workers=1)
+    return qs[np.asarray(nearest).reshape(-1)[first:first + count]]
+
+
+# the feature columns searched per weighting mode (2: position weighted, 1: orientation)
+_COLS = {mode: tuple(([0, 1, 2] if mode & 2 else []) + (list(range(3, 12)) if mode & 1 else []))
+         for mode in range(4)}
+
+
 def codebook(kern: IkKernel, size: int, cols: tuple[int, ...] = tuple(range(12))):
     """Seeded random configurations within the limits and a KD-tree of their poses."""
     from scipy.spatial import cKDTree

@@ -22,9 +22,10 @@ import time
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik import accel
 from mechkin.solvers.ik.cg_golden import cg_golden
 from mechkin.solvers.ik.kernel import IkKernel, kernel_for, pose_errors
-from mechkin.solvers.ik.lm import lm_batch
+from mechkin.solvers.ik.lm import LM_MU, MAX_ITER_LM, STALL_WINDOW, lm_batch
 from mechkin.solvers.ik.results import (
     IkBatchResult,
     IkOptions,
@@ -35,7 +36,7 @@ from mechkin.solvers.ik.results import (
     status_of,
     weighted_errors,
 )
-from mechkin.solvers.ik.seeds import SEED_RESTARTS, seed_starts
+from mechkin.solvers.ik.seeds import SEED_RESTARTS, seed_rows, seed_starts
 
 
 def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
@@ -80,6 +81,9 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     T_P = np.asarray(T_P, dtype=np.float64)
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     t0 = time.perf_counter()
+    if opts.method == "lm" and _fast_open(kern) and accel.compiled_lm_available() \
+            and accel.compiled_next("open", 1):
+        return _solve_open_compiled(kern, T_P, w, q_v0, opts, t0)
     qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
     if q_v0 is None:  # no guess: the nearest pose of the seeded codebook (open chains)
         seeded = seed_starts(kern, T_P[None], w[None])
@@ -163,6 +167,116 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         if best["status"] is IkStatus.OK:
             break
     assert best is not None
+    return IkResult(**best, iterations=tot_it, evaluations=tot_ev,
+                    time_s=time.perf_counter() - t0)
+
+
+def _fast_open(kern: IkKernel) -> bool:
+    """Whether ``kern`` is an open chain whose independent joints are the serial path to {E}
+    in order (every joint independent): the compiled single-solve path applies."""
+    ok = kern.__dict__.get("_fast_open")
+    if ok is None:
+        ok = bool(kern.n_cuts == 0 and kern.iw.size == 0
+                  and np.array_equal(kern.iv, np.arange(kern.n)) and kern.chain_cols is None)
+        kern.__dict__["_fast_open"] = ok
+    return ok
+
+
+def _restart_draws(kern: IkKernel, seed: int, k: int) -> np.ndarray:
+    """``default_rng(seed).uniform(lo, hi, (k, n_v))``, the random restart starts of
+    :func:`solve_ik` (the same for every target of a kernel), drawn once per kernel, seed and
+    k; the caller gets its own copy."""
+    cache = kern.__dict__.setdefault("_restart_draws", {})
+    hit = cache.get((seed, k))
+    if hit is None:
+        lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+        hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+        hit = cache[(seed, k)] = np.random.default_rng(seed).uniform(lo, hi, size=(k, kern.iv.size))
+    return hit.copy()
+
+
+def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
+                         q_v0: np.ndarray | None, opts: IkOptions, t0: float) -> IkResult:
+    r""":func:`solve_ik` by lm on an open chain (:func:`_fast_open`) with the compiled kernels:
+    the same starts, the same lm rows and the same choice of the answer as the general loop
+    (bit-identical joints, tested), with each attempt's lm, choice of row, nearest turn and
+    verification by forward kinematics in one compiled call
+    (:func:`mechkin.solvers.ik.serial_jit.solve_rows`) instead of some forty array calls.
+    Measured (issue 15): a single PUMA 560 solve spent about 2 % of its time in the lm
+    kernel before."""
+    from mechkin.solvers.ik import serial_jit
+
+    c = kern.__dict__.get("_solve_consts")
+    mech = kern.mech
+    if c is None:
+        ch = kern.chain
+        c = kern.__dict__["_solve_consts"] = (
+            ch.Pc[:, 0].copy(), ch.Ps[:, 0].copy(), ch.Pd[:, 0].copy(), ch.P0[:, 0].copy(),
+            ch.rev.copy(), ch.A0.copy(), kern.bound_lo.copy(), kern.bound_hi.copy(),
+            kern.cont_v.copy(), kern.lower_v.copy(), kern.upper_v.copy(),
+            np.asarray(mech.home, dtype=np.float64)[kern.iv].copy())
+    Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, home = c
+    accel.announce(serial_jit.lm, "serial_jit.lm")
+    accel.mark_loaded("open")
+    k = kern.iv.size
+    max_iter = opts.max_iter or MAX_ITER_LM
+    f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
+    stall = STALL_WINDOW if opts.restarts > 0 else 0
+    T_P = np.ascontiguousarray(T_P)
+    w = np.ascontiguousarray(w)
+    F0 = kern.chain.first_frame(T_P[None])
+    if q_v0 is None:
+        start = seed_rows(kern, T_P, w, 0, 1)
+        ref = home
+    else:
+        start = np.asarray(q_v0, dtype=np.float64).reshape(1, k)
+        ref = start[0]
+    tot_it = tot_ev = 0
+    best = None
+    attempt = 0
+    while True:
+        q = np.empty(k)
+        hist = np.empty(max_iter + 1)
+        at = np.empty(k, dtype=np.bool_)
+        info = np.empty(12)
+        serial_jit.solve_rows(start, F0, w, Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper,
+                              f_abs, opts.lm_grad_tol, max_iter, stall, LM_MU,
+                              start.shape[0] > 1, home, ref, T_P, q, hist, at, info)
+        attempt += start.shape[0]
+        f, it_b, it_max, nev, gn, conv, pe, oe, wpe, woe, onb, fin = info.tolist()
+        tot_it += int(it_max)
+        tot_ev += int(nev)
+        if not fin:
+            st = IkStatus.SINGULAR
+        elif wpe <= opts.tol_pos and woe <= opts.tol_ori:
+            st = IkStatus.OK
+        elif conv:
+            st = IkStatus.AT_LIMIT if onb else IkStatus.UNREACHABLE
+        elif not np.isfinite(gn) or gn > 1e6:
+            st = IkStatus.SINGULAR
+        else:
+            st = IkStatus.NOT_CONVERGED
+        f_fin = f if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
+        hist = hist[: int(it_b) + 1]
+        if not np.isfinite(hist).all():
+            hist = finite(hist, np.full_like(hist, f_fin))
+        names = mech.joint_names
+        res = dict(q_v=q, q_w=np.empty(0), q=q.copy(), status=st, position_error=pe,
+                   orientation_error=oe, f=f_fin, grad_norm=gn if np.isfinite(gn) else 0.0,
+                   f_history=hist, at_limit=tuple(names[j] for j in np.flatnonzero(at)),
+                   restarts_used=attempt - 1, method="lm")
+        if best is None or better(res, best):
+            best = res
+        if best["status"] is IkStatus.OK or attempt > opts.restarts:
+            break
+        # every restart at once, as rows of one run that stops at the first success: the
+        # nearest codebook poses not tried yet first, then seeded random joints
+        nk = opts.restarts
+        start = _restart_draws(kern, opts.seed, nk)
+        first = 1 if q_v0 is None else 0
+        nr = min(nk, max(SEED_RESTARTS - first, 0))
+        if nr:
+            start[:nr] = seed_rows(kern, T_P, w, first, nr)
     return IkResult(**best, iterations=tot_it, evaluations=tot_ev,
                     time_s=time.perf_counter() - t0)
 
