@@ -137,6 +137,11 @@ def mark_loaded(kind: str) -> None:
     _loaded.add(kind)
 
 
+def is_loaded(kind: str) -> bool:
+    """Whether this process has run the compiled kernels of ``kind`` ("open", "closed")."""
+    return kind in _loaded
+
+
 def use_compiled(kind: str, rows: int) -> bool:
     """Whether an lm call of ``rows`` rows on a ``kind`` ("open" or "closed") chain runs
     compiled.

@@ -492,3 +492,15 @@ def solve_rows(q0, F0, w1, Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, 
     info[9] = errs[3]
     info[10] = 1.0 if onb else 0.0
     info[11] = 1.0 if fin else 0.0
+
+
+@_njit
+def verify_rows(q, A0, Pc, Ps, Pd, P0, rev, T_P, w, out):
+    """Forward kinematics of rows q (m, k) in the base frame (F_0 = A0) and their errors to
+    the targets T_P (m, 4, 4) with weights w (m, 6): out (m, 4) as :func:`pose_errors_one`
+    (position, orientation, weighted position, weighted orientation)."""
+    m, k = q.shape
+    F = np.empty((k + 1, 4, 4))
+    for r in range(m):
+        chain_frames(q[r], A0, Pc, Ps, Pd, P0, rev, F)
+        pose_errors_one(F[k], T_P[r], w[r], out[r])

@@ -171,6 +171,24 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
                     time_s=time.perf_counter() - t0)
 
 
+_STATUS_OF_CODE = [IkStatus.OK, IkStatus.SINGULAR, IkStatus.UNREACHABLE, IkStatus.NOT_CONVERGED]
+
+
+def _solve_consts(kern: IkKernel) -> tuple:
+    """The compiled kernels' constants of an open chain (:func:`_fast_open`), per kernel:
+    the chain's Pc, Ps, Pd, P0, rev, A0, then bound_lo, bound_hi, cont_v, lower_v, upper_v
+    and the home joints."""
+    c = kern.__dict__.get("_solve_consts")
+    if c is None:
+        ch = kern.chain
+        c = kern.__dict__["_solve_consts"] = (
+            ch.Pc[:, 0].copy(), ch.Ps[:, 0].copy(), ch.Pd[:, 0].copy(), ch.P0[:, 0].copy(),
+            ch.rev.copy(), ch.A0.copy(), kern.bound_lo.copy(), kern.bound_hi.copy(),
+            kern.cont_v.copy(), kern.lower_v.copy(), kern.upper_v.copy(),
+            np.asarray(kern.mech.home, dtype=np.float64)[kern.iv].copy())
+    return c
+
+
 def _fast_open(kern: IkKernel) -> bool:
     """Whether ``kern`` is an open chain whose independent joints are the serial path to {E}
     in order (every joint independent): the compiled single-solve path applies."""
@@ -206,16 +224,8 @@ def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
     kernel before."""
     from mechkin.solvers.ik import serial_jit
 
-    c = kern.__dict__.get("_solve_consts")
     mech = kern.mech
-    if c is None:
-        ch = kern.chain
-        c = kern.__dict__["_solve_consts"] = (
-            ch.Pc[:, 0].copy(), ch.Ps[:, 0].copy(), ch.Pd[:, 0].copy(), ch.P0[:, 0].copy(),
-            ch.rev.copy(), ch.A0.copy(), kern.bound_lo.copy(), kern.bound_hi.copy(),
-            kern.cont_v.copy(), kern.lower_v.copy(), kern.upper_v.copy(),
-            np.asarray(mech.home, dtype=np.float64)[kern.iv].copy())
-    Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, home = c
+    Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, home = _solve_consts(kern)
     accel.announce(serial_jit.lm, "serial_jit.lm")
     accel.mark_loaded("open")
     k = kern.iv.size
@@ -343,8 +353,10 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
                           (m, nv)).copy()
     w_seed = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
                              (m, 6))
+    fast = _fast_open(kern)
     if q_v0 is None:
-        seeded = seed_starts(kern, T_P, w_seed)
+        seeded = (seed_rows(kern, T_P[0], w_seed[0], 0, 1)[None] if fast and m == 1
+                  else seed_starts(kern, T_P, w_seed))
         if seeded is not None:
             qv0 = seeded[:, 0]
     qw0 = np.broadcast_to(mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float),
@@ -355,9 +367,26 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     q, f, iters = r["q"], r["f"], r["iters"]
     conv, closed = r["converged"], r["closed"]
 
+    def errors(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray | None:
+        """(m, 4) errors of rows qq by the compiled FK (an open chain whose compiled lm ran
+        in this process), else None."""
+        if not (fast and accel.is_loaded("open")):
+            return None
+        from mechkin.solvers.ik import serial_jit
+
+        Pc, Ps, Pd, P0, rev, A0 = _solve_consts(kern)[:6]
+        out = np.empty((qq.shape[0], 4))
+        serial_jit.verify_rows(np.ascontiguousarray(qq), A0, Pc, Ps, Pd, P0, rev,
+                               np.ascontiguousarray(TT), np.ascontiguousarray(ww), out)
+        return out
+
     def check(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray:
-        T_E = kern.pose_check(qq)
-        pe, oe = weighted_errors(T_E, TT, ww)
+        e = errors(qq, TT, ww)
+        if e is None:
+            T_E = kern.pose_check(qq)
+            pe, oe = weighted_errors(T_E, TT, ww)
+        else:
+            pe, oe = e[:, 2], e[:, 3]
         return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
 
     ok = check(q, T_P, w) & closed
@@ -371,8 +400,12 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         # the nearest codebook poses not tried yet first (also when a start was given),
         # then seeded random starts
         rank = k + 1 if q_v0 is None else k
-        start = (seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))
-                 if rank < SEED_RESTARTS else None)
+        if rank >= SEED_RESTARTS:
+            start = None
+        elif fast and bad.size == 1:
+            start = seed_rows(kern, T_P[bad[0]], w[bad[0]], rank, 1)[None]
+        else:
+            start = seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))
         start = (start[:, 0] if start is not None
                  else rng.uniform(lo, hi, size=(bad.size, nv)))
         r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
@@ -385,12 +418,14 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     # joints with limits over a full turn come back at the turn nearest the start (or home)
     q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], np.broadcast_to(
         mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float), (m, nv)))
-    T_E = kern.pose_check(q)
-    pe, oe = pose_errors(T_E, T_P)
-    status = np.empty(m, dtype=object)
-    for i in range(m):
-        status[i] = (IkStatus.OK if ok[i] else IkStatus.SINGULAR if not closed[i]
-                     else IkStatus.UNREACHABLE if conv[i] else IkStatus.NOT_CONVERGED)
+    e = errors(q, T_P, w)
+    if e is None:
+        T_E = kern.pose_check(q)
+        pe, oe = pose_errors(T_E, T_P)
+    else:
+        pe, oe = e[:, 0].copy(), e[:, 1].copy()
+    codes = np.where(ok, 0, np.where(~closed, 1, np.where(conv, 2, 3)))
+    status = np.array(_STATUS_OF_CODE, dtype=object)[codes]
     return IkBatchResult(q_v=q[:, kern.iv], q_w=q[:, kern.iw], q=q, status=status,
                          position_error=pe, orientation_error=oe, f=f, iterations=iters,
                          time_s=time.perf_counter() - t0)
