@@ -118,8 +118,15 @@ def configure_numba_cache(package_dir: Path | None = None) -> str | None:
 # 2-26 ms. Panda: 0.6 s more. Break-even about 3,500 open-chain rows in one call.
 # kim1995 end-effector robot (closed): numpy 0.3 s (m = 1), 2.0 s (m = 10), 3.9 s (m = 100);
 # compiled 1.0 s on the first call (cache load), 3-73 ms after: break-even 2-3 rows.
+# Open chains, measured again 2026-12-02 03:30 (issue 15; `mechkin ik
+# scenarios/puma560_random_ik.yaml`: 50 single solves from the guess, 31 of them restarted):
+# numpy lm 9.6 ms per one-row call (21 iterations), 6.4 ms per 30-row restart call that stops
+# at the first success, 0.68 s in all; compiled: numba import 0.25-0.45 s + cache load
+# 0.55-0.9 s, then 0.02 s for the 50 solves. End to end (several interleaved rounds)
+# MECHKIN_JIT=0 was the faster, so this job must stay numpy: per call 8 ms, restart rows of
+# one target count as one row (lm.lm_batch), estimate 0.67 s < 0.9 s.
 OPEN_LOAD_S = 0.9  # first compiled open-chain call in a process, warm cache [s]
-OPEN_CALL_S = 0.03  # numpy lm_batch, open chain: per call [s] ...
+OPEN_CALL_S = 0.008  # numpy lm_batch, open chain: per call [s] ...
 OPEN_ROW_S = 2.5e-4  # ... and per row [s]
 CLOSED_LOAD_S = 0.8  # first compiled closed-chain call, warm cache, beyond numpy's m = 1 [s]
 CLOSED_CALL_S = 0.3  # numpy lm_batch, closed chain: per call [s] ...

@@ -75,12 +75,13 @@ def seed_rows(kern: IkKernel, T_P: np.ndarray, w: np.ndarray, first: int, count:
     cols = _COLS[wp * 2 + wo]
     if not cols:
         return codebook(kern, size)[0][first:first + count]
-    feats = np.empty(12)
-    feats[:3] = T_P[:3, 3]
-    feats[3:] = 0.5 * T_P[:3, :3].reshape(9)
+    feats = np.empty((1, 12))
+    feats[0, :3] = T_P[:3, 3]
+    feats[0, 3:] = 0.5 * T_P[:3, :3].reshape(9)
     qs, tree = codebook(kern, size, cols)
-    _, nearest = tree.query(feats[None, list(cols)], k=first + count, eps=1.0, workers=1)
-    return qs[np.asarray(nearest).reshape(-1)[first:first + count]]
+    _, nearest = tree.query(feats if len(cols) == 12 else feats[:, cols], k=first + count,
+                            eps=1.0, workers=1)
+    return qs[nearest.reshape(-1)[first:first + count]]
 
 
 # the feature columns searched per weighting mode (2: position weighted, 1: orientation)

@@ -81,8 +81,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     T_P = np.asarray(T_P, dtype=np.float64)
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     t0 = time.perf_counter()
-    if opts.method == "lm" and _fast_open(kern) and accel.compiled_lm_available() \
-            and accel.compiled_next("open", 1):
+    if opts.method == "lm" and _fast_open(kern) and accel.compiled_next("open", 1):
         return _solve_open_compiled(kern, T_P, w, q_v0, opts, t0)
     qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
     if q_v0 is None:  # no guess: the nearest pose of the seeded codebook (open chains)
@@ -271,9 +270,10 @@ def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
         if not np.isfinite(hist).all():
             hist = finite(hist, np.full_like(hist, f_fin))
         names = mech.joint_names
+        at_lim = tuple(names[j] for j in np.flatnonzero(at)) if at.any() else ()
         res = dict(q_v=q, q_w=np.empty(0), q=q.copy(), status=st, position_error=pe,
                    orientation_error=oe, f=f_fin, grad_norm=gn if np.isfinite(gn) else 0.0,
-                   f_history=hist, at_limit=tuple(names[j] for j in np.flatnonzero(at)),
+                   f_history=hist, at_limit=at_lim,
                    restarts_used=attempt - 1, method="lm")
         if best is None or better(res, best):
             best = res
