@@ -225,7 +225,7 @@ def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
 
     mech = kern.mech
     Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, home = _solve_consts(kern)
-    accel.announce(serial_jit.lm, "serial_jit.lm")
+    accel.announce(serial_jit.solve_rows, "serial_jit.solve_rows")
     accel.mark_loaded("open")
     k = kern.iv.size
     max_iter = opts.max_iter or MAX_ITER_LM
@@ -238,7 +238,7 @@ def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
         start = seed_rows(kern, T_P, w, 0, 1)
         ref = home
     else:
-        start = np.asarray(q_v0, dtype=np.float64).reshape(1, k)
+        start = np.ascontiguousarray(q_v0, dtype=np.float64).reshape(1, k)
         ref = start[0]
     tot_it = tot_ev = 0
     best = None
@@ -374,6 +374,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
             return None
         from mechkin.solvers.ik import serial_jit
 
+        accel.announce(serial_jit.verify_rows, "serial_jit.verify_rows")
         Pc, Ps, Pd, P0, rev, A0 = _solve_consts(kern)[:6]
         out = np.empty((qq.shape[0], 4))
         serial_jit.verify_rows(np.ascontiguousarray(qq), A0, Pc, Ps, Pd, P0, rev,
