@@ -504,3 +504,11 @@ def verify_rows(q, A0, Pc, Ps, Pd, P0, rev, T_P, w, out):
     for r in range(m):
         chain_frames(q[r], A0, Pc, Ps, Pd, P0, rev, F)
         pose_errors_one(F[k], T_P[r], w[r], out[r])
+
+
+@_njit
+def nearest_turn_rows(q, ref, cont, lower, upper):
+    """:func:`nearest_turn_one` on every row of q (m, k) with references ref (m, k), in
+    place."""
+    for r in range(q.shape[0]):
+        nearest_turn_one(q[r], ref[r], cont, lower, upper)

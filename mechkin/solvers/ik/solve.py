@@ -349,20 +349,19 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
     nv, nw = kern.iv.size, kern.iw.size
-    qv0 = np.broadcast_to(mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float),
-                          (m, nv)).copy()
-    w_seed = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
-                             (m, 6))
+    qv0 = np.empty((m, nv))
+    qv0[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)
+    w = np.empty((m, 6))
+    w[:] = 1.0 if weights is None else np.asarray(weights, float)
+    w_seed = w
     fast = _fast_open(kern)
     if q_v0 is None:
         seeded = (seed_rows(kern, T_P[0], w_seed[0], 0, 1)[None] if fast and m == 1
                   else seed_starts(kern, T_P, w_seed))
         if seeded is not None:
             qv0 = seeded[:, 0]
-    qw0 = np.broadcast_to(mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float),
-                          (m, nw)).copy()
-    w = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
-                        (m, 6)).copy()
+    qw0 = np.empty((m, nw))
+    qw0[:] = mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float)
     r = lm_batch(kern, qv0, qw0, T_P, w, opts)
     q, f, iters = r["q"], r["f"], r["iters"]
     conv, closed = r["converged"], r["closed"]
@@ -390,14 +389,22 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
             pe, oe = e[:, 2], e[:, 3]
         return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
 
-    ok = check(q, T_P, w) & closed
-    rng = np.random.default_rng(opts.seed)
-    lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
-    hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+    e0 = errors(q, T_P, w)
+    if e0 is None:
+        ok = check(q, T_P, w) & closed
+    else:
+        ok = (e0[:, 2] <= opts.tol_pos) & (e0[:, 3] <= opts.tol_ori) & closed
+    rng = None
+    restarted = False
     for k in range(opts.restarts):
         bad = np.flatnonzero(~ok)
         if bad.size == 0:
             break
+        restarted = True
+        if rng is None:
+            rng = np.random.default_rng(opts.seed)
+            lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+            hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
         # the nearest codebook poses not tried yet first (also when a start was given),
         # then seeded random starts
         rank = k + 1 if q_v0 is None else k
@@ -417,9 +424,18 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         conv[sel], closed[sel] = r2["converged"][lower], r2["closed"][lower]
         ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
     # joints with limits over a full turn come back at the turn nearest the start (or home)
-    q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], np.broadcast_to(
-        mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float), (m, nv)))
-    e = errors(q, T_P, w)
+    ref = np.empty((m, nv))
+    ref[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)
+    if e0 is not None:  # an open chain (fast) whose compiled lm ran: q is q_v
+        from mechkin.solvers.ik import serial_jit
+
+        q0 = q.copy() if not restarted else None
+        c = _solve_consts(kern)
+        serial_jit.nearest_turn_rows(q, ref, c[8], c[9], c[10])
+        e = e0 if q0 is not None and np.array_equal(q, q0) else errors(q, T_P, w)
+    else:
+        q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], ref)
+        e = errors(q, T_P, w)
     if e is None:
         T_E = kern.pose_check(q)
         pe, oe = pose_errors(T_E, T_P)
