@@ -150,3 +150,31 @@ def test_the_50_target_cli_job_stays_numpy(root, monkeypatch):
         assert not accel.is_loaded("open")
     finally:
         accel.reset_job()
+
+
+def test_exact_seed_search_equals_the_kdtree_without_approximation(root, monkeypatch):
+    """seeds.ExactSearch (numpy, no scipy.spatial) gives cKDTree's eps = 0 neighbours; with
+    SEARCH = "exact" the codebook is searched by it and the starts are those neighbours."""
+    from scipy.spatial import cKDTree
+
+    from mechkin.solvers.ik import seeds
+
+    mech = load_mechanism(root / "mechanisms" / "panda.yaml")
+    kern = kernel_for(mech)
+    qs, tree = seeds.codebook(kern, 2048, tuple(range(12)))
+    assert isinstance(tree, cKDTree)
+    ex = seeds.ExactSearch(tree.data)
+    rng = np.random.default_rng(2)
+    X = tree.data[rng.integers(0, 2048, 700)] + rng.normal(0.0, 0.05, (700, 12))
+    for k in (1, 3, 8):
+        d0, i0 = tree.query(X, k=k, eps=0.0)
+        d1, i1 = ex.query(X, k=k)
+        np.testing.assert_array_equal(i1, i0)
+        np.testing.assert_allclose(d1, d0, rtol=1e-12, atol=1e-12)
+    monkeypatch.setattr(seeds, "SEARCH", "exact")
+    T = _targets(mech, 30, 9)
+    w = np.ones((30, 6))
+    got = seeds.seed_starts(kern, T, w, ranks=(0, 2), size=2048)
+    feats = np.concatenate([T[:, :3, 3], 0.5 * T[:, :3, :3].reshape(30, 9)], axis=1)
+    _, want = tree.query(feats, k=3, eps=0.0)
+    np.testing.assert_array_equal(got, qs[want[:, [0, 2]]])
