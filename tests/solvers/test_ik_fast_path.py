@@ -68,7 +68,7 @@ def test_compiled_single_solve_equals_the_general_loop(root, monkeypatch, name, 
 
 
 @pytest.mark.parametrize("name", ["puma560", "panda"])
-def test_compiled_batch_verification_equals_numpy(root, monkeypatch, name):
+def test_compiled_small_batch_equals_the_general_loop(root, monkeypatch, name):
     mech = load_mechanism(root / "mechanisms" / f"{name}.yaml")
     monkeypatch.setattr(accel, "compiled_lm_available", lambda: True)
     T = _targets(mech, 40, 11)
@@ -78,17 +78,21 @@ def test_compiled_batch_verification_equals_numpy(root, monkeypatch, name):
     for m in (1, 7, len(T)):
         for kw in (dict(options=IkOptions(restarts=20)),
                    dict(options=IkOptions(restarts=9, seed=2), q_v0=mech.home)):
-            a = solve_ik_batch(mech, T[:m], **kw)
+            a = solve_ik_batch(mech, T[:m], **kw)  # small batch: one compiled call/attempt
             with monkeypatch.context() as mp:
-                mp.setattr(accel, "is_loaded", lambda kind: False)  # numpy verification
+                mp.setattr(solve_mod, "SMALL_BATCH", 0)  # the general loop
                 b = solve_ik_batch(mech, T[:m], **kw)
-            np.testing.assert_array_equal(a.q, b.q)
-            np.testing.assert_array_equal(a.f, b.f)
-            np.testing.assert_array_equal(a.iterations, b.iterations)
-            assert list(a.status) == list(b.status)
-            np.testing.assert_allclose(a.position_error, b.position_error, rtol=1e-9, atol=1e-12)
-            np.testing.assert_allclose(a.orientation_error, b.orientation_error, rtol=1e-9,
-                                       atol=1e-12)
+                mp.setattr(accel, "is_loaded", lambda kind: False)  # ... numpy verification
+                c = solve_ik_batch(mech, T[:m], **kw)
+            for x in (b, c):
+                np.testing.assert_array_equal(a.q, x.q)
+                np.testing.assert_array_equal(a.f, x.f)
+                np.testing.assert_array_equal(a.iterations, x.iterations)
+                assert list(a.status) == list(x.status)
+                np.testing.assert_allclose(a.position_error, x.position_error, rtol=1e-9,
+                                           atol=1e-12)
+                np.testing.assert_allclose(a.orientation_error, x.orientation_error, rtol=1e-9,
+                                           atol=1e-12)
     assert not a.ok.all() and a.ok[:-2].all()
 
 

@@ -512,3 +512,14 @@ def nearest_turn_rows(q, ref, cont, lower, upper):
     place."""
     for r in range(q.shape[0]):
         nearest_turn_one(q[r], ref[r], cont, lower, upper)
+
+
+@_njit
+def lm_verify(q0, F0, w, Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, f_abs, grad_tol,
+              max_iter, stall, mu, T_P, q, f, iters, done, gnorm, err):
+    """:func:`lm` on rows q0 (m, k) (one target each, no history), then :func:`verify_rows`
+    of the results into err (m, 4): one call per attempt of a small batch."""
+    hist = np.empty((0, 0))
+    lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, grad_tol, max_iter,
+       stall, mu, False, q, f, iters, done, gnorm, hist)
+    verify_rows(q, A0, Pc, Ps, Pd, P0, rev, T_P, w, err)

@@ -291,6 +291,93 @@ def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
                     time_s=time.perf_counter() - t0)
 
 
+#: solve_ik_batch: below this many targets an open chain (:func:`_fast_open`) with the
+#: compiled kernels loaded runs :func:`_batch_open_compiled` (one compiled call per attempt);
+#: above, the general loop (whose compiled lm spreads rows over threads).
+SMALL_BATCH = 1024
+
+
+def _batch_open_compiled(kern: IkKernel, T_P: np.ndarray, q_v0: np.ndarray | None,
+                         weights: np.ndarray | None, opts: IkOptions, t0: float
+                         ) -> IkBatchResult:
+    """:func:`solve_ik_batch` of a small batch on an open chain (:func:`_fast_open`) by the
+    compiled kernels: the same starts, lm rows, restarts and answers as the general loop
+    (bit-identical joints, tested), each attempt's lm and FK verification in one compiled call
+    (:func:`mechkin.solvers.ik.serial_jit.lm_verify`), without the per-call array work that
+    made m = 1 cost several rtb solves (issue 15)."""
+    from mechkin.solvers.ik import serial_jit
+
+    mech = kern.mech
+    m = T_P.shape[0]
+    nv = kern.iv.size
+    Pc, Ps, Pd, P0, rev, A0, blo, bhi, cont, lower, upper, _ = _solve_consts(kern)
+    accel.announce(serial_jit.lm_verify, "serial_jit.lm_verify")
+    accel.mark_loaded("open")
+    T_P = np.ascontiguousarray(T_P)
+    ref = np.empty((m, nv))
+    ref[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)
+    w = np.empty((m, 6))
+    w[:] = 1.0 if weights is None else np.asarray(weights, float)
+    if q_v0 is None:
+        qv0 = (seed_rows(kern, T_P[0], w[0], 0, 1) if m == 1
+               else seed_starts(kern, T_P, w)[:, 0])
+    else:
+        qv0 = ref.copy()
+    max_iter = opts.max_iter or MAX_ITER_LM
+    f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
+    stall = STALL_WINDOW if opts.restarts > 0 else 0
+    F0 = kern.chain.first_frame(T_P)
+
+    def attempt(start, F, TT, ww):
+        n = start.shape[0]
+        out = (np.empty((n, nv)), np.empty(n), np.zeros(n, dtype=np.int64),
+               np.zeros(n, dtype=np.bool_), np.zeros(n), np.empty((n, 4)))
+        serial_jit.lm_verify(np.ascontiguousarray(start, dtype=np.float64), F, ww, Pc, Ps, Pd,
+                             P0, rev, A0, blo, bhi, cont, lower, upper, f_abs,
+                             opts.lm_grad_tol, max_iter, stall, LM_MU, TT, *out)
+        return out
+
+    q, f, iters, conv, _, e0 = attempt(qv0, F0, T_P, w)
+    ok = (e0[:, 2] <= opts.tol_pos) & (e0[:, 3] <= opts.tol_ori)
+    rng = None
+    restarted = False
+    for k in range(opts.restarts):
+        bad = np.flatnonzero(~ok)
+        if bad.size == 0:
+            break
+        restarted = True
+        rank = k + 1 if q_v0 is None else k
+        if rank < SEED_RESTARTS:
+            start = (seed_rows(kern, T_P[bad[0]], w[bad[0]], rank, 1) if bad.size == 1
+                     else seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))[:, 0])
+        else:
+            if rng is None:
+                rng = np.random.default_rng(opts.seed)
+                lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+                hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+            start = rng.uniform(lo, hi, size=(bad.size, nv))
+        Tb = T_P[bad]
+        q2, f2, it2, conv2, _, e2 = attempt(start, kern.chain.first_frame(Tb), Tb, w[bad])
+        iters[bad] += it2
+        lower_f = f2 < f[bad]
+        sel = bad[lower_f]
+        q[sel], f[sel], conv[sel] = q2[lower_f], f2[lower_f], conv2[lower_f]
+        # rows kept at their previous answer stay failed (the same joints, the same check)
+        ok[sel] = (e2[lower_f, 2] <= opts.tol_pos) & (e2[lower_f, 3] <= opts.tol_ori)
+    q_before = None if restarted else q.copy()
+    serial_jit.nearest_turn_rows(q, ref, cont, lower, upper)
+    if q_before is not None and np.array_equal(q, q_before):
+        e = e0
+    else:
+        e = np.empty((m, 4))
+        serial_jit.verify_rows(q, A0, Pc, Ps, Pd, P0, rev, T_P, w, e)
+    codes = np.where(ok, 0, np.where(conv, 2, 3))
+    status = np.array(_STATUS_OF_CODE, dtype=object)[codes]
+    return IkBatchResult(q_v=q.copy(), q_w=np.zeros((m, 0)), q=q, status=status,
+                         position_error=e[:, 0].copy(), orientation_error=e[:, 1].copy(), f=f,
+                         iterations=iters, time_s=time.perf_counter() - t0)
+
+
 def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
                       q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
                       weights: np.ndarray | list[np.ndarray] | None = None,
@@ -348,6 +435,9 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     t0 = time.perf_counter()
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
+    if m < SMALL_BATCH and _fast_open(kern) and (q_w0 is None or np.size(q_w0) == 0) \
+            and accel.compiled_next("open", m):
+        return _batch_open_compiled(kern, T_P, q_v0, weights, opts, t0)
     nv, nw = kern.iv.size, kern.iw.size
     qv0 = np.empty((m, nv))
     qv0[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)

@@ -1,12 +1,12 @@
 """Compile (or load from numba's cache) the IK kernels ahead of first use (``mechkin warmup``).
 
 The compiled kernels are specialised on argument types, not on a mechanism: compiling them
-once for any open chain (``serial_jit.lm``, the single-solve path ``serial_jit.solve_rows``
-and the batch verification ``serial_jit.verify_rows``) and any closed chain
-(``tree_jit.lm_closed``; the cg-golden point evaluator ``tree_jit.evaluate_one`` serves both)
-covers every mechanism. Each
-kernel is run once on a one-row problem at the mechanism's home pose, through the same
-wrappers the solvers call.
+once for any open chain (``serial_jit.lm``, the single-solve path ``serial_jit.solve_rows``,
+the batch verification ``serial_jit.verify_rows`` and the small-batch attempt
+``serial_jit.lm_verify``) and any closed chain (``tree_jit.lm_closed``; the cg-golden point
+evaluator ``tree_jit.evaluate_one`` serves both) covers every mechanism. Each kernel is run
+once on a one-row problem at the mechanism's home pose, through the same wrappers the solvers
+call.
 
 Design
 ------
@@ -83,7 +83,8 @@ def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
     else:
         lms = [("serial_jit.lm", "open-chain lm"),
                ("serial_jit.solve_rows", "open-chain single solve"),
-               ("serial_jit.verify_rows", "open-chain batch verification")]
+               ("serial_jit.verify_rows", "open-chain batch verification"),
+               ("serial_jit.lm_verify", "open-chain small batch")]
     return [*lms, ("tree_jit.evaluate_one", "cg-golden point evaluation")]
 
 
@@ -107,7 +108,7 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
     opts = IkOptions()
     if name == "serial_jit.lm":
         return lambda: lm._lm_open_compiled(kern, qv, qw, T, w, opts, False)
-    if name in ("serial_jit.solve_rows", "serial_jit.verify_rows"):
+    if name in ("serial_jit.solve_rows", "serial_jit.verify_rows", "serial_jit.lm_verify"):
         from mechkin.solvers.ik import serial_jit
         from mechkin.solvers.ik.solve import _solve_consts
 
@@ -115,6 +116,12 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
         F0 = kern.chain.first_frame(T)
         q, hist, at, info = np.empty(kern.iv.size), np.empty(6), np.empty(kern.iv.size, bool), \
             np.empty(12)
+        if name == "serial_jit.lm_verify":
+            n = kern.iv.size
+            outs = (np.empty((1, n)), np.empty(1), np.zeros(1, dtype=np.int64),
+                    np.zeros(1, dtype=np.bool_), np.zeros(1), np.empty((1, 4)))
+            return lambda: serial_jit.lm_verify(qv, F0, w, *c[:11], 1e-30, 0.0, 5, 0,
+                                                lm.LM_MU, T, *outs)
         if name == "serial_jit.verify_rows":
             return lambda: serial_jit.verify_rows(qv, c[5], *c[:5], T, w, np.empty((1, 4)))
         return lambda: serial_jit.solve_rows(
