@@ -9,6 +9,14 @@ seeds first, then random joints within the limits; closed chains jitter the star
 Step 2); :func:`solve_ik_batch` runs lm on many targets at once and re-solves the failed ones
 together. Every result is verified by forward kinematics (:mod:`mechkin.solvers.ik.results`).
 
+On an open chain whose independent joints are the serial path to {E} (PUMA 560, Panda, ...),
+with the compiled kernels in use, :func:`solve_ik` and small :func:`solve_ik_batch` calls take
+a compiled path (:func:`_solve_open_compiled`, :func:`_batch_open_compiled`): the same starts,
+lm rows, restarts and choice of answer as the general loop, bit for bit (tested), with each
+attempt's lm, nearest turn and verification in one compiled call. Measured (issue 15,
+benchmarks/bench_ik.py ``--vs-rtb``): the general loop spent ~98 % of a single solve around
+the lm kernel; the codebook lookup (scipy's KD-tree, ~40 us per call) is now the largest part.
+
 Design
 ------
 Part of the IK solver family :mod:`mechkin.solvers.ik`. May import every module of the family
