@@ -1,5 +1,13 @@
 """IK speed and verified success (0.1 mm, 1 mrad): ``python benchmarks/bench_ik.py [--n N]``.
 
+``python benchmarks/bench_ik.py --vs-rtb [--rounds 5]``: mechkin against Robotics Toolbox's
+C++ ``ik_LM`` (tol 1e-10) side by side, as benchmarks/speed_table.py measures it (the same
+worker in ``--rtb-python``, the same targets: each tool's FK of the same random joints within
+both tools' limits; success verified by FK at 1e-6 m / 1e-6 rad for both), interleaved per
+round: single IK with the scenario defaults of ``mechkin ik`` (restarts 50, 1e-6 m / rad) and
+``solve_ik_batch`` at m = 1, 10, 100, 2000. Prints the median of the paired ratios and their
+range.
+
 Panda and PUMA 560 random reachable poses (seeded, FK of random joints within the limits, solved
 without a guess); the kim1995 Stewart and end-effector robot precision points; lm and cg-golden;
 the batched lm mode on the PUMA 560 and the Panda. Success is verified with the model's forward
@@ -102,8 +110,77 @@ def bench_batch(name, n, repeat=1):
           f"solve)  success {100 * ok.mean():6.2f} %")
 
 
+def vs_rtb(python: str, rounds: int, n_single: int) -> None:
+    """Paired, interleaved rounds of mechkin and rtb (see the module docstring)."""
+    import os
+    import statistics
+    import sys
+    import tempfile
+
+    os.environ.setdefault("MECHKIN_JIT", "1")
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from speed_table import Rtb, rtb_limits  # the speed table's worker and limits
+
+    from mechkin.model.kinematics import frame_poses
+    from mechkin.solvers.ik import IkStatus
+    from mechkin.solvers.ik.kernel import kernel_for
+
+    mechs = {k: load_mechanism(ROOT / "mechanisms" / f"{f}.yaml")
+             for k, f in (("puma", "puma560"), ("panda", "panda"))}
+    rng = np.random.default_rng(15)
+    qlim = rtb_limits(python)
+    qs = {}
+    for k, m in mechs.items():
+        kern = kernel_for(m)
+        lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+        hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+        if k in qlim:
+            lo, hi = np.maximum(lo, qlim[k][0]), np.minimum(hi, qlim[k][1])
+        qs[k] = rng.uniform(lo, hi, size=(20000, m.n))
+    opts = IkOptions(restarts=50, tol_pos=1e-6, tol_ori=1e-6)
+    with tempfile.TemporaryDirectory() as td:
+        np.savez(Path(td) / "q.npz", **qs)
+        rtb = Rtb(python, str(Path(td) / "q.npz"))
+        print(f"rtb {rtb.version}; {rounds} interleaved rounds; ratio = mechkin / rtb time")
+        for k, m in mechs.items():
+            kern = kernel_for(m)
+            jobs = [("single", n_single)] + [("batch", mb) for mb in (1, 10, 100, 2000)]
+            for kind, n in jobs:
+                T = frame_poses(m, qs[k][:n], [m.end_effector])[:, 0]
+                solve_ik(m, T[0], kernel=kern, options=opts)  # kernels, codebook loaded
+                solve_ik_batch(m, T[:1], options=opts)
+                mk, pe, ok_m, ok_p = [], [], [], []
+                reps = max(1, 200 // n) if kind == "batch" else 1
+                for _ in range(rounds):
+                    t0 = time.perf_counter()
+                    for _ in range(reps):
+                        if kind == "single":
+                            res = [solve_ik(m, Tk, kernel=kern, options=opts) for Tk in T]
+                            ok = sum(r.status is IkStatus.OK for r in res)
+                        else:
+                            br = solve_ik_batch(m, T, options=opts)
+                            ok = int(sum(s is IkStatus.OK for s in br.status))
+                    mk.append((time.perf_counter() - t0) / reps)
+                    ok_m.append(ok)
+                    ans = rtb.ask("ik", k, n, opts.tol_pos, opts.tol_ori)
+                    pe.append(ans["dt"])
+                    ok_p.append(ans["ok"])
+                r = [a / b for a, b in zip(mk, pe, strict=True)]
+                print(f"{k:5s} {kind:6s} n={n:5d}  mechkin {statistics.median(mk) / n * 1e3:7.3f}"
+                      f" ms/solve  rtb {statistics.median(pe) / n * 1e3:7.3f} ms/solve  ratio "
+                      f"{statistics.median(r):.3f} ({min(r):.3f}-{max(r):.3f})  verified "
+                      f"mechkin {100 * min(ok_m) / n:.0f} %, rtb {100 * min(ok_p) / n:.0f} %",
+                      flush=True)
+        rtb.close()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
+    ap.add_argument("--vs-rtb", action="store_true",
+                    help="single and batched IK against rtb ik_LM, paired (module docstring)")
+    ap.add_argument("--rtb-python", default="/tmp/rtbvenv/bin/python")
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--n-single", type=int, default=100)
     ap.add_argument("--n", type=int, default=200, help="random poses per arm (lm)")
     ap.add_argument("--n-cg", type=int, default=10, help="random poses per arm (cg-golden)")
     ap.add_argument("--n-batch", type=int, default=20000)
@@ -112,6 +189,9 @@ def main() -> None:
                     help="open-chain lm (default: compiled when numba is installed)")
     ap.add_argument("--skip-cg", action="store_true")
     a = ap.parse_args()
+    if a.vs_rtb:
+        vs_rtb(a.rtb_python, a.rounds, a.n_single)
+        return
     if a.backend == "numpy":
         accel.compiled_lm_available = lambda: False
     elif a.backend == "compiled" and not accel.compiled_lm_available():

@@ -118,8 +118,15 @@ def configure_numba_cache(package_dir: Path | None = None) -> str | None:
 # 2-26 ms. Panda: 0.6 s more. Break-even about 3,500 open-chain rows in one call.
 # kim1995 end-effector robot (closed): numpy 0.3 s (m = 1), 2.0 s (m = 10), 3.9 s (m = 100);
 # compiled 1.0 s on the first call (cache load), 3-73 ms after: break-even 2-3 rows.
+# Open chains, measured again 2026-12-02 03:30 (issue 15; `mechkin ik
+# scenarios/puma560_random_ik.yaml`: 50 single solves from the guess, 31 of them restarted):
+# numpy lm 9.6 ms per one-row call (21 iterations), 6.4 ms per 30-row restart call that stops
+# at the first success, 0.68 s in all; compiled: numba import 0.25-0.45 s + cache load
+# 0.55-0.9 s, then 0.02 s for the 50 solves. End to end (several interleaved rounds)
+# MECHKIN_JIT=0 was the faster, so this job must stay numpy: per call 8 ms, restart rows of
+# one target count as one row (lm.lm_batch), estimate 0.67 s < 0.9 s.
 OPEN_LOAD_S = 0.9  # first compiled open-chain call in a process, warm cache [s]
-OPEN_CALL_S = 0.03  # numpy lm_batch, open chain: per call [s] ...
+OPEN_CALL_S = 0.008  # numpy lm_batch, open chain: per call [s] ...
 OPEN_ROW_S = 2.5e-4  # ... and per row [s]
 CLOSED_LOAD_S = 0.8  # first compiled closed-chain call, warm cache, beyond numpy's m = 1 [s]
 CLOSED_CALL_S = 0.3  # numpy lm_batch, closed chain: per call [s] ...
@@ -135,6 +142,11 @@ _lock = threading.Lock()
 def mark_loaded(kind: str) -> None:
     """Record that the compiled kernels of ``kind`` ("open", "closed") are loaded."""
     _loaded.add(kind)
+
+
+def is_loaded(kind: str) -> bool:
+    """Whether this process has run the compiled kernels of ``kind`` ("open", "closed")."""
+    return kind in _loaded
 
 
 def use_compiled(kind: str, rows: int) -> bool:
@@ -161,6 +173,22 @@ def use_compiled(kind: str, rows: int) -> bool:
     return True
 
 
+def compiled_next(kind: str, rows: int) -> bool:
+    """Whether :func:`use_compiled` would answer True for this call, without counting the
+    call's numpy estimate (a peek: the fast single-solve path of
+    :func:`mechkin.solvers.ik.solve.solve_ik` is taken only then, so the job's choice of back
+    end is the same as without it)."""
+    if not compiled_lm_available():
+        return False
+    if compiled_lm_available is not _AVAILABLE or os.environ.get("MECHKIN_JIT") == "1":
+        return True
+    if kind in _loaded:
+        return True
+    load, per_call, per_row = _COSTS[kind]
+    with _lock:
+        return _spent[kind] + per_call + per_row * max(int(rows), 0) > load
+
+
 def reset_job() -> None:
     """Forget the numpy time spent (tests; a new job in a long-lived process)."""
     with _lock:
@@ -172,7 +200,9 @@ def reset_job() -> None:
 
 #: Compile time of each entry kernel on a cold cache (measured 2026-12-02 on the 2-core
 #: machine of the README speed table; ``mechkin warmup`` prints the actual times).
-EXPECTED_COMPILE_S = {"serial_jit.lm": 15.0, "tree_jit.lm_closed": 30.0,
+EXPECTED_COMPILE_S = {"serial_jit.lm": 15.0, "serial_jit.solve_rows": 20.0,
+                      "serial_jit.verify_rows": 5.0, "serial_jit.lm_verify": 20.0,
+                      "tree_jit.lm_closed": 30.0,
                       "tree_jit.evaluate_one": 40.0}
 _announced: set[str] = set()
 quiet = False  # ``mechkin warmup`` prints its own progress lines

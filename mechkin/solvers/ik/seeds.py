@@ -65,12 +65,78 @@ def seed_starts(kern: IkKernel, T_P: np.ndarray, w: np.ndarray, ranks=(0,),
     return out
 
 
-def codebook(kern: IkKernel, size: int, cols: tuple[int, ...] = tuple(range(12))):
-    """Seeded random configurations within the limits and a KD-tree of their poses."""
-    from scipy.spatial import cKDTree
+def seed_rows(kern: IkKernel, T_P: np.ndarray, w: np.ndarray, first: int, count: int,
+              size: int = SEED_CODEBOOK) -> np.ndarray:
+    """The same starts as ``seed_starts(kern, T_P[None], w[None], range(first, first +
+    count))[0]`` for one target T_P (4, 4) with weights w (6,) on an open chain: (count, n_v),
+    with fewer array calls (the single solve's path)."""
+    wp = bool(w[0] > 0 or w[1] > 0 or w[2] > 0)
+    wo = bool(w[3] > 0 or w[4] > 0 or w[5] > 0)
+    cols = _COLS[wp * 2 + wo]
+    if not cols:
+        return codebook(kern, size)[0][first:first + count]
+    feats = np.empty((1, 12))
+    feats[0, :3] = T_P[:3, 3]
+    feats[0, 3:] = 0.5 * T_P[:3, :3].reshape(9)
+    qs, tree = codebook(kern, size, cols)
+    _, nearest = tree.query(feats if len(cols) == 12 else feats[:, cols], k=first + count,
+                            eps=1.0, workers=1)
+    return qs[nearest.reshape(-1)[first:first + count]]
 
+
+# the feature columns searched per weighting mode (2: position weighted, 1: orientation)
+_COLS = {mode: tuple(([0, 1, 2] if mode & 2 else []) + (list(range(3, 12)) if mode & 1 else []))
+         for mode in range(4)}
+
+
+#: How the codebook is searched: ``"kdtree"`` (scipy's cKDTree, approximate with eps = 1; the
+#: default, whose starts every released result follows) or ``"exact"`` (:class:`ExactSearch`,
+#: numpy only: no ``scipy.spatial`` import, exact neighbours, so about 4 % of the nearest
+#: starts and a third of the restart rank sets differ from the default's; measured in
+#: issue 15, see benchmarks/bench_ik.py ``--seeds``).
+SEARCH = "kdtree"
+
+
+class ExactSearch:
+    """Exact k nearest neighbours (Euclidean) of query rows among ``data`` (N, d), numpy only:
+    squared distances ``|x|^2 - 2 x.c + |c|^2`` by one matrix product per block of queries,
+    ``k + 8`` candidates per row by partial sort, then the candidates' distances recomputed
+    directly and sorted (ties by index), so the answer is that of ``cKDTree.query`` with
+    ``eps = 0`` (tested). Same call and return shapes as ``cKDTree.query``."""
+
+    BLOCK = 512  # query rows per matrix product (memory: BLOCK x N doubles)
+
+    def __init__(self, data: np.ndarray) -> None:
+        self.data = np.ascontiguousarray(data, dtype=np.float64)
+        self.norms = np.einsum("ij,ij->i", self.data, self.data)
+
+    def query(self, x: np.ndarray, k: int = 1, eps: float = 0.0, workers: int = 1):
+        """(distances, indices), shapes (m,) for k = 1, else (m, k); ``eps`` and ``workers``
+        are accepted for cKDTree's signature and ignored (the search is exact)."""
+        x = np.atleast_2d(np.asarray(x, dtype=np.float64))
+        m, n = x.shape[0], self.data.shape[0]
+        kc = min(n, k + 8)
+        dist = np.empty((m, k))
+        idx = np.empty((m, k), dtype=np.intp)
+        for a in range(0, m, self.BLOCK):
+            xb = x[a:a + self.BLOCK]
+            d2 = self.norms[None, :] - 2.0 * (xb @ self.data.T)
+            cand = (np.argpartition(d2, kc - 1, axis=1)[:, :kc] if kc < n
+                    else np.broadcast_to(np.arange(n), (xb.shape[0], n)))
+            diff = self.data[cand] - xb[:, None, :]
+            dc = np.einsum("mkd,mkd->mk", diff, diff)
+            order = np.lexsort((cand, dc), axis=1)[:, :k]
+            idx[a:a + self.BLOCK] = np.take_along_axis(cand, order, axis=1)
+            dist[a:a + self.BLOCK] = np.sqrt(np.take_along_axis(dc, order, axis=1))
+        return (dist[:, 0], idx[:, 0]) if k == 1 else (dist, idx)
+
+
+def codebook(kern: IkKernel, size: int, cols: tuple[int, ...] = tuple(range(12))):
+    """Seeded random configurations within the limits and a search structure of their poses
+    (:data:`SEARCH`)."""
     cache = kern.__dict__.setdefault("_codebooks", {})
-    hit = cache.get((size, cols))
+    key = (size, cols) if SEARCH == "kdtree" else (size, cols, SEARCH)
+    hit = cache.get(key)
     if hit is None:
         rng = np.random.default_rng(12345)
         lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
@@ -80,7 +146,12 @@ def codebook(kern: IkKernel, size: int, cols: tuple[int, ...] = tuple(range(12))
         q[:, kern.iv] = qs
         T = kern.end_effector(kern.kinematics(q))
         feats = np.concatenate([T[:, :3, 3], 0.5 * T[:, :3, :3].reshape(size, 9)], axis=1)
-        hit = (qs, cKDTree(feats[:, list(cols)]))
-        cache[(size, cols)] = hit
+        if SEARCH == "kdtree":
+            from scipy.spatial import cKDTree
+
+            hit = (qs, cKDTree(feats[:, list(cols)]))
+        else:
+            hit = (qs, ExactSearch(feats[:, list(cols)]))
+        cache[key] = hit
     return hit
 

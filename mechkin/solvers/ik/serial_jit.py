@@ -362,3 +362,164 @@ def lm_serial(q0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, lo: np.ndarr
             list(ex.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:],
                                                              strict=True)]))
     return q, f, iters, done, gnorm, hist
+
+
+@_njit
+def nearest_turn_one(q, ref, cont, lower, upper):
+    """Continuous joints of q (k,) moved by whole turns to the representative within their
+    limits nearest ``ref`` (as :meth:`mechkin.solvers.ik.kernel.IkKernel.nearest_turn`), in
+    place."""
+    two_pi = 2.0 * np.pi
+    for j in range(q.size):
+        if cont[j]:
+            t = q[j] + two_pi * np.round((ref[j] - q[j]) / two_pi)
+            if t < lower[j]:
+                t = t + two_pi * np.ceil((lower[j] - t) / two_pi)
+            if t > upper[j]:
+                t = t - two_pi * np.ceil((t - upper[j]) / two_pi)
+            q[j] = t
+
+
+@_njit
+def pose_errors_one(T_E, T_P, w, out):
+    """out[0:4] = position and orientation errors of T_E to T_P, all components, then the
+    weighted ones only (as :func:`mechkin.solvers.ik.results.pose_and_weighted_errors`):
+    ``x_p = R_P^T (p_E - p_P)``, ``x_o`` = rotation vector of ``R_P^T R_E``."""
+    M = np.empty((3, 4))
+    for a in range(3):
+        for b in range(4):
+            acc = 0.0
+            for t in range(3):
+                acc += T_P[t, a] * T_E[t, b]
+            M[a, b] = acc
+    x = np.empty(6)
+    for a in range(3):
+        acc = 0.0
+        for t in range(3):
+            acc += T_P[t, a] * T_P[t, 3]
+        x[a] = M[a, 3] - acc
+    rotation_vector(M, x)
+    pe = oe = wpe = woe = 0.0
+    for a in range(3):
+        pe += x[a] * x[a]
+        oe += x[3 + a] * x[3 + a]
+        if w[a] > 0.0:
+            wpe += x[a] * x[a]
+        if w[3 + a] > 0.0:
+            woe += x[3 + a] * x[3 + a]
+    out[0] = np.sqrt(pe)
+    out[1] = np.sqrt(oe)
+    out[2] = np.sqrt(wpe)
+    out[3] = np.sqrt(woe)
+
+
+@_njit
+def solve_rows(q0, F0, w1, Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, f_abs,
+               grad_tol, max_iter, stall, mu, stop_first, home, ref, T_P, q_out, hist_out,
+               at_out, info):
+    """One attempt of :func:`mechkin.solvers.ik.solve.solve_ik` on an open chain whose joints
+    are q_v in order: :func:`lm` on the starts q0 (m, k) for the one target (F0 (1, 4, 4) its
+    first frame in {P}, w1 (6,) the weights), the best row (lowest E; the first NaN, as
+    ``np.argmin``), its joints made finite (``home``) and moved to the whole turn nearest
+    ``ref``, then verified by forward kinematics in the base frame (F_0 = A0).
+
+    Writes q_out (k,), hist_out (max_iter + 1,) (E per iteration of the best row, NaN after),
+    at_out (k,) (joints within 1e-9 of a limit ``lower`` / ``upper``) and info: [f, iters of
+    the best row, most iterations of a row, evaluations (sum of iters + 1), ||g||, converged,
+    position error, orientation error, weighted position error, weighted orientation error,
+    a joint on a bound ``lo`` / ``hi`` (1e-9), all joints finite]."""
+    m, k = q0.shape
+    F0s = np.empty((m, 4, 4))
+    W = np.empty((m, 6))
+    for r in range(m):
+        for a in range(4):
+            for b in range(4):
+                F0s[r, a, b] = F0[0, a, b]
+        for a in range(6):
+            W[r, a] = w1[a]
+    q = np.empty((m, k))
+    f = np.empty(m)
+    iters = np.zeros(m, dtype=np.int64)
+    done = np.zeros(m, dtype=np.bool_)
+    gnorm = np.zeros(m)
+    hist = np.full((m, max_iter + 1), np.nan)
+    lm(q0, F0s, W, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, grad_tol,
+       max_iter, stall, mu, stop_first, q, f, iters, done, gnorm, hist)
+    b = 0
+    if m > 1:
+        any_finite = False
+        for r in range(m):
+            if np.isfinite(f[r]):
+                any_finite = True
+        if any_finite:  # np.argmin: the first NaN, else the first minimum
+            fb = f[0]
+            for r in range(1, m):
+                if np.isnan(fb):
+                    break
+                if np.isnan(f[r]) or f[r] < fb:
+                    b = r
+                    fb = f[r]
+    for a in range(k):
+        v = q[b, a]
+        q_out[a] = v if np.isfinite(v) else home[a]
+    nearest_turn_one(q_out, ref, cont, lower, upper)
+    for a in range(max_iter + 1):
+        hist_out[a] = hist[b, a]
+    F = np.empty((k + 1, 4, 4))
+    chain_frames(q_out, A0, Pc, Ps, Pd, P0, rev, F)
+    errs = np.empty(4)
+    pose_errors_one(F[k], T_P, w1, errs)
+    onb = False
+    fin = True
+    for a in range(k):
+        at_out[a] = (q_out[a] <= lower[a] + 1e-9) or (q_out[a] >= upper[a] - 1e-9)
+        onb = onb or (q_out[a] <= lo[a] + 1e-9) or (q_out[a] >= hi[a] - 1e-9)
+        fin = fin and np.isfinite(q_out[a])
+    imax = 0
+    nev = 0
+    for r in range(m):
+        imax = max(imax, iters[r])
+        nev += iters[r] + 1
+    info[0] = f[b]
+    info[1] = iters[b]
+    info[2] = imax
+    info[3] = nev
+    info[4] = gnorm[b]
+    info[5] = 1.0 if done[b] else 0.0
+    info[6] = errs[0]
+    info[7] = errs[1]
+    info[8] = errs[2]
+    info[9] = errs[3]
+    info[10] = 1.0 if onb else 0.0
+    info[11] = 1.0 if fin else 0.0
+
+
+@_njit
+def verify_rows(q, A0, Pc, Ps, Pd, P0, rev, T_P, w, out):
+    """Forward kinematics of rows q (m, k) in the base frame (F_0 = A0) and their errors to
+    the targets T_P (m, 4, 4) with weights w (m, 6): out (m, 4) as :func:`pose_errors_one`
+    (position, orientation, weighted position, weighted orientation)."""
+    m, k = q.shape
+    F = np.empty((k + 1, 4, 4))
+    for r in range(m):
+        chain_frames(q[r], A0, Pc, Ps, Pd, P0, rev, F)
+        pose_errors_one(F[k], T_P[r], w[r], out[r])
+
+
+@_njit
+def nearest_turn_rows(q, ref, cont, lower, upper):
+    """:func:`nearest_turn_one` on every row of q (m, k) with references ref (m, k), in
+    place."""
+    for r in range(q.shape[0]):
+        nearest_turn_one(q[r], ref[r], cont, lower, upper)
+
+
+@_njit
+def lm_verify(q0, F0, w, Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, f_abs, grad_tol,
+              max_iter, stall, mu, T_P, q, f, iters, done, gnorm, err):
+    """:func:`lm` on rows q0 (m, k) (one target each, no history), then :func:`verify_rows`
+    of the results into err (m, 4): one call per attempt of a small batch."""
+    hist = np.empty((0, 0))
+    lm(q0, F0, w, Pc, Ps, Pd, P0, rev, lo, hi, cont, lower, upper, f_abs, grad_tol, max_iter,
+       stall, mu, False, q, f, iters, done, gnorm, hist)
+    verify_rows(q, A0, Pc, Ps, Pd, P0, rev, T_P, w, err)

@@ -9,6 +9,14 @@ seeds first, then random joints within the limits; closed chains jitter the star
 Step 2); :func:`solve_ik_batch` runs lm on many targets at once and re-solves the failed ones
 together. Every result is verified by forward kinematics (:mod:`mechkin.solvers.ik.results`).
 
+On an open chain whose independent joints are the serial path to {E} (PUMA 560, Panda, ...),
+with the compiled kernels in use, :func:`solve_ik` and small :func:`solve_ik_batch` calls take
+a compiled path (:func:`_solve_open_compiled`, :func:`_batch_open_compiled`): the same starts,
+lm rows, restarts and choice of answer as the general loop, bit for bit (tested), with each
+attempt's lm, nearest turn and verification in one compiled call. Measured (issue 15,
+benchmarks/bench_ik.py ``--vs-rtb``): the general loop spent ~98 % of a single solve around
+the lm kernel; the codebook lookup (scipy's KD-tree, ~40 us per call) is now the largest part.
+
 Design
 ------
 Part of the IK solver family :mod:`mechkin.solvers.ik`. May import every module of the family
@@ -22,9 +30,10 @@ import time
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik import accel
 from mechkin.solvers.ik.cg_golden import cg_golden
 from mechkin.solvers.ik.kernel import IkKernel, kernel_for, pose_errors
-from mechkin.solvers.ik.lm import lm_batch
+from mechkin.solvers.ik.lm import LM_MU, MAX_ITER_LM, STALL_WINDOW, lm_batch
 from mechkin.solvers.ik.results import (
     IkBatchResult,
     IkOptions,
@@ -35,7 +44,7 @@ from mechkin.solvers.ik.results import (
     status_of,
     weighted_errors,
 )
-from mechkin.solvers.ik.seeds import SEED_RESTARTS, seed_starts
+from mechkin.solvers.ik.seeds import SEED_RESTARTS, seed_rows, seed_starts
 
 
 def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
@@ -80,6 +89,8 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
     T_P = np.asarray(T_P, dtype=np.float64)
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=np.float64)
     t0 = time.perf_counter()
+    if opts.method == "lm" and _fast_open(kern) and accel.compiled_next("open", 1):
+        return _solve_open_compiled(kern, T_P, w, q_v0, opts, t0)
     qv0 = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
     if q_v0 is None:  # no guess: the nearest pose of the seeded codebook (open chains)
         seeded = seed_starts(kern, T_P[None], w[None])
@@ -167,6 +178,214 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
                     time_s=time.perf_counter() - t0)
 
 
+_STATUS_OF_CODE = [IkStatus.OK, IkStatus.SINGULAR, IkStatus.UNREACHABLE, IkStatus.NOT_CONVERGED]
+
+
+def _solve_consts(kern: IkKernel) -> tuple:
+    """The compiled kernels' constants of an open chain (:func:`_fast_open`), per kernel:
+    the chain's Pc, Ps, Pd, P0, rev, A0, then bound_lo, bound_hi, cont_v, lower_v, upper_v
+    and the home joints."""
+    c = kern.__dict__.get("_solve_consts")
+    if c is None:
+        ch = kern.chain
+        c = kern.__dict__["_solve_consts"] = (
+            ch.Pc[:, 0].copy(), ch.Ps[:, 0].copy(), ch.Pd[:, 0].copy(), ch.P0[:, 0].copy(),
+            ch.rev.copy(), ch.A0.copy(), kern.bound_lo.copy(), kern.bound_hi.copy(),
+            kern.cont_v.copy(), kern.lower_v.copy(), kern.upper_v.copy(),
+            np.asarray(kern.mech.home, dtype=np.float64)[kern.iv].copy())
+    return c
+
+
+def _fast_open(kern: IkKernel) -> bool:
+    """Whether ``kern`` is an open chain whose independent joints are the serial path to {E}
+    in order (every joint independent): the compiled single-solve path applies."""
+    ok = kern.__dict__.get("_fast_open")
+    if ok is None:
+        ok = bool(kern.n_cuts == 0 and kern.iw.size == 0
+                  and np.array_equal(kern.iv, np.arange(kern.n)) and kern.chain_cols is None)
+        kern.__dict__["_fast_open"] = ok
+    return ok
+
+
+def _restart_draws(kern: IkKernel, seed: int, k: int) -> np.ndarray:
+    """``default_rng(seed).uniform(lo, hi, (k, n_v))``, the random restart starts of
+    :func:`solve_ik` (the same for every target of a kernel), drawn once per kernel, seed and
+    k; the caller gets its own copy."""
+    cache = kern.__dict__.setdefault("_restart_draws", {})
+    hit = cache.get((seed, k))
+    if hit is None:
+        lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+        hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+        hit = cache[(seed, k)] = np.random.default_rng(seed).uniform(lo, hi, size=(k, kern.iv.size))
+    return hit.copy()
+
+
+def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
+                         q_v0: np.ndarray | None, opts: IkOptions, t0: float) -> IkResult:
+    r""":func:`solve_ik` by lm on an open chain (:func:`_fast_open`) with the compiled kernels:
+    the same starts, the same lm rows and the same choice of the answer as the general loop
+    (bit-identical joints, tested), with each attempt's lm, choice of row, nearest turn and
+    verification by forward kinematics in one compiled call
+    (:func:`mechkin.solvers.ik.serial_jit.solve_rows`) instead of some forty array calls.
+    Measured (issue 15): a single PUMA 560 solve spent about 2 % of its time in the lm
+    kernel before."""
+    from mechkin.solvers.ik import serial_jit
+
+    mech = kern.mech
+    Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper, home = _solve_consts(kern)
+    accel.announce(serial_jit.solve_rows, "serial_jit.solve_rows")
+    accel.mark_loaded("open")
+    k = kern.iv.size
+    max_iter = opts.max_iter or MAX_ITER_LM
+    f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
+    stall = STALL_WINDOW if opts.restarts > 0 else 0
+    T_P = np.ascontiguousarray(T_P)
+    w = np.ascontiguousarray(w)
+    F0 = kern.chain.first_frame(T_P[None])
+    if q_v0 is None:
+        start = seed_rows(kern, T_P, w, 0, 1)
+        ref = home
+    else:
+        start = np.ascontiguousarray(q_v0, dtype=np.float64).reshape(1, k)
+        ref = start[0]
+    tot_it = tot_ev = 0
+    best = None
+    attempt = 0
+    while True:
+        q = np.empty(k)
+        hist = np.empty(max_iter + 1)
+        at = np.empty(k, dtype=np.bool_)
+        info = np.empty(12)
+        serial_jit.solve_rows(start, F0, w, Pc, Ps, Pd, P0, rev, A0, lo, hi, cont, lower, upper,
+                              f_abs, opts.lm_grad_tol, max_iter, stall, LM_MU,
+                              start.shape[0] > 1, home, ref, T_P, q, hist, at, info)
+        attempt += start.shape[0]
+        f, it_b, it_max, nev, gn, conv, pe, oe, wpe, woe, onb, fin = info.tolist()
+        tot_it += int(it_max)
+        tot_ev += int(nev)
+        if not fin:
+            st = IkStatus.SINGULAR
+        elif wpe <= opts.tol_pos and woe <= opts.tol_ori:
+            st = IkStatus.OK
+        elif conv:
+            st = IkStatus.AT_LIMIT if onb else IkStatus.UNREACHABLE
+        elif not np.isfinite(gn) or gn > 1e6:
+            st = IkStatus.SINGULAR
+        else:
+            st = IkStatus.NOT_CONVERGED
+        f_fin = f if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
+        hist = hist[: int(it_b) + 1]
+        if not np.isfinite(hist).all():
+            hist = finite(hist, np.full_like(hist, f_fin))
+        names = mech.joint_names
+        at_lim = tuple(names[j] for j in np.flatnonzero(at)) if at.any() else ()
+        res = dict(q_v=q, q_w=np.empty(0), q=q.copy(), status=st, position_error=pe,
+                   orientation_error=oe, f=f_fin, grad_norm=gn if np.isfinite(gn) else 0.0,
+                   f_history=hist, at_limit=at_lim,
+                   restarts_used=attempt - 1, method="lm")
+        if best is None or better(res, best):
+            best = res
+        if best["status"] is IkStatus.OK or attempt > opts.restarts:
+            break
+        # every restart at once, as rows of one run that stops at the first success: the
+        # nearest codebook poses not tried yet first, then seeded random joints
+        nk = opts.restarts
+        start = _restart_draws(kern, opts.seed, nk)
+        first = 1 if q_v0 is None else 0
+        nr = min(nk, max(SEED_RESTARTS - first, 0))
+        if nr:
+            start[:nr] = seed_rows(kern, T_P, w, first, nr)
+    return IkResult(**best, iterations=tot_it, evaluations=tot_ev,
+                    time_s=time.perf_counter() - t0)
+
+
+#: solve_ik_batch: below this many targets an open chain (:func:`_fast_open`) with the
+#: compiled kernels loaded runs :func:`_batch_open_compiled` (one compiled call per attempt);
+#: above, the general loop (whose compiled lm spreads rows over threads).
+SMALL_BATCH = 1024
+
+
+def _batch_open_compiled(kern: IkKernel, T_P: np.ndarray, q_v0: np.ndarray | None,
+                         weights: np.ndarray | None, opts: IkOptions, t0: float
+                         ) -> IkBatchResult:
+    """:func:`solve_ik_batch` of a small batch on an open chain (:func:`_fast_open`) by the
+    compiled kernels: the same starts, lm rows, restarts and answers as the general loop
+    (bit-identical joints, tested), each attempt's lm and FK verification in one compiled call
+    (:func:`mechkin.solvers.ik.serial_jit.lm_verify`), without the per-call array work that
+    made m = 1 cost several rtb solves (issue 15)."""
+    from mechkin.solvers.ik import serial_jit
+
+    mech = kern.mech
+    m = T_P.shape[0]
+    nv = kern.iv.size
+    Pc, Ps, Pd, P0, rev, A0, blo, bhi, cont, lower, upper, _ = _solve_consts(kern)
+    accel.announce(serial_jit.lm_verify, "serial_jit.lm_verify")
+    accel.mark_loaded("open")
+    T_P = np.ascontiguousarray(T_P)
+    ref = np.empty((m, nv))
+    ref[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)
+    w = np.empty((m, 6))
+    w[:] = 1.0 if weights is None else np.asarray(weights, float)
+    if q_v0 is None:
+        qv0 = (seed_rows(kern, T_P[0], w[0], 0, 1) if m == 1
+               else seed_starts(kern, T_P, w)[:, 0])
+    else:
+        qv0 = ref.copy()
+    max_iter = opts.max_iter or MAX_ITER_LM
+    f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
+    stall = STALL_WINDOW if opts.restarts > 0 else 0
+    F0 = kern.chain.first_frame(T_P)
+
+    def attempt(start, F, TT, ww):
+        n = start.shape[0]
+        out = (np.empty((n, nv)), np.empty(n), np.zeros(n, dtype=np.int64),
+               np.zeros(n, dtype=np.bool_), np.zeros(n), np.empty((n, 4)))
+        serial_jit.lm_verify(np.ascontiguousarray(start, dtype=np.float64), F, ww, Pc, Ps, Pd,
+                             P0, rev, A0, blo, bhi, cont, lower, upper, f_abs,
+                             opts.lm_grad_tol, max_iter, stall, LM_MU, TT, *out)
+        return out
+
+    q, f, iters, conv, _, e0 = attempt(qv0, F0, T_P, w)
+    ok = (e0[:, 2] <= opts.tol_pos) & (e0[:, 3] <= opts.tol_ori)
+    rng = None
+    restarted = False
+    for k in range(opts.restarts):
+        bad = np.flatnonzero(~ok)
+        if bad.size == 0:
+            break
+        restarted = True
+        rank = k + 1 if q_v0 is None else k
+        if rank < SEED_RESTARTS:
+            start = (seed_rows(kern, T_P[bad[0]], w[bad[0]], rank, 1) if bad.size == 1
+                     else seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))[:, 0])
+        else:
+            if rng is None:
+                rng = np.random.default_rng(opts.seed)
+                lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+                hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+            start = rng.uniform(lo, hi, size=(bad.size, nv))
+        Tb = T_P[bad]
+        q2, f2, it2, conv2, _, e2 = attempt(start, kern.chain.first_frame(Tb), Tb, w[bad])
+        iters[bad] += it2
+        lower_f = f2 < f[bad]
+        sel = bad[lower_f]
+        q[sel], f[sel], conv[sel] = q2[lower_f], f2[lower_f], conv2[lower_f]
+        # rows kept at their previous answer stay failed (the same joints, the same check)
+        ok[sel] = (e2[lower_f, 2] <= opts.tol_pos) & (e2[lower_f, 3] <= opts.tol_ori)
+    q_before = None if restarted else q.copy()
+    serial_jit.nearest_turn_rows(q, ref, cont, lower, upper)
+    if q_before is not None and np.array_equal(q, q_before):
+        e = e0
+    else:
+        e = np.empty((m, 4))
+        serial_jit.verify_rows(q, A0, Pc, Ps, Pd, P0, rev, T_P, w, e)
+    codes = np.where(ok, 0, np.where(conv, 2, 3))
+    status = np.array(_STATUS_OF_CODE, dtype=object)[codes]
+    return IkBatchResult(q_v=q.copy(), q_w=np.zeros((m, 0)), q=q, status=status,
+                         position_error=e[:, 0].copy(), orientation_error=e[:, 1].copy(), f=f,
+                         iterations=iters, time_s=time.perf_counter() - t0)
+
+
 def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
                       q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
                       weights: np.ndarray | list[np.ndarray] | None = None,
@@ -224,41 +443,75 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     t0 = time.perf_counter()
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
+    if m < SMALL_BATCH and _fast_open(kern) and (q_w0 is None or np.size(q_w0) == 0) \
+            and accel.compiled_next("open", m):
+        return _batch_open_compiled(kern, T_P, q_v0, weights, opts, t0)
     nv, nw = kern.iv.size, kern.iw.size
-    qv0 = np.broadcast_to(mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float),
-                          (m, nv)).copy()
-    w_seed = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
-                             (m, 6))
+    qv0 = np.empty((m, nv))
+    qv0[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)
+    w = np.empty((m, 6))
+    w[:] = 1.0 if weights is None else np.asarray(weights, float)
+    w_seed = w
+    fast = _fast_open(kern)
     if q_v0 is None:
-        seeded = seed_starts(kern, T_P, w_seed)
+        seeded = (seed_rows(kern, T_P[0], w_seed[0], 0, 1)[None] if fast and m == 1
+                  else seed_starts(kern, T_P, w_seed))
         if seeded is not None:
             qv0 = seeded[:, 0]
-    qw0 = np.broadcast_to(mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float),
-                          (m, nw)).copy()
-    w = np.broadcast_to(np.ones(6) if weights is None else np.asarray(weights, float),
-                        (m, 6)).copy()
+    qw0 = np.empty((m, nw))
+    qw0[:] = mech.home[kern.iw] if q_w0 is None else np.asarray(q_w0, float)
     r = lm_batch(kern, qv0, qw0, T_P, w, opts)
     q, f, iters = r["q"], r["f"], r["iters"]
     conv, closed = r["converged"], r["closed"]
 
+    def errors(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray | None:
+        """(m, 4) errors of rows qq by the compiled FK (an open chain whose compiled lm ran
+        in this process), else None."""
+        if not (fast and accel.is_loaded("open")):
+            return None
+        from mechkin.solvers.ik import serial_jit
+
+        accel.announce(serial_jit.verify_rows, "serial_jit.verify_rows")
+        Pc, Ps, Pd, P0, rev, A0 = _solve_consts(kern)[:6]
+        out = np.empty((qq.shape[0], 4))
+        serial_jit.verify_rows(np.ascontiguousarray(qq), A0, Pc, Ps, Pd, P0, rev,
+                               np.ascontiguousarray(TT), np.ascontiguousarray(ww), out)
+        return out
+
     def check(qq: np.ndarray, TT: np.ndarray, ww: np.ndarray) -> np.ndarray:
-        T_E = kern.pose_check(qq)
-        pe, oe = weighted_errors(T_E, TT, ww)
+        e = errors(qq, TT, ww)
+        if e is None:
+            T_E = kern.pose_check(qq)
+            pe, oe = weighted_errors(T_E, TT, ww)
+        else:
+            pe, oe = e[:, 2], e[:, 3]
         return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
 
-    ok = check(q, T_P, w) & closed
-    rng = np.random.default_rng(opts.seed)
-    lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
-    hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+    e0 = errors(q, T_P, w)
+    if e0 is None:
+        ok = check(q, T_P, w) & closed
+    else:
+        ok = (e0[:, 2] <= opts.tol_pos) & (e0[:, 3] <= opts.tol_ori) & closed
+    rng = None
+    restarted = False
     for k in range(opts.restarts):
         bad = np.flatnonzero(~ok)
         if bad.size == 0:
             break
+        restarted = True
+        if rng is None:
+            rng = np.random.default_rng(opts.seed)
+            lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+            hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
         # the nearest codebook poses not tried yet first (also when a start was given),
         # then seeded random starts
         rank = k + 1 if q_v0 is None else k
-        start = (seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))
-                 if rank < SEED_RESTARTS else None)
+        if rank >= SEED_RESTARTS:
+            start = None
+        elif fast and bad.size == 1:
+            start = seed_rows(kern, T_P[bad[0]], w[bad[0]], rank, 1)[None]
+        else:
+            start = seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))
         start = (start[:, 0] if start is not None
                  else rng.uniform(lo, hi, size=(bad.size, nv)))
         r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
@@ -269,14 +522,25 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         conv[sel], closed[sel] = r2["converged"][lower], r2["closed"][lower]
         ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
     # joints with limits over a full turn come back at the turn nearest the start (or home)
-    q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], np.broadcast_to(
-        mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float), (m, nv)))
-    T_E = kern.pose_check(q)
-    pe, oe = pose_errors(T_E, T_P)
-    status = np.empty(m, dtype=object)
-    for i in range(m):
-        status[i] = (IkStatus.OK if ok[i] else IkStatus.SINGULAR if not closed[i]
-                     else IkStatus.UNREACHABLE if conv[i] else IkStatus.NOT_CONVERGED)
+    ref = np.empty((m, nv))
+    ref[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)
+    if e0 is not None:  # an open chain (fast) whose compiled lm ran: q is q_v
+        from mechkin.solvers.ik import serial_jit
+
+        q0 = q.copy() if not restarted else None
+        c = _solve_consts(kern)
+        serial_jit.nearest_turn_rows(q, ref, c[8], c[9], c[10])
+        e = e0 if q0 is not None and np.array_equal(q, q0) else errors(q, T_P, w)
+    else:
+        q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], ref)
+        e = errors(q, T_P, w)
+    if e is None:
+        T_E = kern.pose_check(q)
+        pe, oe = pose_errors(T_E, T_P)
+    else:
+        pe, oe = e[:, 0].copy(), e[:, 1].copy()
+    codes = np.where(ok, 0, np.where(~closed, 1, np.where(conv, 2, 3)))
+    status = np.array(_STATUS_OF_CODE, dtype=object)[codes]
     return IkBatchResult(q_v=q[:, kern.iv], q_w=q[:, kern.iw], q=q, status=status,
                          position_error=pe, orientation_error=oe, f=f, iterations=iters,
                          time_s=time.perf_counter() - t0)

@@ -1,10 +1,12 @@
 """Compile (or load from numba's cache) the IK kernels ahead of first use (``mechkin warmup``).
 
 The compiled kernels are specialised on argument types, not on a mechanism: compiling them
-once for any open chain (``serial_jit.lm``) and any closed chain (``tree_jit.lm_closed``; the
-cg-golden point evaluator ``tree_jit.evaluate_one`` serves both) covers every mechanism. Each
-kernel is run once on a one-row problem at the mechanism's home pose, through the same
-wrappers the solvers call.
+once for any open chain (``serial_jit.lm``, the single-solve path ``serial_jit.solve_rows``,
+the batch verification ``serial_jit.verify_rows`` and the small-batch attempt
+``serial_jit.lm_verify``) and any closed chain (``tree_jit.lm_closed``; the cg-golden point
+evaluator ``tree_jit.evaluate_one`` serves both) covers every mechanism. Each kernel is run
+once on a one-row problem at the mechanism's home pose, through the same wrappers the solvers
+call.
 
 Design
 ------
@@ -76,9 +78,14 @@ class Warmed:
 def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
     """(kernel name, role) of the compiled kernels ``mech``'s IK can use."""
     closed = bool(mech.cuts) and len(mech.dependent) > 0
-    lm = (("tree_jit.lm_closed", "closed-chain lm") if closed
-          else ("serial_jit.lm", "open-chain lm"))
-    return [lm, ("tree_jit.evaluate_one", "cg-golden point evaluation")]
+    if closed:
+        lms = [("tree_jit.lm_closed", "closed-chain lm")]
+    else:
+        lms = [("serial_jit.lm", "open-chain lm"),
+               ("serial_jit.solve_rows", "open-chain single solve"),
+               ("serial_jit.verify_rows", "open-chain batch verification"),
+               ("serial_jit.lm_verify", "open-chain small batch")]
+    return [*lms, ("tree_jit.evaluate_one", "cg-golden point evaluation")]
 
 
 def _dispatcher(name: str):
@@ -95,12 +102,31 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
     from mechkin.solvers.ik.results import IkOptions
 
     kern = kernel_for(mech)
-    T = frame_poses(mech, mech.home[None], [kern.frame])[:, 0]
+    T = np.ascontiguousarray(frame_poses(mech, mech.home[None], [kern.frame])[:, 0])
     qv, qw = mech.home[kern.iv][None].copy(), mech.home[kern.iw][None].copy()
     w = np.ones((1, 6))
     opts = IkOptions()
     if name == "serial_jit.lm":
         return lambda: lm._lm_open_compiled(kern, qv, qw, T, w, opts, False)
+    if name in ("serial_jit.solve_rows", "serial_jit.verify_rows", "serial_jit.lm_verify"):
+        from mechkin.solvers.ik import serial_jit
+        from mechkin.solvers.ik.solve import _solve_consts
+
+        c = _solve_consts(kern)
+        F0 = kern.chain.first_frame(T)
+        q, hist, at, info = np.empty(kern.iv.size), np.empty(6), np.empty(kern.iv.size, bool), \
+            np.empty(12)
+        if name == "serial_jit.lm_verify":
+            n = kern.iv.size
+            outs = (np.empty((1, n)), np.empty(1), np.zeros(1, dtype=np.int64),
+                    np.zeros(1, dtype=np.bool_), np.zeros(1), np.empty((1, 4)))
+            return lambda: serial_jit.lm_verify(qv, F0, w, *c[:11], 1e-30, 0.0, 5, 0,
+                                                lm.LM_MU, T, *outs)
+        if name == "serial_jit.verify_rows":
+            return lambda: serial_jit.verify_rows(qv, c[5], *c[:5], T, w, np.empty((1, 4)))
+        return lambda: serial_jit.solve_rows(
+            qv, F0, w[0], *c[:11], 1e-30, 0.0, 5, 0, lm.LM_MU, False, c[11], qv[0], T[0], q,
+            hist, at, info)
     if name == "tree_jit.lm_closed":
         from mechkin.solvers.ik import tree_jit
 
