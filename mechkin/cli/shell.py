@@ -1,7 +1,10 @@
-"""Pieces every subcommand shares: the run-command shell, error handling, reporting.
+"""The shell of every run command without typer: run one scenario, handle errors, report.
 
-Typer only: nothing here imports numpy, the solvers, plotting or MCAP code at module level, so
-``mechkin --help`` starts instantly (DESIGN.md: cli).
+``mechkin fk|ik|track|workspace SCENARIO`` spend most of a short call starting up, so this
+module and :mod:`mechkin.cli.fast` (the argument parser of the run commands) import neither
+typer nor numpy; :mod:`mechkin.cli.common` wraps the same functions for the typer commands
+(:class:`Exit` -> ``typer.Exit``). Output goes through :func:`echo`, which writes what
+``typer.echo`` writes (typer's own when typer is loaded).
 """
 
 from __future__ import annotations
@@ -14,63 +17,53 @@ import sys
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Annotated, Any, TypeVar
-
-import typer
+from typing import Any, TypeVar
 
 from mechkin.errors import MechkinError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-# the options every run command shares
-OutOption = Annotated[Path | None, typer.Option(
-    "--out", "-o", help="Output folder [default: outputs/<scenario name>]")]
-JsonOption = Annotated[bool, typer.Option("--json", help="Print summary.json to stdout too")]
-PlotsOption = Annotated[bool, typer.Option("--plots/--no-plots", help="Write PNG plots")]
-MaxMemoryOption = Annotated[str | None, typer.Option(
-    "--max-memory", metavar="SIZE",
-    help="Memory budget of the job, e.g. 8G or 512M [default: MECHKIN_MAX_MEMORY, else half "
-         "of this machine's memory]")]
-ProgressOption = Annotated[bool | None, typer.Option(
-    "--progress/--no-progress",
-    help="Progress bar on stderr for long runs [default: when stderr is a terminal]")]
-ForceOption = Annotated[bool, typer.Option(
-    "--force", help="Replace an output folder that holds another scenario's results")]
-WorkersOption = Annotated[int | None, typer.Option(
-    "--workers", "-j", min=1,
-    help="Run the long jobs of this run (ik target chunks, sweeps, lee maps, grid studies, fk "
-         "chunks) on N local processes (default: one process; workspace sweeps: workers: of "
-         "the scenario, else min(cpu count, jobs))")]
-SchedulerOption = Annotated[str | None, typer.Option(
-    "--scheduler", metavar="ADDRESS",
-    help="Dask scheduler address (tcp://host:port): run the long jobs on that cluster (needs "
-         "the dask extra; every worker must run this mechkin version)")]
+
+class Exit(Exception):  # noqa: N818 - typer's name, typer.Exit in the typer commands
+    """Leave the command with ``code`` (what ``typer.Exit(code)`` does in a typer command)."""
+
+    def __init__(self, code: int = 0) -> None:
+        super().__init__(code)
+        self.code = code
 
 
-def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
-                ) -> Callable[..., None]:
-    """The typer command ``mechkin <task> SCENARIO [--out] [--json] [--plots]``: load the
-    scenario, run ``mechkin.tasks.<task>``, write the report, print ``line(summary)`` (or the
-    summary with ``--json``) and the report's messages, exit with its code."""
+_ANSI: Any = None
 
-    def command(
-        scenario: Path = typer.Argument(..., help=f"Scenario YAML (task: {task})"),
-        out: OutOption = None,
-        json_out: JsonOption = False,
-        plots: PlotsOption = True,
-        force: ForceOption = False,
-        max_memory: MaxMemoryOption = None,
-        progress: ProgressOption = None,
-        workers: WorkersOption = None,
-        scheduler: SchedulerOption = None,
-    ) -> None:
-        raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force,
-                                 max_memory=max_memory, progress=progress, workers=workers,
-                                 scheduler=scheduler))
 
-    command.__doc__ = doc
-    command.__name__ = f"{task}_cli"
-    return command
+def echo(message: str, err: bool = False) -> None:
+    """``echo(message, err=err)``: the line and a newline, ANSI styles removed unless the
+    stream is a terminal, flushed. typer's own echo when typer is loaded (the typer commands,
+    its test runner); else the same steps for the text streams :mod:`mechkin.cli.fast`
+    accepts (not ASCII-encoded)."""
+    typer = sys.modules.get("typer")
+    if typer is not None:
+        typer.echo(message, err=err)
+        return
+    f = sys.stderr if err else sys.stdout
+    if f is None:
+        return
+    out = f"{message}\n"
+    if not _isatty(f):
+        global _ANSI
+        if _ANSI is None:
+            import re
+
+            _ANSI = re.compile(r"\033\[[;?0-9]*[a-zA-Z]")  # click's strip_ansi
+        out = _ANSI.sub("", out)
+    f.write(out)
+    f.flush()
+
+
+def _isatty(stream: Any) -> bool:
+    try:
+        return bool(stream.isatty())
+    except Exception:  # noqa: BLE001 - as click.isatty
+        return False
 
 
 def execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots: bool,
@@ -112,7 +105,7 @@ def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots:
         summary = rep.write(out_dir, plots=plots)
     report(summary, json_out, line(summary))
     for msg in rep.messages:
-        typer.echo(msg, err=True)
+        echo(msg, err=True)
     return rep.exit_code
 
 
@@ -205,7 +198,8 @@ def _stop_children() -> None:
 
 def handle_errors(fn: F) -> F:
     """Turn MechkinError into one line per problem on stderr and its exit code (never a
-    traceback); unexpected exceptions exit 3 with a one-line message."""
+    traceback); unexpected exceptions exit 3 with a one-line message. The code leaves as
+    :class:`Exit` (``typer.Exit`` through :func:`mechkin.cli.common.handle_errors`)."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -213,27 +207,30 @@ def handle_errors(fn: F) -> F:
             return fn(*args, **kwargs)
         except MechkinError as exc:
             for ln in str(exc).splitlines() or [type(exc).__name__]:
-                typer.echo(f"error: {ln}" if not _has_location(ln) else ln, err=True)
-            raise typer.Exit(code=exc.exit_code) from None
+                echo(f"error: {ln}" if not _has_location(ln) else ln, err=True)
+            raise Exit(exc.exit_code) from None
         except KeyboardInterrupt:
             _stop_children()
             if _SIGNALLED:
                 raise  # terminate_cleanly reports it
-            typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
-            raise typer.Exit(code=130) from None
-        except (typer.Exit, typer.Abort):
+            echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
+            raise Exit(130) from None
+        except Exit:
             raise
         except Exception as exc:  # noqa: BLE001 - the CLI must never show a traceback
+            typer = sys.modules.get("typer")
+            if typer is not None and isinstance(exc, (typer.Exit, typer.Abort)):
+                raise
             if _SIGNALLED:
                 raise  # a signal that surfaced as another exception (e.g. during an import)
             logging.getLogger("mechkin").debug("internal error", exc_info=True)
             from mechkin.config.load import short_str
 
-            typer.echo(f"mechkin: internal error: {type(exc).__name__}: {short_str(exc, 200)} "
-                       "(run with MECHKIN_DEBUG=1 for details)", err=True)
+            echo(f"mechkin: internal error: {type(exc).__name__}: {short_str(exc, 200)} "
+                 "(run with MECHKIN_DEBUG=1 for details)", err=True)
             if _debug():
                 raise
-            raise typer.Exit(code=3) from None
+            raise Exit(3) from None
 
     return wrapper  # type: ignore[return-value]
 
@@ -259,7 +256,7 @@ def report(summary: dict[str, Any], json_out: bool, line: str) -> None:
     if json_out:
         echo_json(summary)
     else:
-        typer.echo(line)
+        echo(line)
 
 
 def echo_json(summary: dict[str, Any]) -> None:

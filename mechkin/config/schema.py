@@ -25,7 +25,7 @@ AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
 class Spec(BaseModel):
     """Base of every file schema: frozen, unknown keys are errors."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 class Units(Spec):
