@@ -44,8 +44,10 @@ def leave(code: int) -> NoReturn:
     objects above all), after every file is written and closed. So, as after a signal
     (:func:`mechkin.cli.shell.terminate_cleanly`), the process leaves with ``os._exit``, but
     only after the ``atexit`` handlers (logging, ``weakref.finalize``, multiprocessing, numba)
-    have run and stdout and stderr are flushed; with other threads still running, or when a
-    flush fails (a closed pipe), or with ``MECHKIN_FAST_EXIT=0``, Python exits as usual.
+    have run and stdout and stderr are flushed. Python exits as usual with other threads still
+    running, under a profiler or tracer (``python -m cProfile -m mechkin ...`` writes its
+    profile after the program), when a flush fails (a closed pipe) or with
+    ``MECHKIN_FAST_EXIT=0``.
     """
     import atexit
     import os
@@ -53,6 +55,7 @@ def leave(code: int) -> NoReturn:
 
     run_exitfuncs = getattr(atexit, "_run_exitfuncs", None)
     if (threading.active_count() > 1 or run_exitfuncs is None
+            or sys.getprofile() is not None or sys.gettrace() is not None  # cProfile, coverage
             or os.environ.get("MECHKIN_FAST_EXIT", "1") == "0"):
         raise SystemExit(code)
     run_exitfuncs()
