@@ -1,5 +1,6 @@
 """The run commands' arguments read without typer: ``mechkin fk|ik|track|workspace SCENARIO``
-with the options of :mod:`mechkin.cli.common`, the common case of a short call.
+with the options of :mod:`mechkin.cli.common`, ``mechkin info MECH [--json]`` and ``mechkin
+check FILE...``, the common cases of a short call.
 
 Importing typer, building the command tree and its per-option pydantic adapters costs 0.1-0.2
 s of a call that should take well under a second (issue 15). :func:`main` reads the plain
@@ -87,6 +88,23 @@ def parse_run_args(argv: list[str]) -> tuple[str, dict[str, Any]] | None:
     return task, {"scenario": Path(scenario), **_DEFAULTS, **kw}
 
 
+def parse_file_args(argv: list[str]) -> tuple[str, dict[str, Any]] | None:
+    """``mechkin info MECH [--json]`` -> ``("info", {"mechanism", "json_out"})`` and
+    ``mechkin check FILE...`` -> ``("check", {"files"})``; None for anything else."""
+    if not argv or argv[0] not in ("info", "check"):
+        return None
+    cmd, rest = argv[0], argv[1:]
+    if cmd == "check":
+        if not rest or any(t.startswith("-") for t in rest):
+            return None
+        return cmd, {"files": [Path(t) for t in rest]}
+    json_out = "--json" in rest
+    pos = [t for t in rest if t != "--json"]
+    if len(pos) != 1 or pos[0].startswith("-") or rest.count("--json") > 1:
+        return None
+    return cmd, {"mechanism": Path(pos[0]), "json_out": json_out}
+
+
 def _streams_ok() -> bool:
     """Text streams typer's echo would write to unchanged (not ASCII, not missing)."""
     import codecs
@@ -110,11 +128,26 @@ def main(argv: list[str]) -> int | None:
         return None
     if any(k.startswith("_") and k.endswith("_COMPLETE") for k in os.environ):
         return None  # a shell-completion request: typer's
+    from mechkin.cli import shell
+
+    files = parse_file_args(argv)
+    if files is not None:
+        cmd, kw = files
+        try:
+            if cmd == "check":
+                from mechkin.cli.check_files import run_check
+
+                return shell.handle_errors(run_check)(kw["files"])
+            from mechkin.cli.info_report import show_info
+
+            shell.handle_errors(show_info)(kw["mechanism"], kw["json_out"])
+            return 0
+        except shell.Exit as exc:
+            return exc.code
     parsed = parse_run_args(argv)
     if parsed is None:
         return None
     task, kw = parsed
-    from mechkin.cli import shell
     from mechkin.cli.lines import LINES
 
     scenario = kw.pop("scenario")

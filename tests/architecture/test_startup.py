@@ -150,3 +150,12 @@ def test_other_calls_still_go_through_typer(tmp_path, args):
     code, mods = _run_modules(args, tmp_path)
     assert "typer" in mods and "mechkin.cli.commands" in mods
     assert code == (2 if "--bogus" in args else 0)
+
+
+@pytest.mark.parametrize("args", [["check", "mechanisms/puma560.yaml"],
+                                  ["info", "mechanisms/kim1995_direct_drive.yaml", "--json"]])
+def test_check_and_info_import_no_typer_or_plotting(args):
+    code, mods = _run_modules(args, ROOT)
+    assert code == 0
+    bad = _loaded(mods, CLI_FRAMEWORK + PLOTTING)
+    assert not bad, bad

@@ -155,3 +155,48 @@ def test_errors_are_the_same_with_and_without_the_fast_reader(tmp_path, case):
     a, b = _run(args, tmp_path, True), _run(args, tmp_path, False)
     assert a.returncode == 2
     assert (a.returncode, a.stdout, a.stderr) == (b.returncode, b.stdout, b.stderr)
+
+
+FILE_ACCEPTED = [["info", "m.yaml"], ["info", "--json", "m.yaml"], ["info", "m.yaml", "--json"],
+                 ["check", "a.yaml"], ["check", "a.yaml", "b dir/c.urdf", "d.yaml"]]
+FILE_DECLINED = [["info"], ["info", "a.yaml", "b.yaml"], ["info", "m.yaml", "--help"],
+                 ["info", "m.yaml", "--json", "--json"], ["info", "-"], ["check"],
+                 ["check", "a.yaml", "--help"], ["check", "--", "a.yaml"], ["fk", "s.yaml"]]
+
+
+@pytest.mark.parametrize("argv", FILE_ACCEPTED, ids=" ".join)
+def test_fast_reading_of_info_and_check_is_typers(monkeypatch, argv):
+    import mechkin.cli.check as check
+    import mechkin.cli.info as info
+
+    seen: dict = {}
+    monkeypatch.setattr(info, "show_info",
+                        lambda mechanism, json_out: seen.update(mechanism=mechanism,
+                                                                json_out=json_out))
+    monkeypatch.setattr(check, "run_check", lambda files: seen.update(files=files) or 0)
+    res = CliRunner().invoke(app, argv)
+    assert res.exit_code == 0, res.output
+    parsed = fast.parse_file_args(argv)
+    assert parsed is not None and parsed[0] == argv[0]
+    assert parsed[1] == seen
+    for key, value in parsed[1].items():
+        assert type(seen[key]) is type(value), key
+
+
+@pytest.mark.parametrize("argv", FILE_DECLINED, ids=lambda a: " ".join(a))
+def test_fast_reader_leaves_other_info_and_check_calls_to_typer(argv):
+    assert fast.parse_file_args(argv) is None
+
+
+@pytest.mark.parametrize("args", [
+    ["info", "mechanisms/kim1995_direct_drive.yaml"],
+    ["info", "mechanisms/kim1995_stewart.yaml", "--json"],
+    ["info", "scenarios/puma560_random_ik.yaml"],
+    ["info", "mechanisms/none.yaml"],
+    ["check", "mechanisms/puma560.yaml", "scenarios/kim1995_direct_drive_fk.yaml"],
+    ["check", "scenarios/ur5_ik.yaml", "mechanisms/none.yaml"],
+])
+def test_info_and_check_are_the_same_with_and_without_the_fast_reader(args):
+    a, b = _run(args, ROOT, True), _run(args, ROOT, False)
+    assert (a.returncode, a.stdout, a.stderr) == (b.returncode, b.stdout, b.stderr)
+    assert a.stdout or a.stderr
