@@ -298,7 +298,12 @@ def scenario_json_schema() -> dict[str, Any]:
     schema = ScenarioSpec.model_json_schema()
     props = schema.get("properties", {})
     defs = schema.setdefault("$defs", {})
-    for task, model in TASK_SECTIONS.items():
+    # the built-in sections in a fixed order (they register as scenarios are loaded), then
+    # any registered by other modules
+    order = ["fk", *SECTION_MODULES] + [k for k in TASK_SECTIONS
+                                        if k != "fk" and k not in SECTION_MODULES]
+    for task in order:
+        model = TASK_SECTIONS[task]
         sub = model.model_json_schema(ref_template="#/$defs/{model}")
         defs.update(sub.pop("$defs", {}))
         defs[model.__name__] = sub
