@@ -200,3 +200,31 @@ def test_info_and_check_are_the_same_with_and_without_the_fast_reader(args):
     a, b = _run(args, ROOT, True), _run(args, ROOT, False)
     assert (a.returncode, a.stdout, a.stderr) == (b.returncode, b.stdout, b.stderr)
     assert a.stdout or a.stderr
+
+
+def test_leaving_runs_atexit_handlers_and_flushes(tmp_path):
+    """mechkin.cli.app.leave skips the interpreter teardown, not the atexit handlers."""
+    code = ("import atexit, sys\n"
+            "atexit.register(lambda: sys.stdout.write('handler ran\\n'))\n"
+            "sys.argv = ['mechkin', 'info', sys.argv[1]]\n"
+            "from mechkin.cli.app import main\n"
+            "main()\n"
+            "print('not reached')\n")
+    mech = ROOT / "mechanisms" / "planar3r.yaml"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    res = subprocess.run([sys.executable, "-c", code, str(mech)], capture_output=True,
+                         text=True, env=env, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.endswith("handler ran\n") and "not reached" not in res.stdout
+    assert "degrees of freedom" in res.stdout
+
+
+def test_a_profiled_run_writes_its_profile(tmp_path):
+    """Under a profiler mechkin exits as Python does, so ``python -m cProfile -o`` works."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = tmp_path / "p.out"
+    res = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), "-m", "mechkin",
+                          "check", str(ROOT / "mechanisms" / "planar3r.yaml")],
+                         capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert out.is_file() and out.stat().st_size > 0
