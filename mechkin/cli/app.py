@@ -1,96 +1,80 @@
-"""The ``mechkin`` command: one module per subcommand (DESIGN.md: cli/).
+"""The ``mechkin`` command (entry point :func:`main`): one module per subcommand (DESIGN.md:
+cli/); the typer app itself is :mod:`mechkin.cli.commands` (``mechkin.cli.app.app`` loads it).
 
-Start-up is cheap: the subcommand modules import typer and ``mechkin.cli.common`` only; numpy,
-the model, the solvers, plotting and MCAP code are imported inside the commands that use them,
-so ``mechkin --help``, ``mechkin --version`` and ``mechkin schema`` import none of them.
+Start-up is cheap: this module imports nothing; a plain run command (``mechkin ik
+SCENARIO.yaml --no-plots``) is read by :mod:`mechkin.cli.fast` and runs without importing
+typer, every other call goes through the typer app. Numpy, the model, the solvers, plotting
+and MCAP code are imported inside the commands that use them, so ``mechkin --help``,
+``mechkin --version`` and ``mechkin schema`` import none of them.
 """
 
 from __future__ import annotations
 
-import typer
-
-from mechkin import __version__
-from mechkin.cli.check import check_cli
-from mechkin.cli.fk import fk_cli
-from mechkin.cli.ik import ik_cli
-from mechkin.cli.import_export import export_cli, import_cli
-from mechkin.cli.info import info_cli
-from mechkin.cli.track import track_cli
-from mechkin.cli.warmup import warmup_cli
-from mechkin.cli.workspace import workspace_cli
-
-app = typer.Typer(
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-    help="Kinematics of open, closed and complex-chain robot mechanisms described in YAML.",
-)
-
-
-def _version(value: bool) -> None:
-    if value:
-        typer.echo(__version__)
-        raise typer.Exit()
-
-
-@app.callback()
-def _main(
-    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
-                                 help="Print the version and exit."),
-) -> None:
-    """Kinematics of open, closed and complex-chain robot mechanisms described in YAML."""
-
-
-app.command("fk")(fk_cli)
-app.command("ik")(ik_cli)
-app.command("track")(track_cli)
-app.command("workspace")(workspace_cli)
-app.command("info")(info_cli)
-app.command("check")(check_cli)
-app.command("import")(import_cli)
-app.command("export")(export_cli)
-app.command("warmup")(warmup_cli)
-
-
-@app.command("schema")
-def schema_cli(
-    kind: str = typer.Argument(None, help="mechanism or scenario (omit with --write)"),
-    write: str = typer.Option(None, "--write", metavar="DIR",
-                              help="Write mechanism.schema.json and scenario.schema.json into "
-                                   "DIR instead of printing one."),
-) -> None:
-    """Print the JSON Schema of mechanism or scenario files (for editor validation)."""
-    from mechkin.config.schema_files import schema_text
-    from mechkin.config.schema_files import write as write_schemas
-
-    if write is not None:
-        if kind is not None:
-            typer.echo("error: schema: give a kind or --write DIR, not both", err=True)
-            raise typer.Exit(2)
-        try:
-            paths = write_schemas(write, fresh=False)
-        except OSError as exc:
-            typer.echo(f"error: schema: cannot write into {write}: {exc.strerror or exc}",
-                       err=True)
-            raise typer.Exit(1) from None
-        for p in paths:
-            typer.echo(str(p))
-        return
-    if kind not in ("mechanism", "scenario"):
-        typer.echo(f"error: schema: expected 'mechanism' or 'scenario', got {kind!r}", err=True)
-        raise typer.Exit(2)
-    typer.echo(schema_text(kind), nl=False)
-
-
-@app.command("version")
-def version_cli() -> None:
-    """Print the version."""
-    typer.echo(__version__)
+import sys
+from typing import Any, NoReturn
 
 
 def main() -> None:
+    """``mechkin ...``: a plain run command directly, anything else through the typer app;
+    then :func:`leave`."""
     try:
-        app()
-    except KeyboardInterrupt:  # outside a command's own handler (argument parsing, start-up)
-        typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
+        from mechkin.cli import fast
+
+        code = fast.main(sys.argv[1:])
+    except KeyboardInterrupt:  # before the command's own handler took over
+        sys.stderr.write("mechkin: interrupted (SIGINT); no output was changed\n")
         raise SystemExit(130) from None
+    if code is None:
+        from mechkin.cli.commands import run_app
+
+        try:
+            run_app()
+            code = 0
+        except SystemExit as exc:
+            if exc.code is not None and not isinstance(exc.code, int):
+                raise  # a message to print: Python's own exit
+            code = exc.code or 0
+    leave(code)
+
+
+def leave(code: int) -> NoReturn:
+    """Exit with ``code`` once the command is done, skipping the interpreter's teardown.
+
+    Freeing the modules of a numerical run takes 0.1-0.9 s at exit (numba's and LLVM's
+    objects above all), after every file is written and closed. So, as after a signal
+    (:func:`mechkin.cli.shell.terminate_cleanly`), the process leaves with ``os._exit``, but
+    only after the ``atexit`` handlers (logging, ``weakref.finalize``, multiprocessing, numba)
+    have run and stdout and stderr are flushed. Python exits as usual with other threads still
+    running, under a profiler or tracer (``python -m cProfile -m mechkin ...`` writes its
+    profile after the program), when a flush fails (a closed pipe) or with
+    ``MECHKIN_FAST_EXIT=0``.
+    """
+    import atexit
+    import os
+    import threading
+
+    run_exitfuncs = getattr(atexit, "_run_exitfuncs", None)
+    if (threading.active_count() > 1 or run_exitfuncs is None
+            or sys.getprofile() is not None or sys.gettrace() is not None  # cProfile, coverage
+            or os.environ.get("MECHKIN_FAST_EXIT", "1") == "0"):
+        raise SystemExit(code)
+    run_exitfuncs()
+    try:
+        for f in (sys.stdout, sys.stderr):
+            if f is not None:
+                f.flush()
+    except Exception:  # noqa: BLE001 - Python's exit reports it (exit 120)
+        raise SystemExit(code) from None
+    os._exit(code)
+
+
+def __getattr__(name: str) -> Any:
+    # ``from mechkin.cli.app import app`` (tests, typer's runner) and the command functions
+    if name.startswith("__"):
+        raise AttributeError(name)
+    from mechkin.cli import commands
+
+    try:
+        return getattr(commands, name)
+    except AttributeError:
+        raise AttributeError(f"module 'mechkin.cli.app' has no attribute {name!r}") from None

@@ -8,86 +8,21 @@ parsed once. Exit 0 all ok, 2 bad input, 3 an internal error (one line, never a 
 
 from __future__ import annotations
 
-import logging
-import warnings
 from pathlib import Path
 
 import typer
 
+from mechkin.cli.check_files import (  # noqa: F401 - the names callers import from here
+    _problems,
+    check_file,
+    check_file_status,
+    run_check,
+)
 from mechkin.cli.common import handle_errors
-from mechkin.errors import MechkinError
 
 
 def check_cli(
     files: list[Path] = typer.Argument(..., help="Mechanism or scenario YAML files"),
 ) -> None:
     """Validate mechanism and scenario files; one line per problem, exit 2 if any."""
-    raise typer.Exit(_check(files))
-
-
-@handle_errors
-def _check(files: list[Path]) -> int:
-    code = 0
-    for f in files:
-        problems, internal = check_file_status(f)
-        if problems:
-            code = max(code, 3 if internal else 2)
-            for p in problems:
-                typer.echo(p, err=True)
-        else:
-            typer.echo(f"{f}: ok")
-    return code
-
-
-def check_file(path: Path) -> list[str]:
-    """Problems of one file (empty if valid). Scenario files are recognised by ``task:``; their
-    mechanism file is checked too, and the scenario against it."""
-    return check_file_status(path)[0]
-
-
-def check_file_status(path: Path) -> tuple[list[str], bool]:
-    """(problems, internal): the problems of one file; internal is True when an unexpected
-    exception (a bug, reported as one line) stopped the check."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")  # a numpy warning is a problem, not stderr noise
-            return _problems(Path(path)), False
-    except MechkinError as exc:
-        lines = str(exc).splitlines() or [type(exc).__name__]
-        return [ln if ln.startswith(str(path)) or ".yaml" in ln.split(": ", 1)[0]
-                else f"{path}: {ln}" for ln in lines], False
-    except RecursionError:
-        return [f"{path}: internal error: RecursionError (nesting too deep)"], True
-    except Exception as exc:  # noqa: BLE001 - check must never show a traceback
-        logging.getLogger("mechkin").debug("internal error", exc_info=True)
-        from mechkin.config.load import short_str
-
-        return [f"{path}: internal error: {type(exc).__name__}: {short_str(exc, 200)}"], True
-
-
-def _problems(path: Path) -> list[str]:
-    from mechkin.config.load import read_yaml
-    from mechkin.config.mechanism_file import is_robot_file, read_mechanism_spec
-    from mechkin.config.scenario import load_scenario
-    from mechkin.model.build import build_mechanism
-    from mechkin.tasks.validate import validate_scenario
-
-    if is_robot_file(path):  # URDF / MJCF: import and build
-        spec, mdoc = read_mechanism_spec(path)
-        build_mechanism(spec, mdoc)
-        return []
-    doc = read_yaml(path)
-    if isinstance(doc.data, dict) and "task" in doc.data:
-        sc = load_scenario(path, doc=doc)
-        mech = None
-        if sc.mechanism_path is not None:
-            spec, mdoc = read_mechanism_spec(sc.mechanism_path)
-            mech = build_mechanism(spec, mdoc)
-        validate_scenario(sc, mech)
-        from mechkin.tasks import check_budget
-
-        check_budget(sc)  # the run's memory budget, before any work
-    else:
-        spec, mdoc = read_mechanism_spec(path, doc=doc)
-        build_mechanism(spec, mdoc)
-    return []
+    raise typer.Exit(handle_errors(run_check)(files))

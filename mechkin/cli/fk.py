@@ -2,15 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from mechkin.cli.common import run_command
-
-
-def _line(s: dict[str, Any]) -> str:
-    return (f"{s['scenario']}: {s['status']} ({s['n_steps']} steps, max ||phi|| "
-            f"{s['closure']['max_residual']:.3g}); wrote {s['out_dir']}")
-
+from mechkin.cli.lines import fk_line as _line
 
 fk_cli = run_command(
     "fk",

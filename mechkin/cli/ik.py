@@ -3,19 +3,8 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from mechkin.cli.common import run_command
-
-
-def _line(s: dict[str, Any]) -> str:
-    if "counts" not in s:  # a biped run
-        return f"{s['scenario']}: {s.get('status', '?')}; wrote {s['out_dir']}"
-    c = s["counts"]
-    return (f"{s['scenario']}: {s['status']} ({c.get('ok', 0)}/{s['n_targets']} targets ok, "
-            f"max errors {s['max_position_error']:.3g} m, {s['max_orientation_error']:.3g} "
-            f"rad); wrote {s['out_dir']}")
-
+from mechkin.cli.lines import ik_line as _line
 
 ik_cli = run_command(
     "ik",

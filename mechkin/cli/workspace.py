@@ -5,7 +5,6 @@ line or JSON; a progress bar goes to stderr."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import typer
 
@@ -20,33 +19,7 @@ from mechkin.cli.common import (
     WorkersOption,
     execute,
 )
-
-
-def _line(s: dict[str, Any]) -> str:
-    if "design" in s:
-        d = s["design"]
-        parts = []
-        for v in d["per_value"]:
-            fr = [f"{k} {e['volume_fraction']:.3f}" for k, e in v.get("isotropy", {}).items()]
-            if "gamma_range" in v:
-                fr.append(f"gamma range {v['gamma_range']['defined_fraction']:.3f}")
-            parts.append(f"{d['parameter']} = {v['value']:g}: {', '.join(fr)}")
-        body = "volume fractions " + "; ".join(parts)
-    elif s.get("kind") == "task_space":
-        body = (f"{s['n_reachable']}/{s['n_poses']} poses reached, isotropy median "
-                f"{s['isotropy'].get('median', 0.0):.3f}")
-    elif s.get("kind") == "lee_spherical":
-        parts = [f"{name}: volume fraction {e['volume_fraction']:.3f}"
-                 for name, e in s.get("isotropy", {}).items()]
-        if "gamma_range" in s:
-            parts.append(f"gamma range defined on {s['gamma_range']['defined_fraction']:.3f}")
-        body = "; ".join(parts)
-    else:
-        body = (f"{s['n_reachable']}/{s['n_samples']} samples reachable, voxel volume "
-                f"{s['volume']['voxel_m3']:.4g} m^3")
-    failed = [c["key"] for c in s.get("expect", []) if not c["ok"]]
-    tail = f"; expect failed: {', '.join(failed)}" if failed else ""
-    return f"{s['scenario']}: {s['status']} ({body}){tail}; wrote {s['out_dir']}"
+from mechkin.cli.lines import workspace_line as _line
 
 
 def workspace_cli(

@@ -245,12 +245,22 @@ class Scenario:
         return self.doc.path
 
 
-def _register_builtin_sections() -> None:
-    """Import the task modules that register their sections (lazily, to keep import light)."""
+#: The module that registers each built-in section on import (loaded when a scenario has that
+#: section, so a run builds only the models of its own task).
+SECTION_MODULES = {"ik": "mechkin.config.ik_spec", "track": "mechkin.config.track_spec",
+                   "workspace": "mechkin.config.workspace_spec",
+                   "biped": "mechkin.config.biped_spec"}
+
+
+def _register_builtin_sections(*sections: str) -> None:
+    """Import the spec modules that register the built-in sections (all of them, or only those
+    of ``sections``), lazily, to keep import light."""
     import importlib
 
-    for mod in ("mechkin.config.ik_spec", "mechkin.config.track_spec",
-                "mechkin.config.workspace_spec", "mechkin.config.biped_spec"):
+    for sec in sections or tuple(SECTION_MODULES):
+        mod = SECTION_MODULES.get(sec)
+        if mod is None or sec in TASK_SECTIONS:
+            continue
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:
@@ -262,7 +272,6 @@ def load_scenario(path: str | Path, doc: YamlDoc | None = None) -> Scenario:
     """Read and validate a scenario file (raises ConfigError listing every problem).
 
     ``doc``: the file already parsed by :func:`mechkin.config.load.read_yaml` (read once)."""
-    _register_builtin_sections()
     if doc is None:
         doc = read_yaml(path)
     spec = validate_model(doc, ScenarioSpec, doc.data)
@@ -295,6 +304,7 @@ def load_scenario(path: str | Path, doc: YamlDoc | None = None) -> Scenario:
                             f"{short_tail(mech_path, 80)})")
     if problems:
         raise ConfigError(problems)
+    _register_builtin_sections(section_name)
     model = TASK_SECTIONS.get(section_name)
     if model is None:
         raise ConfigError(f"{doc.where((section_name,))}: section {short(section_name)} is not "
@@ -310,7 +320,12 @@ def scenario_json_schema() -> dict[str, Any]:
     schema = ScenarioSpec.model_json_schema()
     props = schema.get("properties", {})
     defs = schema.setdefault("$defs", {})
-    for task, model in TASK_SECTIONS.items():
+    # the built-in sections in a fixed order (they register as scenarios are loaded), then
+    # any registered by other modules
+    order = ["fk", *SECTION_MODULES] + [k for k in TASK_SECTIONS
+                                        if k != "fk" and k not in SECTION_MODULES]
+    for task in order:
+        model = TASK_SECTIONS[task]
         sub = model.model_json_schema(ref_template="#/$defs/{model}")
         defs.update(sub.pop("$defs", {}))
         defs[model.__name__] = sub

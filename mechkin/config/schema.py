@@ -6,6 +6,8 @@ converts them to SI once. ``mechkin schema mechanism|scenario`` prints their JSO
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -25,7 +27,7 @@ AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
 class Spec(BaseModel):
     """Base of every file schema: frozen, unknown keys are errors."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 class Units(Spec):
@@ -257,6 +259,25 @@ def validate_model(doc: YamlDoc, model: type[Spec], data: Any, prefix: tuple = (
             f"of keys, got {type(data).__name__}"
         )
     try:
-        return model.model_validate(data)
+        with _no_pydantic_plugins():
+            return model.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(pydantic_problems(doc, exc, prefix, model)) from None
+
+
+@contextlib.contextmanager
+def _no_pydantic_plugins() -> Iterator[None]:
+    """Build the (deferred) validators of the specs without pydantic's plugin search: its first
+    use reads the entry points of every installed distribution (20-50 ms of a ``mechkin``
+    call), for plugins that file schemas have no use for. As typer builds its adapters; a
+    ``PYDANTIC_DISABLE_PLUGINS`` set by the user is left alone."""
+    import os
+
+    if "PYDANTIC_DISABLE_PLUGINS" in os.environ:
+        yield
+        return
+    os.environ["PYDANTIC_DISABLE_PLUGINS"] = "1"
+    try:
+        yield
+    finally:
+        os.environ.pop("PYDANTIC_DISABLE_PLUGINS", None)

@@ -13,7 +13,7 @@ settings), ``layout`` (a binary mosaic tree ``{"first", "second", "direction",
 Topics named by a layout are listed by :func:`layout_topics`, so a test can check each against
 the MCAP's channels.
 
-Imports: io.mcap_out (topic names) only.
+Imports: io.topics (topic names) only.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from mechkin.io.mcap_out import TOPIC_JOINTS, TOPIC_SCENE, TOPIC_STATE, TOPIC_TF
+from mechkin.io.topics import TOPIC_JOINTS, TOPIC_SCENE, TOPIC_STATE, TOPIC_TF
 
 __all__ = ["Series", "joint_path", "layout", "layout_topics", "state_path"]
 

@@ -43,6 +43,7 @@ from mechkin import __version__
 from mechkin.errors import OutputError
 from mechkin.io.atomic import atomic_path
 from mechkin.io.summary import jsonable
+from mechkin.io.topics import TOPIC_JOINTS, TOPIC_SCENE, TOPIC_STATE, TOPIC_TF
 from mechkin.spatial.rotations import quat_from_matrix
 
 __all__ = [
@@ -62,11 +63,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-TOPIC_TF = "/tf"
-TOPIC_SCENE = "/scene"
-TOPIC_JOINTS = "/joint_states"
-TOPIC_STATE = "/mechkin/state"
 
 RGBA = tuple[float, float, float, float]
 NS_PER_S = 1_000_000_000

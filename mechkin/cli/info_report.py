@@ -1,0 +1,159 @@
+"""The work of ``mechkin info MECH.yaml``: coordinates, cuts, equations, degrees of freedom,
+mobility (no typer: :mod:`mechkin.cli.fast` runs it directly; :mod:`mechkin.cli.info` is the
+typer command)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from mechkin.cli.shell import echo, echo_json
+
+if TYPE_CHECKING:
+    from mechkin.model import Mechanism
+
+
+def show_info(mechanism: Path, json_out: bool) -> None:
+    """Print the counts of ``mechkin info`` (text, or JSON with ``json_out``)."""
+    info = run_info(mechanism=mechanism)
+    if json_out:
+        echo_json(info)
+        return
+    echo(f"{info['name']}: {info['description']}".rstrip(": "))
+    echo(f"  joint coordinates (NC)    {info['n_coordinates']} "
+         f"({info['n_revolute']} revolute, {info['n_prismatic']} prismatic)")
+    echo(f"  links                     {info['n_links']}")
+    echo(f"  cuts                      {info['n_cuts']}")
+    echo(f"  constraint equations (NE) {info['n_equations']} "
+         f"(rank {info['constraint_rank']} at home)")
+    ab = info["absolute"]
+    echo(f"  absolute coordinates      NC {ab['n_coordinates']}, NE {ab['n_equations']} "
+         f"({ab['formulation']}; kim1995 Table 10 after Haug 1989)")
+    echo(f"  degrees of freedom        {info['dof']}")
+    echo(f"  Grubler-Kutzbach mobility {info['mobility']}")
+    if info.get("mobility_note"):
+        echo(f"    note: {info['mobility_note']}")
+    echo(f"  independent               {', '.join(info['independent'])}")
+    echo(f"  dependent                 {', '.join(info['dependent']) or '-'}")
+    echo(f"  end effector              {info['end_effector'] or '-'}")
+    sing = info.get("singularity_at_home") or {}
+    if sing:
+        echo(f"  at home                   {sing.get('class', '?')}")
+
+
+def run_info(*, mechanism: Path) -> dict[str, Any]:
+    from mechkin.config.mechanism_file import is_robot_file, read_mechanism_spec
+    from mechkin.model.build import build_mechanism
+
+    if is_robot_file(mechanism):  # URDF / MJCF through the importers
+        spec, doc = read_mechanism_spec(mechanism)
+        return mechanism_info(build_mechanism(spec, doc))
+    from mechkin.config.load import read_yaml
+    from mechkin.errors import ConfigError
+
+    doc = read_yaml(mechanism)
+    if isinstance(doc.data, dict) and "task" in doc.data and "links" not in doc.data:
+        raise ConfigError(f"{doc.where(('task',))}: this is a scenario file; 'mechkin info' "
+                          "takes a mechanism file (its 'mechanism:' key names one)")
+    spec, doc = read_mechanism_spec(mechanism, doc=doc)  # parsed once
+    return mechanism_info(build_mechanism(spec, doc))
+
+
+def mechanism_info(mech: Mechanism) -> dict[str, Any]:
+    """Counts of kim1995 Table 10 (relative coordinates), dof from the rank, and mobility.
+
+    Grubler-Kutzbach (spatial): M = 6 (N_bodies - 1) - sum(6 - f_i). With 1-DOF joints and cut
+    links each merging two tree links into one body, M = n - sum over cuts of the equations.
+    ``singularity_at_home``: condition numbers of d(phi)/d(q_w) and of the reduced end-effector
+    Jacobian at home and the singularity class
+    (:func:`mechkin.model.singularity.mechanism_singularity_at_home`).
+    """
+    import numpy as np
+
+    from mechkin.model.kinematics import closure_jacobian, forward_kinematics
+    from mechkin.model.singularity import mechanism_singularity_at_home
+
+    q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)[None]
+    _, J = closure_jacobian(mech, forward_kinematics(mech, q0))
+    rank = int(np.linalg.matrix_rank(J[0], tol=1e-9)) if J.shape[1] else 0
+    dof = mech.n - rank
+    mobility = mech.n - mech.n_equations
+    note = None
+    if mobility != dof:
+        note = (f"the constraint equations are dependent (rank {rank} < {mech.n_equations}): "
+                "a planar or spherical loop, or an overconstrained mechanism; the degrees of "
+                "freedom come from the rank")
+    n_bodies = mech.n_links - mech.n_cuts - len(mech.virtual_links)
+    kin0 = forward_kinematics(mech, q0)
+    return {
+        "name": mech.name,
+        "description": mech.description,
+        "source": str(mech.source) if mech.source else None,
+        "n_coordinates": mech.n,
+        "n_revolute": int((mech.s == 0).sum()),
+        "n_prismatic": int((mech.s == 1).sum()),
+        "n_links": mech.n_links,
+        "n_bodies": n_bodies,
+        "n_cuts": mech.n_cuts,
+        "n_equations": mech.n_equations,
+        "constraint_rank": rank,
+        "dof": dof,
+        "mobility": mobility,
+        "mobility_note": note,
+        "independent": mech.independent_names,
+        "dependent": mech.dependent_names,
+        "end_effector": mech.frame_names[mech.end_effector]
+        if mech.end_effector is not None else None,
+        "joints": [
+            {"name": g.name, "type": g.type,
+             "coordinates": [mech.joint_names[j] for j in g.joints]}
+            for g in mech.groups
+        ],
+        "cuts": [
+            {"name": c.name, "frames": [mech.frame_names[c.a], mech.frame_names[c.b]],
+             "equations": int(c.mask.sum())}
+            for c in mech.cuts
+        ],
+        "absolute": absolute_counts(mech, kin0.axes()[0][0], n_bodies, J[0]),
+        "singularity_at_home": mechanism_singularity_at_home(mech),
+    }
+
+
+# Equations per joint in Haug's absolute coordinates (kim1995 ref. 13): spatial R and P 5, U 4,
+# S 3; planar R and P 2.
+_SPATIAL_EQ = {"revolute": 5, "prismatic": 5, "universal": 4, "spherical": 3}
+
+
+def absolute_counts(mech: Mechanism, axes: Any, n_bodies: int, J: Any) -> dict[str, Any]:
+    """NC and NE of the same mechanism in absolute (Cartesian) coordinates, as kim1995 Table 10
+    counts them after Haug (1989).
+
+    Spatial: every body including the ground has 7 coordinates (position and 4 Euler
+    parameters), with one normalisation equation per body, 6 equations fixing the ground, and
+    5 / 4 / 3 equations per revolute or prismatic / universal / spherical joint. Planar: 3
+    coordinates per body, 3 fixing the ground, 2 per revolute or prismatic joint. A cut link is
+    one body, so the joints are the joint groups of the tree.
+
+    kim1995 counts a mechanism whose loops are planar (every joint of a loop, i.e. every
+    column of the closure Jacobian ``J`` (NE, n) at home that is not zero, about one axis
+    direction, revolute or prismatic) in planar coordinates: the direct-drive arm's 18 / 15. The
+    spatial counts are given too (``spatial``).
+    """
+    import numpy as np
+
+    types = [g.type for g in mech.groups]
+    spatial = {"n_coordinates": 7 * n_bodies,
+               "n_equations": n_bodies + 6 + sum(_SPATIAL_EQ[t] for t in types)}
+    planar = None
+    z = np.asarray(axes, dtype=float).reshape(-1, 3)
+    J = np.asarray(J, dtype=float)
+    in_loop = np.flatnonzero(np.linalg.norm(J, axis=0) > 1e-12) if J.size else np.zeros(0, int)
+    if in_loop.size and np.all(mech.s[in_loop] <= 1):
+        zl = z[in_loop]
+        if np.all(np.linalg.norm(np.cross(zl, zl[0]), axis=1) < 1e-9) and all(
+                t in ("revolute", "prismatic") for t in types):
+            planar = {"n_coordinates": 3 * n_bodies, "n_equations": 3 + 2 * len(types)}
+    main = planar if planar is not None else spatial
+    return {**main, "formulation": "planar (3 per body)" if planar is not None else
+            "spatial (7 per body: position and Euler parameters)",
+            "spatial": spatial, "planar": planar, "n_bodies_with_ground": n_bodies}

@@ -1,0 +1,69 @@
+"""The one-line summary each run command prints (``mechkin fk|ik|track|workspace``), from the
+run's summary.json. No typer, no numpy: :mod:`mechkin.cli.fast` and the typer commands share
+these."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def fk_line(s: dict[str, Any]) -> str:
+    return (f"{s['scenario']}: {s['status']} ({s['n_steps']} steps, max ||phi|| "
+            f"{s['closure']['max_residual']:.3g}); wrote {s['out_dir']}")
+
+
+def ik_line(s: dict[str, Any]) -> str:
+    if "counts" not in s:  # a biped run
+        return f"{s['scenario']}: {s.get('status', '?')}; wrote {s['out_dir']}"
+    c = s["counts"]
+    return (f"{s['scenario']}: {s['status']} ({c.get('ok', 0)}/{s['n_targets']} targets ok, "
+            f"max errors {s['max_position_error']:.3g} m, {s['max_orientation_error']:.3g} "
+            f"rad); wrote {s['out_dir']}")
+
+
+def track_line(s: dict[str, Any]) -> str:
+    if s["status"] != "ok":
+        return f"{s['scenario']}: {s['status']}; wrote {s['out_dir']}"
+    head = (f"t_a = {s['t_a_s']:.4g} s" if s["t_a_s"] is not None
+            else f"duration {s['duration_s']:.4g} s")
+    peaks = ", ".join(f"{v:.4g}" for v in s["peak_torque"])
+    act, by = s.get("actuated_joints"), s.get("peak_torque_by_joint")
+    if act and by and len(act) < len(by):  # a closed chain: the motors (passive joints: 0)
+        peaks = ", ".join(f"{n} {by[n]:.4g}" for n in act)
+    g = s["grid"]
+    how = (f"TOPP-RA on {g['N1'] + 1} points" if s.get("planner") == "topp"
+           else f"{g['N1']}x{g['N2']} grid")
+    return (f"{s['scenario']}: ok, {head}, peak torques [{peaks}], limits "
+            f"{'ok' if s['limits_ok'] else 'EXCEEDED'}, {how} "
+            f"in {s['solve_time_s']:.3g} s; wrote {s['out_dir']}")
+
+
+def workspace_line(s: dict[str, Any]) -> str:
+    if "design" in s:
+        d = s["design"]
+        parts = []
+        for v in d["per_value"]:
+            fr = [f"{k} {e['volume_fraction']:.3f}" for k, e in v.get("isotropy", {}).items()]
+            if "gamma_range" in v:
+                fr.append(f"gamma range {v['gamma_range']['defined_fraction']:.3f}")
+            parts.append(f"{d['parameter']} = {v['value']:g}: {', '.join(fr)}")
+        body = "volume fractions " + "; ".join(parts)
+    elif s.get("kind") == "task_space":
+        body = (f"{s['n_reachable']}/{s['n_poses']} poses reached, isotropy median "
+                f"{s['isotropy'].get('median', 0.0):.3f}")
+    elif s.get("kind") == "lee_spherical":
+        parts = [f"{name}: volume fraction {e['volume_fraction']:.3f}"
+                 for name, e in s.get("isotropy", {}).items()]
+        if "gamma_range" in s:
+            parts.append(f"gamma range defined on {s['gamma_range']['defined_fraction']:.3f}")
+        body = "; ".join(parts)
+    else:
+        body = (f"{s['n_reachable']}/{s['n_samples']} samples reachable, voxel volume "
+                f"{s['volume']['voxel_m3']:.4g} m^3")
+    failed = [c["key"] for c in s.get("expect", []) if not c["ok"]]
+    tail = f"; expect failed: {', '.join(failed)}" if failed else ""
+    return f"{s['scenario']}: {s['status']} ({body}){tail}; wrote {s['out_dir']}"
+
+
+#: the line function of each run command
+LINES = {"fk": fk_line, "ik": ik_line, "track": track_line, "workspace": workspace_line}
