@@ -12,20 +12,24 @@ Imports: records (types), io.table_out, io.mcap_out, io.foxglove_layout, io.plot
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mechkin.io.foxglove_layout import layout, state_path
-from mechkin.io.mcap_out import Lines, MotionLog, Scene, Spheres, write_mcap
 from mechkin.io.output_dir import OutputDir
 from mechkin.io.table_out import write_table
 from mechkin.records import MotionRecord, Report
+
+if TYPE_CHECKING:
+    from mechkin.io.mcap_out import MotionLog, Scene
 
 
 def motion_scene(rec: MotionRecord) -> Scene:
     """/scene of a motion: the stick segments and plate outlines as lines and the joint-axis
     points as spheres."""
+    from mechkin.io.mcap_out import Lines, Scene, Spheres
+
     seg = rec.segments
     outlines = [np.stack([p, np.roll(p, -1, axis=1)], axis=2) for p in rec.plates.values()]
     if outlines and seg is not None:
@@ -91,6 +95,8 @@ def frame_tree_of(rec: MotionRecord) -> tuple[str | None, list[str], list[str], 
 
 
 def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog:
+    from mechkin.io.mcap_out import MotionLog
+
     times = rec.times
     root, names, parents, T_pc = frame_tree_of(rec)
     return MotionLog(
@@ -111,6 +117,8 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
     if plots and outs.plots:
         write_plots(od, rec)
     if outs.mcap:
+        from mechkin.io.mcap_out import write_mcap
+
         write_mcap(od.path_for(f"{rec.task}.mcap"), motion_log(rec))
         od.write_json(f"{rec.task}.layout.json", motion_layout(rec))
 

@@ -123,9 +123,6 @@ def test_ik_without_plots_imports_no_plotting_no_typer_no_other_specs(tmp_path):
     assert "mechkin.config.ik_spec" in mods  # its own section
 
 
-@pytest.mark.xfail(strict=True, reason="mechkin/io/motion_out.py (clifk's file) imports "
-                   "mechkin.io.mcap_out at module level; moving that import into the MCAP "
-                   "branch of its write() makes this pass (then drop this mark)")
 def test_ik_without_mcap_output_imports_no_mcap_or_protobuf(tmp_path):
     code, mods = _run_modules(["ik", str(_ur5_ik(tmp_path, "outputs: {mcap: false}\n")),
                                "--no-plots", "-o", str(tmp_path / "out")], tmp_path)
