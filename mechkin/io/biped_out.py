@@ -26,9 +26,9 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
     outs = report.outputs
     if outs.csv:
         for s in SIDES:
-            od.write_csv(f"leg_{s}.csv", rec.columns[s])
+            od.write_table(f"leg_{s}", rec.columns[s])
         if rec.frame_columns:
-            od.write_csv("frames.csv", rec.frame_columns)
+            od.write_table("frames", rec.frame_columns)
     if plots and outs.plots:
         plot_biped(od.path_for("biped.png"), rec)
     if outs.mcap:

@@ -266,3 +266,14 @@ class OutputDir:
     ) -> Path:
         """Stage a CSV table via :func:`mechkin.io.csv_out.format_csv` (NaN refused)."""
         return self.write_text(name, format_csv(columns))
+
+    #: The format of :meth:`write_table`'s tables (``outputs.table``: csv, npz, parquet); set
+    #: by :func:`mechkin.io.report.write_report` from the report's output flags.
+    table_format: str = "csv"
+
+    def write_table(self, stem: str, columns: Mapping[str, np.ndarray | Sequence[Any]]) -> Path:
+        """Stage table ``stem`` as ``<stem>.csv``, ``.npz`` or ``.parquet``
+        (:attr:`table_format`, :func:`mechkin.io.table_out.write_table`)."""
+        from mechkin.io.table_out import write_table
+
+        return write_table(self, stem, columns, self.table_format)

@@ -144,6 +144,7 @@ def write_report(report: Report, out_dir: str | Path, *, plots: bool = True) -> 
     prev = _previous(out_dir) if out_dir.is_dir() else None
     old = [f for f in (prev or {}).get("files", []) if isinstance(f, str)]
     with OutputDir(out_dir, replaces=old) as od:
+        od.table_format = getattr(report.outputs, "table", "csv")
         writer.write(od, report, plots)
         summary["files"] = od.files + ["summary.json"]
         od.write_json("summary.json", summary)

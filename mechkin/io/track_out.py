@@ -34,7 +34,7 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
         return
     outs = report.outputs
     if outs.csv:
-        od.write_csv("track.csv", csv_columns(rec))
+        od.write_table("track", csv_columns(rec))
     if plots and outs.plots:
         _plots(od, rec)
     if outs.mcap:

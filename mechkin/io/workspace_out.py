@@ -115,7 +115,7 @@ def _write_lee_files(od: OutputDir, record: LeeWorkspaceRecord, *, plots: bool, 
             cols["sigma_ki"] = maps.sigma.ravel()
             cols["within_stroke"] = maps.within_limits.ravel()
             cols["in_workspace"] = maps.in_workspace.ravel()
-            od.write_csv(f"{prefix}sigma_ki_{name}.csv", cols)
+            od.write_table(f"{prefix}sigma_ki_{name}", cols)
     pl = record.poses
     if pl is not None and csv:
         cols = {"pose": np.arange(pl.poses.shape[0]), "alpha_deg": _deg(pl.poses[:, 0]),
@@ -124,7 +124,7 @@ def _write_lee_files(od: OutputDir, record: LeeWorkspaceRecord, *, plots: bool, 
             cols[f"l{i + 1}_m"] = pl.actuators[:, i]
         cols.update(sigma_ki=pl.sigma, within_stroke=pl.within_limits,
                     in_workspace=pl.in_workspace)
-        od.write_csv(f"{prefix}sigma_ki_poses.csv", cols)
+        od.write_table(f"{prefix}sigma_ki_poses", cols)
     gr = record.gamma_range
     if gr is not None:
         if plots:
@@ -142,8 +142,7 @@ def _write_lee_files(od: OutputDir, record: LeeWorkspaceRecord, *, plots: bool, 
         if csv:
             A, B = np.meshgrid(gr.alpha, gr.beta, indexing="ij")
             d = gr.defined
-            od.write_csv(
-                f"{prefix}gamma_range.csv",
+            od.write_table(f"{prefix}gamma_range",
                 {
                     "alpha_deg": _deg(A[d]),
                     "beta_deg": _deg(B[d]),
@@ -180,7 +179,7 @@ def _write_design(od: OutputDir, sweep: DesignSweepRecord, *, plots: bool, csv: 
             )
     if sweep.comparison:
         keys = list(dict.fromkeys(k for row in sweep.comparison for k in row))
-        od.write_csv("design_comparison.csv", {
+        od.write_table("design_comparison", {
             k: [("" if row.get(k) is None else row.get(k, "")) for row in sweep.comparison]
             for k in keys
         })
@@ -212,7 +211,7 @@ def _write_task_space(od: OutputDir, out: WorkspaceOutput, *, plots: bool, csv: 
                     condition_number=rec.condition_number, manipulability=rec.manipulability)
         if rec.isotropy_normalized is not None:
             cols["isotropy_normalized"] = rec.isotropy_normalized
-        od.write_csv("task_points.csv", cols)
+        od.write_table("task_points", cols)
     if plots and rec.reachable.size:
         from mechkin.io.workspace_plots import plot_task_space
 
@@ -240,7 +239,7 @@ def _write_joint_sweep(od: OutputDir, out: WorkspaceOutput, *, plots: bool, csv:
                         isotropy_position=rec.isotropy_position)
             if rec.isotropy_normalized is not None:
                 cols["isotropy_normalized"] = rec.isotropy_normalized
-        od.write_csv("points.csv", cols)
+        od.write_table("points", cols)
     P = rec.position[rec.reachable]
     if plots and P.shape[0]:
         from mechkin.io.workspace_plots import plot_point_cloud

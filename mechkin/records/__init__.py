@@ -57,11 +57,13 @@ class FkResult:
 
 @dataclass(frozen=True)
 class OutputFlags:
-    """Which kinds of output the scenario asks for (``outputs: {csv, plots, mcap}``)."""
+    """Which kinds of output the scenario asks for (``outputs: {csv, plots, mcap, table}``;
+    ``table``: the format of the tables, csv, npz or parquet)."""
 
     csv: bool = True
     plots: bool = True
     mcap: bool = True
+    table: str = "csv"
 
 
 @dataclass

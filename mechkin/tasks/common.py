@@ -29,7 +29,8 @@ def load_task_scenario(path: str | Path, task: str) -> Any:
 
 def output_flags(scenario: Any) -> OutputFlags:
     o = scenario.spec.outputs
-    return OutputFlags(csv=bool(o.csv), plots=bool(o.plots), mcap=bool(o.mcap))
+    return OutputFlags(csv=bool(o.csv), plots=bool(o.plots), mcap=bool(o.mcap),
+                       table=str(getattr(o, "table", "csv")))
 
 
 def joint_factor(mech: Any, j: int, units: Any) -> float:

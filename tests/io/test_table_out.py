@@ -134,3 +134,28 @@ def test_parquet_without_pyarrow(tmp_path: Path, monkeypatch) -> None:
     assert "outputs.table:" in lines[0] and 'pip install "mechkin[parquet]"' in lines[0]
     assert lines[0].startswith(f"{sc}:")
     assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize("name", ["ur5_ik", "planar3r_track_line", "five_bar_workspace",
+                                  "lee_fig3_isotropy_r025", "custom_biped_slope_step"])
+def test_every_task_writes_its_tables_in_the_format(tmp_path: Path, name: str) -> None:
+    """``outputs.table`` applies to every task's tables (ik, track, workspace grids and lee
+    maps, biped legs): each CSV of the csv run has an npz twin with the same columns and
+    values, and the npz run leaves no CSV."""
+    runs = {}
+    for tab in ("csv", "npz"):
+        sc = _with_table(tmp_path / tab, name, tab)
+        task = next(t for t in ("fk", "ik", "track", "workspace")
+                    if f"\ntask: {t}\n" in sc.read_text())
+        out = tmp_path / f"out_{tab}"
+        res = runner.invoke(app, [task, str(sc), "--out", str(out), "--no-plots", "--json"])
+        assert res.exit_code in (0, 1), res.output
+        runs[tab] = (out, json.loads(res.stdout)["files"])
+    (out_csv, f_csv), (out_npz, f_npz) = runs["csv"], runs["npz"]
+    csvs = [f for f in f_csv if f.endswith(".csv")]
+    assert csvs, f_csv
+    assert not [f for f in f_npz if f.endswith(".csv")], f_npz
+    for f in csvs:
+        twin = f[: -len(".csv")] + ".npz"
+        assert twin in f_npz, (twin, f_npz)
+        _same_as_csv(read_csv(out_csv / f), _read_table(out_npz / twin))
