@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mechkin.model import fk_accel
 from mechkin.model.mechanism import Mechanism
 from mechkin.spatial.rotations import quat_from_matrix, skew
 
@@ -222,10 +223,13 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
     Only the joints on the paths from the base to the requested frames are evaluated (a plan
     per mechanism and frame set, cached on the mechanism, see :func:`_path_plan`); the result
     equals ``forward_kinematics(mech, qs).frames(mech, idx)`` to round-off.
+
+    Routes: the compiled kernel (:mod:`mechkin.model.fk_jit`) once
+    :mod:`mechkin.model.fk_accel` has loaded it (rent or buy; ``MECHKIN_JIT=1`` always,
+    ``MECHKIN_JIT=0`` never), else plain Python floats (one configuration), 4x4 products (a
+    few) or column-major blocks (many). The hot path of one configuration is a cached plan
+    lookup, one output allocation and the kernel call.
     """
-    qs = np.asarray(qs, dtype=np.float64)
-    if qs.ndim != 2 or qs.shape[1] != mech.n:
-        raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
     plans = mech.__dict__.get("_fk_plans")
     try:  # the cache key: the frame indices as given (a list or an integer array)
         key = tuple(idx) if type(idx) is list else (
@@ -233,6 +237,19 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
         plan = None if plans is None else plans.get(key)
     except TypeError:  # unhashable (nested) indices: the tree FK decides
         return forward_kinematics(mech, qs).frames(mech, idx)
+    kern = fk_accel.KERNEL
+    if kern is not None and plan is not None and type(qs) is np.ndarray:
+        shape = qs.shape
+        if len(shape) == 2 and shape[1] == plan.n:
+            out = np.empty((shape[0], plan.k, 4, 4))
+            try:  # exact types only (float64, C order, writable): else normalised below
+                kern(qs, plan.jit_steps, plan.jit_consts, out)
+                return out
+            except TypeError:
+                pass
+    qs = np.asarray(qs, dtype=np.float64)
+    if qs.ndim != 2 or qs.shape[1] != mech.n:
+        raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
     if plan is None:
         fi = np.arange(len(mech.frame_names)) if idx is None else np.asarray(idx)
         if fi.ndim != 1 or (fi.size and fi.dtype.kind not in "iu"):
@@ -241,11 +258,23 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
     m = qs.shape[0]
     if not plan.frames_py:
         return np.zeros((m, 0, 4, 4))
+    kern = fk_accel.kernel_for_job(len(plan.steps), m)
+    if kern is not None:
+        return _plan_compiled(kern, plan, qs)
     if m == 1:
         return _plan_one(plan, qs[0])
     if m >= PLAN_LARGE_BATCH:
         return _plan_large(plan, qs)
     return _plan_small(plan, qs)
+
+
+def _plan_compiled(kern, plan: _PathPlan, qs: np.ndarray) -> np.ndarray:
+    """The compiled route on a float64 (m, n) array of any layout (copied to C order)."""
+    if not (qs.flags.c_contiguous and qs.flags.writeable):
+        qs = np.array(qs, dtype=np.float64, order="C")
+    out = np.empty((qs.shape[0], plan.k, 4, 4))
+    kern(qs, plan.jit_steps, plan.jit_consts, out)
+    return out
 
 
 #: From this batch size on, :func:`frame_poses` composes column by column (structure of
@@ -273,6 +302,10 @@ class _PathPlan:
     last_use: tuple[int, ...]  # per step, the last step (or frame output p) that reads it
     steps: tuple  # per step (joint, revolute, parent step, top 3 rows of C) as Python floats
     frames_py: tuple  # per frame (step, top 3 rows of E) as Python floats
+    n: int  # joints of the mechanism (the width of qs)
+    k: int  # frames
+    jit_steps: np.ndarray  # (p + k, 3) int64: the compiled kernel's plan (mechkin.model.fk_jit)
+    jit_consts: np.ndarray  # (p + k, 3, 4): top rows of C, then of E
 
 
 def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan:
@@ -318,8 +351,13 @@ def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan
                   for j, r, pi, c in zip(joints, rev, parent, C, strict=True))
     frames_py = tuple((st, tuple(tuple(row) for row in e[:3].tolist()))
                       for st, e in zip(frame_step, E, strict=True))
+    k = len(frame_step)
+    jit_steps = np.zeros((p + k, 3), dtype=np.int64)
+    jit_steps[:p, 0], jit_steps[:p, 1], jit_steps[:p, 2] = joints, rev, parent
+    jit_steps[p:, 0] = frame_step
+    jit_consts = np.ascontiguousarray(np.concatenate([C[:, :3], E[:, :3]]).reshape(p + k, 3, 4))
     plan = _PathPlan(joints, parent, C, rev, all_rev, factors, frame_step, E, tuple(last),
-                     steps, frames_py)
+                     steps, frames_py, mech.n, k, jit_steps, jit_consts)
     if len(cache) < 64:
         cache[key] = plan
     return plan
@@ -410,33 +448,35 @@ def _times_const(X: np.ndarray, C: np.ndarray) -> np.ndarray:
     return (C.T @ X.reshape(4, -1)).reshape(X.shape)
 
 
-#: Configurations per block of :func:`_plan_large` (the block's poses stay in cache and one
-#: (4 x 4) @ (4 x 3 block) product is too small for BLAS to spread over threads).
-PLAN_BLOCK = 4096
+#: Configurations per block of :func:`_plan_large`: the block's poses stay in cache, and each
+#: constant's (4 x 4) @ (4 x 3 block) product stays below OpenBLAS's threading threshold
+#: (m n k <= 2 * 65536 * 4, i.e. block <= 10922: thread-pool GEMMs on these products were 2-5x
+#: slower on two cores, measured), so no BLAS threads are started.
+PLAN_BLOCK = 8192
 
 
 def _plan_large(plan: _PathPlan, qs: np.ndarray, link_major: bool = False) -> np.ndarray:
     """Many configurations, block by block: poses kept column-major ((4, 3, b): column, row,
     sample), Z(q) mixes two columns (revolute) or shifts one (prismatic), constants are one
     wide product each; a step's pose is dropped once its last child has read it. Memory
-    beyond the result: a few blocks of poses."""
+    beyond the result: a few blocks of poses (the joint values, cosines and sines too are
+    taken block by block, so the cost stays linear in m)."""
     m = qs.shape[0]
     k = len(plan.frame_step)
     store = np.empty((k, m, 4, 4) if link_major else (m, k, 4, 4))
     out = np.moveaxis(store, 0, 1) if link_major else store  # (m, k, 4, 4) either way
-    out[:, :, 3, :3] = 0.0
-    out[:, :, 3, 3] = 1.0
-    for f, st in enumerate(plan.frame_step):
-        if st < 0:
-            out[:, f] = plan.E[f]
     eye = np.eye(4)
     E_id = [bool(np.array_equal(E, eye)) for E in plan.E]
-    qT = np.ascontiguousarray(qs[:, plan.joints].T)  # (p, m)
     rev = plan.rev
-    cT = np.cos(np.where(rev[:, None], qT, 0.0))
-    sT = np.sin(np.where(rev[:, None], qT, 0.0))
+    cols = plan.joints
     for a in range(0, m, PLAN_BLOCK):
         b = min(m, a + PLAN_BLOCK)
+        ob = out[a:b]
+        ob[:, :, 3, :3] = 0.0
+        ob[:, :, 3, 3] = 1.0
+        qT = qs[a:b, cols].T  # (p, b)
+        cT = np.cos(qT)
+        sT = np.sin(qT)
         X: list[np.ndarray | None] = [None] * len(plan.joints)
         for i, pi in enumerate(plan.parent):
             if pi < 0:
@@ -447,19 +487,21 @@ def _plan_large(plan: _PathPlan, qs: np.ndarray, link_major: bool = False) -> np
                 if plan.last_use[pi] == i:
                     X[pi] = None
             if rev[i]:
-                c, s = cT[i, a:b], sT[i, a:b]
+                c, s = cT[i], sT[i]
                 y0 = Y[0] * c
                 y0 += Y[1] * s
                 Y[1] *= c
                 Y[1] -= Y[0] * s
                 Y[0] = y0
             else:
-                Y[3] += Y[2] * qT[i, a:b]
+                Y[3] += Y[2] * qT[i]
             X[i] = Y
         for f, st in enumerate(plan.frame_step):
             if st >= 0:
                 Y = X[st] if E_id[f] else _times_const(X[st], plan.E[f])
-                out[a:b, f, :3, :] = np.moveaxis(Y, (0, 1), (2, 1))
+                ob[:, f, :3, :] = np.moveaxis(Y, (0, 1), (2, 1))
+            else:
+                ob[:, f] = plan.E[f]
     return out
 
 

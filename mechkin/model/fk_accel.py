@@ -1,0 +1,189 @@
+"""When :func:`mechkin.model.kinematics.frame_poses` runs compiled: availability, job size,
+cache folder, warm-up.
+
+* :func:`compiled_fk_available`: numba installed and ``MECHKIN_JIT`` not ``0``.
+* :func:`kernel_for_job`: the compiled kernel (:func:`mechkin.model.fk_jit.plan_poses`) or None
+  (the numpy / plain-Python routes), by the same rent-or-buy rule as the IK
+  (:mod:`mechkin.solvers.ik.accel`): loading numba and the cached kernel costs a fixed time per
+  process, so a process runs the numpy routes while their estimated time so far plus this
+  call's stays below that cost, then loads the kernel for good (at most twice the better
+  choice). ``MECHKIN_JIT=1`` loads it on the first call, ``MECHKIN_JIT=0`` never. Work is
+  counted in estimated seconds from call, path-joint and row counts (constants below,
+  measured), never timed at run time, so the route does not depend on the machine's load.
+* :func:`configure_numba_cache`: the cache folder rule of the IK kernels, for this package
+  folder (``NUMBA_CACHE_DIR`` when set; else numba's ``__pycache__`` next to the source when
+  writable; else the user cache folder, ``~/.cache/mechkin/numba`` on Linux).
+* :func:`warm`: compile or load the kernel now (for ``mechkin warmup``).
+
+``MECHKIN_JIT`` is read when the route is chosen, i.e. on the calls before the kernel is
+loaded; once loaded the kernel serves the rest of the process (:func:`reset` forgets it).
+
+Design
+------
+Part of :mod:`mechkin.model`. Imports only the standard library at module level (never numba
+itself: :mod:`mechkin.model.fk_jit` does, when the kernel is loaded).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+import tempfile
+import threading
+import time
+from functools import lru_cache
+from pathlib import Path
+
+#: The model package folder: numba's default cache is its ``__pycache__``.
+PACKAGE_DIR = Path(__file__).resolve().parent
+
+# Rent or buy (measured 2026-12-02, 2 cores, numba 0.68, warm cache; PUMA 560, 6 path joints):
+# numpy / plain-Python frame_poses: 1 configuration 16-18 us (about 2.3 us per path joint plus
+# 3 us), a few configurations (4x4 products) 40-60 us per call, from PLAN_LARGE_BATCH on about
+# 0.12 us per path joint and configuration plus 40 us; loading the compiled kernel 0.5-0.7 s
+# in a fresh process (numba import 0.45 s + cache load), 0.05-0.1 s when numba is already
+# imported (the IK kernels loaded it); compiled: 1.5-2.5 us per single call.
+LOAD_S = 0.6  # first compiled call in a process without numba imported [s]
+LOAD_WITH_NUMBA_S = 0.08  # ... with numba already imported [s]
+CALL_S = 3e-6  # numpy routes: per call [s] ...
+STEP_CALL_S = 2.3e-6  # ... per path joint and call ...
+STEP_ROW_S = 1.2e-7  # ... per path joint and configuration beyond the first [s]
+
+_lock = threading.Lock()
+_spent = 0.0  # estimated numpy seconds so far in this process
+#: The loaded kernel (None: not loaded; frame_poses reads this attribute on every call).
+KERNEL = None
+
+
+@lru_cache(maxsize=1)
+def _numba_installed() -> bool:
+    return importlib.util.find_spec("numba") is not None
+
+
+def compiled_fk_available() -> bool:
+    """True when numba is installed (``pip install "mechkin[fast]"``) and ``MECHKIN_JIT`` is
+    not ``0``."""
+    if os.environ.get("MECHKIN_JIT", "auto") == "0":
+        return False
+    return _numba_installed()
+
+
+def estimate_s(path_joints: int, rows: int) -> float:
+    """Estimated time [s] of one numpy-route ``frame_poses`` call (model constants above)."""
+    return CALL_S + path_joints * (STEP_CALL_S + STEP_ROW_S * max(int(rows) - 1, 0))
+
+
+def load_cost_s() -> float:
+    """The fixed cost [s] of loading the compiled kernel in this process now."""
+    return LOAD_WITH_NUMBA_S if "numba" in sys.modules else LOAD_S
+
+
+def kernel_for_job(path_joints: int, rows: int):
+    """The compiled kernel when this call should run compiled, else None (see the module
+    docstring: rent or buy; ``MECHKIN_JIT=1`` always, ``=0`` never)."""
+    global _spent
+    if KERNEL is not None:
+        return KERNEL
+    if not compiled_fk_available():
+        return None
+    if os.environ.get("MECHKIN_JIT") != "1":
+        est = estimate_s(path_joints, rows)
+        with _lock:
+            if _spent + est <= load_cost_s():
+                _spent += est
+                return None
+    return load()
+
+
+def load():
+    """Import (and on a cold cache compile) the kernel; it serves every later call."""
+    global KERNEL
+    if KERNEL is None:
+        from mechkin.model import fk_jit
+
+        KERNEL = fk_jit.plan_poses
+    return KERNEL
+
+
+def reset() -> None:
+    """Forget the loaded kernel and the numpy time spent (tests; a new job)."""
+    global KERNEL, _spent
+    with _lock:
+        KERNEL = None
+        _spent = 0.0
+
+
+def is_cached() -> bool | None:
+    """Whether numba's cache holds the kernel for its current source (None: cannot tell)."""
+    try:
+        from mechkin.model import fk_jit
+
+        disp = fk_jit.plan_poses
+        if disp.signatures:
+            return True
+        return bool(disp._cache._cache_file._load_index())
+    except Exception:  # noqa: BLE001 - numba internals: no answer rather than an error
+        return None
+
+
+def warm() -> tuple[float, bool | None]:
+    """Compile or load the kernel now and run it once on a one-joint plan: (seconds, whether
+    numba's cache held it before). For ``mechkin warmup``."""
+    import numpy as np
+
+    t0 = time.perf_counter()
+    cached = is_cached()
+    kern = load()
+    steps = np.array([[0, 1, -1], [0, 0, 0]], dtype=np.int64)
+    consts = np.zeros((2, 3, 4))
+    consts[:, :, :3] = np.eye(3)
+    out = np.empty((1, 1, 4, 4))
+    kern(np.zeros((1, 1)), steps, consts, out)
+    return time.perf_counter() - t0, cached
+
+
+def _writable(folder: Path) -> bool:
+    """Whether numba can write its cache into ``folder/__pycache__`` (as numba tests it)."""
+    target = folder / "__pycache__"
+    try:
+        target.mkdir(exist_ok=True)
+        with tempfile.TemporaryFile(dir=target):
+            pass
+    except OSError:
+        return False
+    return True
+
+
+def user_cache_dir() -> Path:
+    """The per-user folder for compiled kernels (the IK's rule,
+    :func:`mechkin.solvers.ik.accel.user_cache_dir`)."""
+    if sys.platform == "win32":
+        base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
+        return base / "mechkin" / "Cache" / "numba"
+    if sys.platform == "darwin":
+        return Path.home() / "Library" / "Caches" / "mechkin" / "numba"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg) if xdg and os.path.isabs(xdg) else Path.home() / ".cache"
+    return base / "mechkin" / "numba"
+
+
+def configure_numba_cache(package_dir: Path | None = None) -> str | None:
+    """Choose numba's cache folder before numba is imported; returns it (None: numba's
+    default, this package's ``__pycache__``). ``NUMBA_CACHE_DIR`` set by the user is kept;
+    a read-only package folder sends the cache to :func:`user_cache_dir`."""
+    given = os.environ.get("NUMBA_CACHE_DIR")
+    if given:
+        return given
+    if _writable(package_dir or PACKAGE_DIR):
+        return None
+    folder = user_cache_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None  # numba falls back to its own user-wide locator
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    cfg = sys.modules.get("numba.core.config")
+    if cfg is not None:
+        cfg.CACHE_DIR = str(folder)
+    return str(folder)
