@@ -50,10 +50,17 @@ CALL_S = 3e-6  # numpy routes: per call [s] ...
 STEP_CALL_S = 2.3e-6  # ... per path joint and call ...
 STEP_ROW_S = 1.2e-7  # ... per path joint and configuration beyond the first [s]
 
+#: Compile time of the kernel on a cold cache (measured 2026-12-02 on the 2-core machine).
+EXPECTED_COMPILE_S = 3.0
+quiet = False  # ``mechkin warmup`` prints its own progress lines
 _lock = threading.Lock()
 _spent = 0.0  # estimated numpy seconds so far in this process
-#: The loaded kernel (None: not loaded; frame_poses reads this attribute on every call).
+#: The loaded kernel (None: not loaded), a numba dispatcher (checks its argument types).
 KERNEL = None
+#: Its compiled entry point (no type dispatch: the caller passes exactly float64 (m, n),
+#: (p + k, 16), (m, k, 4, 4) arrays, C-ordered, aligned and writable); frame_poses reads this
+#: attribute on every call. The dispatcher when numba does not expose it.
+ENTRY = None
 
 
 @lru_cache(maxsize=1)
@@ -98,19 +105,31 @@ def kernel_for_job(path_joints: int, rows: int):
 
 def load():
     """Import (and on a cold cache compile) the kernel; it serves every later call."""
-    global KERNEL
+    global KERNEL, ENTRY
     if KERNEL is None:
         from mechkin.model import fk_jit
 
-        KERNEL = fk_jit.plan_poses
+        if not quiet and is_cached() is False:
+            where = os.environ.get("NUMBA_CACHE_DIR") or str(PACKAGE_DIR / "__pycache__")
+            sys.stderr.write(
+                f"mechkin: compiling the numba kernel fk_jit.plan_poses (first use; about "
+                f"{EXPECTED_COMPILE_S:.0f} s, then cached in {where}; `mechkin warmup` "
+                "compiles ahead)\n")
+            sys.stderr.flush()
+        kern = fk_jit.ready()
+        try:
+            entry = kern.overloads[kern.signatures[0]].entry_point
+        except (AttributeError, IndexError, KeyError):  # numba internals: the dispatcher
+            entry = kern
+        KERNEL, ENTRY = kern, entry
     return KERNEL
 
 
 def reset() -> None:
     """Forget the loaded kernel and the numpy time spent (tests; a new job)."""
-    global KERNEL, _spent
+    global KERNEL, ENTRY, _spent
     with _lock:
-        KERNEL = None
+        KERNEL = ENTRY = None
         _spent = 0.0
 
 
@@ -135,11 +154,11 @@ def warm() -> tuple[float, bool | None]:
     t0 = time.perf_counter()
     cached = is_cached()
     kern = load()
-    steps = np.array([[0, 1, -1], [0, 0, 0]], dtype=np.int64)
-    consts = np.zeros((2, 3, 4))
-    consts[:, :, :3] = np.eye(3)
+    plan = np.zeros((2, 16))
+    plan[:, [0, 5, 10]] = 1.0
+    plan[0, 13], plan[0, 14] = 1.0, -1.0
     out = np.empty((1, 1, 4, 4))
-    kern(np.zeros((1, 1)), steps, consts, out)
+    kern(np.zeros((1, 1)), plan, out)
     return time.perf_counter() - t0, cached
 
 

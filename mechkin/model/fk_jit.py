@@ -7,10 +7,11 @@ products (kim1995 Eq. (2), constants folded as in the plan), then each requested
 (:func:`mechkin.model.kinematics._plan_one`) in the same order, so both agree to round-off
 (tests/model/test_fast_fk.py checks 1e-12 against the tree FK).
 
-The plan comes in as two arrays (few arguments keep numba's dispatch cheap, about 0.3 us):
-``steps`` (p + k, 3) int64, per path joint (joint index, 1 revolute / 0 prismatic, parent
-step or -1) then per frame (step or -1, 0, 0); ``consts`` (p + k, 3, 4), the top rows of each
-``C_i`` then of each ``E_f``. The output ``out`` (m, k, 4, 4) is allocated by the caller.
+The plan comes in as one array (few arguments keep numba's dispatch cheap), ``plan``
+(p + k, 16): per path joint the top 3 rows of ``C_i`` (12 values, row-major), then the joint
+index, 1.0 revolute / 0.0 prismatic and the parent step (-1: the base), as floats (exact);
+then per frame the top rows of ``E_f`` and its step (-1: the base). The output ``out``
+(m, k, 4, 4) is allocated by the caller.
 
 Importing this module imports numba (about 0.5 s); :mod:`mechkin.model.fk_accel` decides when
 that pays and picks the cache folder before numba is imported. ``cache=True``: compiled once
@@ -31,70 +32,82 @@ configure_numba_cache()  # before numba reads NUMBA_CACHE_DIR (a read-only insta
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
-#: The one signature (other argument types raise TypeError instead of compiling anew; the
-#: caller then normalises them): qs (m, n), steps, consts, out, all C-ordered and writable.
-SIGNATURE = "void(float64[:, ::1], int64[:, ::1], float64[:, :, ::1], float64[:, :, :, ::1])"
+#: The one signature :func:`ready` compiles (other argument types then raise TypeError
+#: instead of compiling anew; the caller normalises them): qs (m, n), plan (p + k, 16), out
+#: (m, k, 4, 4), all float64, C-ordered and writable.
+SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, :, :, ::1])"
 
 
-@numba.njit(SIGNATURE, cache=True, nogil=True)
-def plan_poses(qs, steps, consts, out):  # pragma: no cover - compiled (tests run it compiled)
+def ready():
+    """The kernel compiled (or loaded from numba's cache) for :data:`SIGNATURE` only."""
+    if not plan_poses.signatures:
+        plan_poses.compile(SIGNATURE)
+        plan_poses.disable_compile()
+    return plan_poses
+
+
+@numba.njit(cache=True, nogil=True)
+def plan_poses(qs, plan, out):  # pragma: no cover - compiled (tests run it compiled)
     """Poses out (m, k, 4, 4) of the plan's k frames for configurations qs (m, n)."""
     m = qs.shape[0]
     k = out.shape[1]
-    p = steps.shape[0] - k
-    X = np.empty((max(p, 1), 3, 4))
+    p = plan.shape[0] - k
+    X = np.empty((max(p, 1), 12))
     for r in range(m):
         for i in range(p):
-            v = qs[r, steps[i, 0]]
-            pi = steps[i, 2]
-            C = consts[i]
+            C = plan[i]
+            v = qs[r, int(C[12])]
+            pi = int(C[14])
             # L = C Z(q): revolute mixes C's first two columns, prismatic shifts the last one
-            if steps[i, 1] != 0:
+            if C[13] != 0.0:
                 c = np.cos(v)
                 s = np.sin(v)
-                l00 = C[0, 0] * c + C[0, 1] * s
-                l01 = C[0, 1] * c - C[0, 0] * s
-                l10 = C[1, 0] * c + C[1, 1] * s
-                l11 = C[1, 1] * c - C[1, 0] * s
-                l20 = C[2, 0] * c + C[2, 1] * s
-                l21 = C[2, 1] * c - C[2, 0] * s
-                l03, l13, l23 = C[0, 3], C[1, 3], C[2, 3]
+                l00 = C[0] * c + C[1] * s
+                l01 = C[1] * c - C[0] * s
+                l10 = C[4] * c + C[5] * s
+                l11 = C[5] * c - C[4] * s
+                l20 = C[8] * c + C[9] * s
+                l21 = C[9] * c - C[8] * s
+                l03, l13, l23 = C[3], C[7], C[11]
             else:
-                l00, l01, l10, l11, l20, l21 = C[0, 0], C[0, 1], C[1, 0], C[1, 1], C[2, 0], C[2, 1]
-                l03 = C[0, 3] + C[0, 2] * v
-                l13 = C[1, 3] + C[1, 2] * v
-                l23 = C[2, 3] + C[2, 2] * v
-            l02, l12, l22 = C[0, 2], C[1, 2], C[2, 2]
+                l00, l01, l10, l11, l20, l21 = C[0], C[1], C[4], C[5], C[8], C[9]
+                l03 = C[3] + C[2] * v
+                l13 = C[7] + C[6] * v
+                l23 = C[11] + C[10] * v
+            l02, l12, l22 = C[2], C[6], C[10]
+            Xi = X[i]
             if pi < 0:
-                X[i, 0, 0], X[i, 0, 1], X[i, 0, 2], X[i, 0, 3] = l00, l01, l02, l03
-                X[i, 1, 0], X[i, 1, 1], X[i, 1, 2], X[i, 1, 3] = l10, l11, l12, l13
-                X[i, 2, 0], X[i, 2, 1], X[i, 2, 2], X[i, 2, 3] = l20, l21, l22, l23
+                Xi[0], Xi[1], Xi[2], Xi[3] = l00, l01, l02, l03
+                Xi[4], Xi[5], Xi[6], Xi[7] = l10, l11, l12, l13
+                Xi[8], Xi[9], Xi[10], Xi[11] = l20, l21, l22, l23
             else:
-                for a in range(3):
-                    a0 = X[pi, a, 0]
-                    a1 = X[pi, a, 1]
-                    a2 = X[pi, a, 2]
-                    a3 = X[pi, a, 3]
-                    X[i, a, 0] = a0 * l00 + a1 * l10 + a2 * l20
-                    X[i, a, 1] = a0 * l01 + a1 * l11 + a2 * l21
-                    X[i, a, 2] = a0 * l02 + a1 * l12 + a2 * l22
-                    X[i, a, 3] = a0 * l03 + a1 * l13 + a2 * l23 + a3
+                Xp = X[pi]
+                for a in range(0, 12, 4):
+                    a0 = Xp[a]
+                    a1 = Xp[a + 1]
+                    a2 = Xp[a + 2]
+                    a3 = Xp[a + 3]
+                    Xi[a] = a0 * l00 + a1 * l10 + a2 * l20
+                    Xi[a + 1] = a0 * l01 + a1 * l11 + a2 * l21
+                    Xi[a + 2] = a0 * l02 + a1 * l12 + a2 * l22
+                    Xi[a + 3] = a0 * l03 + a1 * l13 + a2 * l23 + a3
         for f in range(k):
-            st = steps[p + f, 0]
-            E = consts[p + f]
+            E = plan[p + f]
+            st = int(E[12])
+            o = out[r, f]
             for a in range(3):
                 if st < 0:
                     for b in range(4):
-                        out[r, f, a, b] = E[a, b]
+                        o[a, b] = E[4 * a + b]
                 else:
-                    a0 = X[st, a, 0]
-                    a1 = X[st, a, 1]
-                    a2 = X[st, a, 2]
-                    a3 = X[st, a, 3]
+                    a0 = X[st, 4 * a]
+                    a1 = X[st, 4 * a + 1]
+                    a2 = X[st, 4 * a + 2]
+                    a3 = X[st, 4 * a + 3]
                     for b in range(3):
-                        out[r, f, a, b] = a0 * E[0, b] + a1 * E[1, b] + a2 * E[2, b]
-                    out[r, f, a, 3] = a0 * E[0, 3] + a1 * E[1, 3] + a2 * E[2, 3] + a3
-            out[r, f, 3, 0] = 0.0
-            out[r, f, 3, 1] = 0.0
-            out[r, f, 3, 2] = 0.0
-            out[r, f, 3, 3] = 1.0
+                        o[a, b] = a0 * E[b] + a1 * E[4 + b] + a2 * E[8 + b]
+                    o[a, 3] = a0 * E[3] + a1 * E[7] + a2 * E[11] + a3
+            o[3, 0] = 0.0
+            o[3, 1] = 0.0
+            o[3, 2] = 0.0
+            o[3, 3] = 1.0

@@ -230,6 +230,19 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
     few) or column-major blocks (many). The hot path of one configuration is a cached plan
     lookup, one output allocation and the kernel call.
     """
+    kern = fk_accel.ENTRY
+    if kern is not None and type(idx) is list and type(qs) is np.ndarray and qs.dtype is _F64:
+        # the hot path (compiled, a list of frames, a float64 array): plan lookup, the
+        # kernel's own argument types checked here, allocation, call without numba's dispatch
+        plans = mech.__dict__.get("_fk_plans")
+        plan = None if plans is None else plans.get(tuple(idx))
+        shape = qs.shape
+        if plan is not None and len(shape) == 2 and shape[1] == plan.n:
+            fl = qs.flags
+            if fl.c_contiguous and fl.writeable and fl.aligned:
+                out = np.empty(plan.shape1 if shape[0] == 1 else (shape[0], plan.k, 4, 4))
+                kern(qs, plan.jit, out)
+                return out
     plans = mech.__dict__.get("_fk_plans")
     try:  # the cache key: the frame indices as given (a list or an integer array)
         key = tuple(idx) if type(idx) is list else (
@@ -237,16 +250,6 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
         plan = None if plans is None else plans.get(key)
     except TypeError:  # unhashable (nested) indices: the tree FK decides
         return forward_kinematics(mech, qs).frames(mech, idx)
-    kern = fk_accel.KERNEL
-    if kern is not None and plan is not None and type(qs) is np.ndarray:
-        shape = qs.shape
-        if len(shape) == 2 and shape[1] == plan.n:
-            out = np.empty((shape[0], plan.k, 4, 4))
-            try:  # exact types only (float64, C order, writable): else normalised below
-                kern(qs, plan.jit_steps, plan.jit_consts, out)
-                return out
-            except TypeError:
-                pass
     qs = np.asarray(qs, dtype=np.float64)
     if qs.ndim != 2 or qs.shape[1] != mech.n:
         raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
@@ -270,12 +273,15 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
 
 def _plan_compiled(kern, plan: _PathPlan, qs: np.ndarray) -> np.ndarray:
     """The compiled route on a float64 (m, n) array of any layout (copied to C order)."""
-    if not (qs.flags.c_contiguous and qs.flags.writeable):
+    fl = qs.flags
+    if not (fl.c_contiguous and fl.writeable and fl.aligned):
         qs = np.array(qs, dtype=np.float64, order="C")
     out = np.empty((qs.shape[0], plan.k, 4, 4))
-    kern(qs, plan.jit_steps, plan.jit_consts, out)
+    kern(qs, plan.jit, out)
     return out
 
+
+_F64 = np.dtype(np.float64)
 
 #: From this batch size on, :func:`frame_poses` composes column by column (structure of
 #: arrays) instead of with batched 4x4 products.
@@ -304,8 +310,8 @@ class _PathPlan:
     frames_py: tuple  # per frame (step, top 3 rows of E) as Python floats
     n: int  # joints of the mechanism (the width of qs)
     k: int  # frames
-    jit_steps: np.ndarray  # (p + k, 3) int64: the compiled kernel's plan (mechkin.model.fk_jit)
-    jit_consts: np.ndarray  # (p + k, 3, 4): top rows of C, then of E
+    jit: np.ndarray  # (p + k, 16): the compiled kernel's plan (mechkin.model.fk_jit)
+    shape1: tuple[int, int, int, int]  # (1, k, 4, 4): the output of one configuration
 
 
 def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan:
@@ -352,12 +358,12 @@ def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan
     frames_py = tuple((st, tuple(tuple(row) for row in e[:3].tolist()))
                       for st, e in zip(frame_step, E, strict=True))
     k = len(frame_step)
-    jit_steps = np.zeros((p + k, 3), dtype=np.int64)
-    jit_steps[:p, 0], jit_steps[:p, 1], jit_steps[:p, 2] = joints, rev, parent
-    jit_steps[p:, 0] = frame_step
-    jit_consts = np.ascontiguousarray(np.concatenate([C[:, :3], E[:, :3]]).reshape(p + k, 3, 4))
+    jit = np.zeros((p + k, 16))
+    jit[:, :12] = np.concatenate([C[:, :3], E[:, :3]]).reshape(p + k, 12)
+    jit[:p, 12], jit[:p, 13], jit[:p, 14] = joints, rev, parent
+    jit[p:, 12] = frame_step
     plan = _PathPlan(joints, parent, C, rev, all_rev, factors, frame_step, E, tuple(last),
-                     steps, frames_py, mech.n, k, jit_steps, jit_consts)
+                     steps, frames_py, mech.n, k, jit, (1, k, 4, 4))
     if len(cache) < 64:
         cache[key] = plan
     return plan
