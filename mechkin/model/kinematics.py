@@ -128,16 +128,24 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
     Each joint's transform ``A Z(q) B`` is ``c P_c + s P_s + d P_d + P_0`` with constant
     matrices (kim1995 Eq. (2): the joint index s_i picks rotation or translation), and joints of
     one depth of the tree are composed together (one batched product per depth), so a 36-joint
-    Stewart platform costs 7 batched products, a 6R arm 6.
+    Stewart platform costs 7 batched products, a 6R arm 6. Below ``LARGE_BATCH``
+    configurations the compiled path plan of every link (:mod:`mechkin.model.fk_jit`) does
+    it once :mod:`mechkin.model.fk_accel` has loaded it (one Stewart configuration: a few us
+    instead of about 0.2 ms); from ``LARGE_BATCH`` on, the numpy path plan block by block.
     """
     qs = np.asarray(qs, dtype=np.float64)
     if qs.ndim != 2 or qs.shape[1] != mech.n:
         raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
     m = qs.shape[0]
-    if m >= LARGE_BATCH and _links_are_frames(mech):
-        # the link body frames through the block-wise path plan (link-major storage)
-        plan = _path_plan(mech, np.arange(mech.n_links), ("links",))
-        return Kinematics(q=qs, T_links=_plan_large(plan, qs, link_major=True), mech=mech)
+    if _links_are_frames(mech):
+        kern = fk_accel.kernel_for_job(mech.n, m) if m < LARGE_BATCH else None
+        if kern is not None:  # the compiled path plan of every link body frame
+            plan = _path_plan(mech, np.arange(mech.n_links), ("links",))
+            return Kinematics(q=qs, T_links=_plan_compiled(kern, plan, qs), mech=mech)
+        if m >= LARGE_BATCH:
+            # the link body frames through the block-wise path plan (link-major storage)
+            plan = _path_plan(mech, np.arange(mech.n_links), ("links",))
+            return Kinematics(q=qs, T_links=_plan_large(plan, qs, link_major=True), mech=mech)
     T = np.empty((mech.n_links, m, 4, 4))  # link-major while composing, contiguous per link
     T[0] = np.eye(4)
     if m >= LARGE_BATCH:
@@ -158,12 +166,17 @@ LARGE_BATCH = 256
 
 
 def _links_are_frames(mech: Mechanism) -> bool:
-    """Whether frames 0..nl-1 are the link body frames (identity offsets), as built."""
-    nl = mech.n_links
-    return (len(mech.frame_names) >= nl and bool(np.array_equal(mech.frame_link[:nl],
-                                                                np.arange(nl)))
-            and bool(np.array_equal(mech.frame_offset[:nl], np.broadcast_to(np.eye(4),
-                                                                            (nl, 4, 4)))))
+    """Whether frames 0..nl-1 are the link body frames (identity offsets), as built (cached
+    on the mechanism)."""
+    hit = mech.__dict__.get("_links_are_frames")
+    if hit is None:
+        nl = mech.n_links
+        hit = (len(mech.frame_names) >= nl
+               and bool(np.array_equal(mech.frame_link[:nl], np.arange(nl)))
+               and bool(np.array_equal(mech.frame_offset[:nl],
+                                       np.broadcast_to(np.eye(4), (nl, 4, 4)))))
+        object.__setattr__(mech, "_links_are_frames", hit)
+    return hit
 
 
 def _a_as_rz_tz(mech: Mechanism) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -102,14 +102,16 @@ def test_compiled_route_other_inputs(monkeypatch):
 
 def test_rent_or_buy(monkeypatch):
     pytest.importorskip("numba")
-    monkeypatch.delenv("MECHKIN_JIT", raising=False)
     mech = load_mechanism(MECH / "puma560.yaml")
     q = mech.home[None]
     ee = [mech.end_effector]
+    monkeypatch.setenv("MECHKIN_JIT", "0")
+    ref = forward_kinematics(mech, q).frames(mech, ee)
+    monkeypatch.delenv("MECHKIN_JIT")
+    fk_accel.reset()
     est = fk_accel.estimate_s(6, 1)
     monkeypatch.setattr(fk_accel, "LOAD_S", 3.5 * est)
     monkeypatch.setattr(fk_accel, "LOAD_WITH_NUMBA_S", 3.5 * est)
-    ref = forward_kinematics(mech, q).frames(mech, ee)
     for _ in range(3):  # 3 estimated calls fit below the load cost: numpy
         np.testing.assert_allclose(frame_poses(mech, q, ee), ref, rtol=0, atol=1e-12)
         assert fk_accel.KERNEL is None
@@ -170,3 +172,46 @@ def test_warm_compiles_or_loads_into_the_cache_folder():
     assert first["loaded"] and first["cached_after"] is True
     src = Path(fk_accel.__file__).resolve().parent
     assert not list((src / "__pycache__").glob("fk_jit*.nbi"))  # never into the package
+
+
+@pytest.mark.parametrize("name", ["kim1995_stewart", "hwang2023_biped", "lee_spherical_rrps",
+                                  "panda"])
+def test_tree_fk_routes_and_the_closure_step(name, monkeypatch):
+    # forward_kinematics below LARGE_BATCH runs the compiled plan of every link once loaded;
+    # the closure Newton step (model/closure.py) uses it: same links, axes and solutions
+    pytest.importorskip("numba")
+    from mechkin.model.closure import solve_closure
+
+    mech = load_mechanism(MECH / f"{name}.yaml")
+    rng = np.random.default_rng(9)
+    q = mech.home + rng.uniform(-0.02, 0.02, size=(3, mech.n))
+    got = {}
+    for mode in ("0", "1"):
+        monkeypatch.setenv("MECHKIN_JIT", mode)
+        fk_accel.reset()
+        kin = forward_kinematics(mech, q)
+        assert (fk_accel.KERNEL is not None) == (mode == "1")
+        res = solve_closure(mech, q[:, mech.independent], q[:, mech.dependent])
+        got[mode] = (kin.T_links, *kin.axes(), res.q, res.iterations)
+    for a, b in zip(got["0"], got["1"], strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+    for r in range(3):
+        for f in range(mech.n_links):
+            assert np.allclose(got["1"][0][r, f], _naive(mech, q[r], f), rtol=0, atol=1e-12)
+
+
+def _naive(mech, q: np.ndarray, f: int) -> np.ndarray:
+    """Pose of link frame f: A_j Z(q_j) B_j composed from the link to the base."""
+    T = mech.frame_offset[f].copy()
+    link = int(mech.frame_link[f])
+    while mech.link_parent_joint[link] >= 0:
+        j = int(mech.link_parent_joint[link])
+        Z = np.eye(4)
+        if mech.s[j] == 0:
+            c, s = np.cos(q[j]), np.sin(q[j])
+            Z[:2, :2] = [[c, -s], [s, c]]
+        else:
+            Z[2, 3] = q[j]
+        T = mech.A[j] @ Z @ mech.B[j] @ T
+        link = int(mech.joint_parent_link[j])
+    return T
