@@ -39,16 +39,19 @@ from pathlib import Path
 PACKAGE_DIR = Path(__file__).resolve().parent
 
 # Rent or buy (measured 2026-12-02, 2 cores, numba 0.68, warm cache; PUMA 560, 6 path joints):
-# numpy / plain-Python frame_poses: 1 configuration 16-18 us (about 2.3 us per path joint plus
-# 3 us), a few configurations (4x4 products) 40-60 us per call, from PLAN_LARGE_BATCH on about
-# 0.12 us per path joint and configuration plus 40 us; loading the compiled kernel 0.5-0.7 s
-# in a fresh process (numba import 0.45 s + cache load), 0.05-0.1 s when numba is already
-# imported (the IK kernels loaded it); compiled: 1.5-2.5 us per single call.
-LOAD_S = 0.6  # first compiled call in a process without numba imported [s]
-LOAD_WITH_NUMBA_S = 0.08  # ... with numba already imported [s]
-CALL_S = 3e-6  # numpy routes: per call [s] ...
-STEP_CALL_S = 2.3e-6  # ... per path joint and call ...
-STEP_ROW_S = 1.2e-7  # ... per path joint and configuration beyond the first [s]
+# numpy / plain-Python frame_poses: 1 configuration 5-8 us (the generated straight-line
+# function: about 1.5 us plus 0.8 us per path joint), 2-127 configurations 35-165 us (4x4
+# products), from PLAN_LARGE_BATCH on 0.45-0.7 us per configuration (0.08-0.12 us per path
+# joint and configuration). Loading the compiled kernel: 0.9-1.6 s in a fresh process (numba
+# import 0.4-0.6 s, numba's CPU target set-up, cache load), 0.01-0.03 s once another compiled
+# kernel (e.g. the IK's) has set numba up. Compiled: 1.5-2.5 us per single call, 0.3 us per
+# configuration in batches.
+LOAD_S = 0.9  # first compiled call in a process where numba is not set up yet [s]
+LOAD_WARM_S = 0.03  # ... where numba's CPU target is set up already [s]
+SINGLE_CALL_S = 1.5e-6  # numpy routes, one configuration: per call [s] ...
+SINGLE_STEP_S = 0.8e-6  # ... and per path joint [s]
+BATCH_CALL_S = 3.5e-5  # numpy routes, several configurations: per call [s] ...
+STEP_ROW_S = 1.0e-7  # ... and per path joint and configuration [s]
 
 #: Compile time of the kernel on a cold cache (measured 2026-12-02 on the 2-core machine).
 EXPECTED_COMPILE_S = 3.0
@@ -78,12 +81,23 @@ def compiled_fk_available() -> bool:
 
 def estimate_s(path_joints: int, rows: int) -> float:
     """Estimated time [s] of one numpy-route ``frame_poses`` call (model constants above)."""
-    return CALL_S + path_joints * (STEP_CALL_S + STEP_ROW_S * max(int(rows) - 1, 0))
+    if rows <= 1:
+        return SINGLE_CALL_S + SINGLE_STEP_S * path_joints
+    return BATCH_CALL_S + STEP_ROW_S * path_joints * int(rows)
+
+
+def _numba_set_up() -> bool:
+    """Whether numba's CPU target is initialised in this process (a compiled kernel ran)."""
+    reg = sys.modules.get("numba.core.registry")
+    try:
+        return reg is not None and "_toplevel_target_context" in vars(reg.cpu_target)
+    except Exception:  # noqa: BLE001 - numba internals: assume the full cost
+        return False
 
 
 def load_cost_s() -> float:
     """The fixed cost [s] of loading the compiled kernel in this process now."""
-    return LOAD_WITH_NUMBA_S if "numba" in sys.modules else LOAD_S
+    return LOAD_WARM_S if _numba_set_up() else LOAD_S
 
 
 def kernel_for_job(path_joints: int, rows: int):

@@ -8,10 +8,15 @@ Two FK routes. :func:`forward_kinematics` returns every link (the tree, one batc
 depth; from ``LARGE_BATCH`` configurations on, block by block through the all-links path plan).
 :func:`frame_poses` evaluates only the joints on the paths from the base to the requested
 frames: a :class:`_PathPlan` per mechanism and frame set (cached on the mechanism like the other
-caches here) with the constants folded (``C = B_parent A_child``); one configuration runs in
-plain Python floats, a few as 4x4 products, many block by block in a column-major layout
-(``PLAN_BLOCK`` configurations, one wide (4 x 4) @ (4 x 3b) product per constant), keeping only
-the poses still needed. All routes agree to round-off (tests/model/test_fast_fk.py).
+caches here) with the constants folded (``C = B_parent A_child``). Routes: the compiled kernel
+of :mod:`mechkin.model.fk_jit` for any batch size once :mod:`mechkin.model.fk_accel` has
+loaded it (rent or buy: only when the numpy time of the process would exceed numba's load
+cost; ``MECHKIN_JIT=1`` always, ``=0`` never); else one configuration in plain Python floats
+(a straight-line function generated per plan, the constants' exact zeros and ones folded), a
+few as 4x4 products, many block by block in a column-major layout (``PLAN_BLOCK``
+configurations, one wide (4 x 4) @ (4 x 3b) product per constant, below OpenBLAS's threading
+threshold), keeping only the poses still needed. All routes agree to round-off
+(tests/model/test_fast_fk.py, tests/model/test_fk_routes.py).
 """
 
 from __future__ import annotations
@@ -271,6 +276,8 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
         if fi.ndim != 1 or (fi.size and fi.dtype.kind not in "iu"):
             return forward_kinematics(mech, qs).frames(mech, idx)
         plan = _path_plan(mech, fi.astype(int), key)
+        if key is None:  # all frames: found under None next time
+            mech.__dict__["_fk_plans"][None] = plan
     m = qs.shape[0]
     if not plan.frames_py:
         return np.zeros((m, 0, 4, 4))
@@ -278,7 +285,7 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
     if kern is not None:
         return _plan_compiled(kern, plan, qs)
     if m == 1:
-        return _plan_one(plan, qs[0])
+        return _plan_one_fast(plan, qs[0])
     if m >= PLAN_LARGE_BATCH:
         return _plan_large(plan, qs)
     return _plan_small(plan, qs)
@@ -423,6 +430,100 @@ def _plan_one(plan: _PathPlan, q: np.ndarray) -> np.ndarray:
         flat += r2
         flat += _LAST_ROW
     return np.array(flat).reshape(1, len(plan.frames_py), 4, 4)
+
+
+def _term(a, b):
+    """The product a * b of two entries (a float constant or a variable name) for generated
+    code: exact zeros drop (None), ones pass the other through, constants fold (the same IEEE
+    product as at run time)."""
+    if isinstance(a, float) and isinstance(b, float):
+        return a * b
+    if isinstance(b, float):
+        a, b = b, a
+    if isinstance(a, float):
+        if a == 0.0:
+            return None
+        if a == 1.0:
+            return b
+        if a == -1.0:
+            return f"-{b}"
+        return f"{a!r} * {b}"
+    return f"{a} * {b}"
+
+
+def _sum(terms: list, lines: list[str], name: str):
+    """Entry ``name`` = the sum of ``terms`` in their order (None: an exact zero, dropped):
+    a float constant, a variable name, or a new variable assigned in ``lines``."""
+    kept = [t for t in terms if t is not None and not (isinstance(t, float) and t == 0.0)]
+    if not kept:
+        return 0.0
+    if len(kept) == 1 and isinstance(kept[0], float):
+        return kept[0]
+    if len(kept) == 1 and kept[0].isidentifier():
+        return kept[0]
+    if all(isinstance(t, float) for t in kept):
+        acc = kept[0]
+        for t in kept[1:]:
+            acc = acc + t
+        return acc
+    lines.append(f"    {name} = " + " + ".join(t if isinstance(t, str) else repr(t)
+                                              for t in kept))
+    return name
+
+
+def _one_function(plan: _PathPlan):
+    """Straight-line Python for one configuration of ``plan`` (generated once per plan): the
+    products of :func:`_plan_one` in the same order, with C's and E's exact zeros and ones
+    folded (D-H constants are mostly 0 and +-1), so the result equals :func:`_plan_one`'s
+    (up to the sign of zeros) at a fraction of the cost."""
+    lines: list[str] = []
+    X: list = []
+    for i, (j, rev, pi, C) in enumerate(plan.steps):
+        L = [[C[t][b] for b in range(4)] for t in range(3)]
+        if rev:
+            lines.append(f"    c{i} = cos(q[{j}])")
+            lines.append(f"    s{i} = sin(q[{j}])")
+            for t in range(3):
+                a0, a1 = C[t][0], C[t][1]
+                L[t][0] = _sum([_term(a0, f"c{i}"), _term(a1, f"s{i}")], lines, f"l{i}_{t}0")
+                L[t][1] = _sum([_term(a1, f"c{i}"), _term(-a0, f"s{i}")], lines, f"l{i}_{t}1")
+        else:
+            lines.append(f"    d{i} = q[{j}]")
+            for t in range(3):
+                L[t][3] = _sum([C[t][3], _term(C[t][2], f"d{i}")], lines, f"l{i}_{t}3")
+        if pi < 0:
+            X.append(L)
+            continue
+        P = X[pi]
+        Xi = [[_sum([_term(P[a][t], L[t][b]) for t in range(3)] + ([P[a][3]] if b == 3 else []),
+                    lines, f"x{i}_{a}{b}") for b in range(4)] for a in range(3)]
+        X.append(Xi)
+    out = []
+    for f, (st, E) in enumerate(plan.frames_py):
+        if st < 0:
+            rows = [list(r) for r in E]
+        else:
+            P = X[st]
+            rows = [[_sum([_term(P[a][t], E[t][b]) for t in range(3)]
+                          + ([P[a][3]] if b == 3 else []), lines, f"e{f}_{a}{b}")
+                     for b in range(4)] for a in range(3)]
+        for r in rows:
+            out += [v if isinstance(v, str) else repr(v) for v in r]
+        out += ["0.0", "0.0", "0.0", "1.0"]
+    src = ("def one(q):\n" + "\n".join(lines) + ("\n" if lines else "")
+           + f"    return array([{', '.join(out)}]).reshape(1, {len(plan.frames_py)}, 4, 4)\n")
+    env = {"cos": math.cos, "sin": math.sin, "array": np.array}
+    exec(compile(src, f"<mechkin path plan, {len(plan.steps)} joints>", "exec"), env)  # noqa: S102
+    return env["one"]
+
+
+def _plan_one_fast(plan: _PathPlan, q: np.ndarray) -> np.ndarray:
+    """One configuration through the plan's generated function (made on first use)."""
+    fn = plan.__dict__.get("_one")
+    if fn is None:
+        fn = _one_function(plan)
+        object.__setattr__(plan, "_one", fn)
+    return fn(q.tolist())
 
 
 def _plan_small(plan: _PathPlan, qs: np.ndarray) -> np.ndarray:

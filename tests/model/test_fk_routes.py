@@ -111,7 +111,7 @@ def test_rent_or_buy(monkeypatch):
     fk_accel.reset()
     est = fk_accel.estimate_s(6, 1)
     monkeypatch.setattr(fk_accel, "LOAD_S", 3.5 * est)
-    monkeypatch.setattr(fk_accel, "LOAD_WITH_NUMBA_S", 3.5 * est)
+    monkeypatch.setattr(fk_accel, "LOAD_WARM_S", 3.5 * est)
     for _ in range(3):  # 3 estimated calls fit below the load cost: numpy
         np.testing.assert_allclose(frame_poses(mech, q, ee), ref, rtol=0, atol=1e-12)
         assert fk_accel.KERNEL is None
@@ -120,7 +120,7 @@ def test_rent_or_buy(monkeypatch):
     # one big call pays at once
     fk_accel.reset()
     monkeypatch.setattr(fk_accel, "LOAD_S", 1e-3)
-    monkeypatch.setattr(fk_accel, "LOAD_WITH_NUMBA_S", 1e-3)
+    monkeypatch.setattr(fk_accel, "LOAD_WARM_S", 1e-3)
     frame_poses(mech, np.repeat(q, 2000, axis=0), ee)
     assert fk_accel.KERNEL is not None
     # MECHKIN_JIT=0: never
@@ -134,7 +134,7 @@ def test_rent_or_buy(monkeypatch):
 def test_estimate_grows_with_the_job():
     assert fk_accel.estimate_s(6, 1) < fk_accel.estimate_s(6, 10) < fk_accel.estimate_s(6, 1e5)
     assert fk_accel.estimate_s(3, 100) < fk_accel.estimate_s(6, 100)
-    assert 0 < fk_accel.LOAD_WITH_NUMBA_S < fk_accel.LOAD_S
+    assert 0 < fk_accel.LOAD_WARM_S < fk_accel.LOAD_S
 
 
 def _run(code: str) -> dict:
@@ -215,3 +215,17 @@ def _naive(mech, q: np.ndarray, f: int) -> np.ndarray:
         T = mech.A[j] @ Z @ mech.B[j] @ T
         link = int(mech.joint_parent_link[j])
     return T
+
+
+@pytest.mark.parametrize("path", sorted(MECH.glob("*.yaml")), ids=lambda p: p.stem)
+def test_generated_single_function_equals_the_plain_python_route(path):
+    # the straight-line function folds exact zeros and ones of the constants only: the same
+    # floating-point operations in the same order as _plan_one, so equal to the last bit
+    mech = load_mechanism(path)
+    rng = np.random.default_rng(13)
+    nf = len(mech.frame_names)
+    for fi in ([nf - 1], list(range(nf)), [0], list(range(nf - 1, -1, -2))):
+        plan = K._path_plan(mech, np.array(fi))
+        fn = K._one_function(plan)
+        for q in rng.uniform(-3.0, 3.0, size=(20, mech.n)):
+            np.testing.assert_array_equal(fn(q.tolist()), K._plan_one(plan, q))
