@@ -15,8 +15,8 @@ cache folder, warm-up.
   writable; else the user cache folder, ``~/.cache/mechkin/numba`` on Linux).
 * :func:`warm`: compile or load the kernel now (for ``mechkin warmup``).
 
-``MECHKIN_JIT`` is read when the route is chosen, i.e. on the calls before the kernel is
-loaded; once loaded the kernel serves the rest of the process (:func:`reset` forgets it).
+``MECHKIN_JIT`` is read on the first call of a job (a process, or since :func:`reset`); once
+loaded, the kernel serves the rest of the job (:func:`reset` forgets it and the flag).
 
 Design
 ------
@@ -58,6 +58,7 @@ EXPECTED_COMPILE_S = 3.0
 quiet = False  # ``mechkin warmup`` prints its own progress lines
 _lock = threading.Lock()
 _spent = 0.0  # estimated numpy seconds so far in this process
+_flag: str | None = None  # MECHKIN_JIT as read on the job's first call ("0" without numba)
 #: The loaded kernel (None: not loaded), a numba dispatcher (checks its argument types).
 KERNEL = None
 #: Its compiled entry point (no type dispatch: the caller passes exactly float64 (m, n),
@@ -103,17 +104,21 @@ def load_cost_s() -> float:
 def kernel_for_job(path_joints: int, rows: int):
     """The compiled kernel when this call should run compiled, else None (see the module
     docstring: rent or buy; ``MECHKIN_JIT=1`` always, ``=0`` never)."""
-    global _spent
+    global _spent, _flag
     if KERNEL is not None:
         return KERNEL
-    if not compiled_fk_available():
+    flag = _flag
+    if flag is None:  # read once per job (os.environ costs about 0.5 us per lookup)
+        flag = _flag = os.environ.get("MECHKIN_JIT", "auto")
+        if flag != "0" and not _numba_installed():
+            flag = _flag = "0"
+    if flag == "0":
         return None
-    if os.environ.get("MECHKIN_JIT") != "1":
+    if flag != "1":
         est = estimate_s(path_joints, rows)
-        with _lock:
-            if _spent + est <= load_cost_s():
-                _spent += est
-                return None
+        if _spent + est <= load_cost_s():
+            _spent += est  # a race between threads only shifts the switch by one call
+            return None
     return load()
 
 
@@ -140,11 +145,13 @@ def load():
 
 
 def reset() -> None:
-    """Forget the loaded kernel and the numpy time spent (tests; a new job)."""
-    global KERNEL, ENTRY, _spent
+    """Forget the loaded kernel, the numpy time spent and the MECHKIN_JIT flag read (tests;
+    a new job)."""
+    global KERNEL, ENTRY, _spent, _flag
     with _lock:
         KERNEL = ENTRY = None
         _spent = 0.0
+        _flag = None
 
 
 def is_cached() -> bool | None:
