@@ -126,8 +126,7 @@ def load():
     """Import (and on a cold cache compile) the kernel; it serves every later call."""
     global KERNEL, ENTRY
     if KERNEL is None:
-        from mechkin.model import fk_jit
-
+        fk_jit = _jit_module()
         if not quiet and is_cached() is False:
             where = os.environ.get("NUMBA_CACHE_DIR") or str(PACKAGE_DIR / "__pycache__")
             sys.stderr.write(
@@ -144,6 +143,14 @@ def load():
     return KERNEL
 
 
+def _jit_module():
+    """mechkin.model.fk_jit (imports numba), after choosing numba's cache folder."""
+    configure_numba_cache()
+    from mechkin.model import fk_jit
+
+    return fk_jit
+
+
 def reset() -> None:
     """Forget the loaded kernel, the numpy time spent and the MECHKIN_JIT flag read (tests;
     a new job)."""
@@ -157,9 +164,7 @@ def reset() -> None:
 def is_cached() -> bool | None:
     """Whether numba's cache holds the kernel for its current source (None: cannot tell)."""
     try:
-        from mechkin.model import fk_jit
-
-        disp = fk_jit.plan_poses
+        disp = _jit_module().plan_poses
         if disp.signatures:
             return True
         return bool(disp._cache._cache_file._load_index())
@@ -172,9 +177,14 @@ def warm() -> tuple[float, bool | None]:
     numba's cache held it before). For ``mechkin warmup``."""
     import numpy as np
 
+    global quiet
     t0 = time.perf_counter()
     cached = is_cached()
-    kern = load()
+    was, quiet = quiet, True  # the caller prints its own progress line
+    try:
+        kern = load()
+    finally:
+        quiet = was
     plan = np.zeros((2, 16))
     plan[:, [0, 5, 10]] = 1.0
     plan[0, 13], plan[0, 14] = 1.0, -1.0

@@ -14,23 +14,20 @@ then per frame the top rows of ``E_f`` and its step (-1: the base). The output `
 (m, k, 4, 4) is allocated by the caller.
 
 Importing this module imports numba (about 0.5 s); :mod:`mechkin.model.fk_accel` decides when
-that pays and picks the cache folder before numba is imported. ``cache=True``: compiled once
-per machine (``mechkin warmup`` can do it ahead, :func:`mechkin.model.fk_accel.warm`).
+that pays and imports it (:func:`mechkin.model.fk_accel.load`) after picking the cache
+folder. ``cache=True``: compiled once per machine (``mechkin warmup`` can do it ahead,
+:func:`mechkin.model.fk_accel.warm`).
 
 Design
 ------
-Part of :mod:`mechkin.model`. Imports numpy, numba and :mod:`mechkin.model.fk_accel`; never
-``solvers/``, ``io/``, ``cli/`` or ``tasks/``.
+Part of :mod:`mechkin.model`. Imports numpy and numba only (no mechkin module: fk_accel
+imports this one).
 """
 
 from __future__ import annotations
 
-from mechkin.model.fk_accel import configure_numba_cache
-
-configure_numba_cache()  # before numba reads NUMBA_CACHE_DIR (a read-only install: user cache)
-
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
+import numba
+import numpy as np
 
 #: The one signature :func:`ready` compiles (other argument types then raise TypeError
 #: instead of compiling anew; the caller normalises them): qs (m, n), plan (p + k, 16), out
