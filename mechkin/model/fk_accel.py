@@ -15,6 +15,13 @@ cache folder, warm-up.
   writable; else the user cache folder, ``~/.cache/mechkin/numba`` on Linux).
 * :func:`warm`: compile or load the kernel now (for ``mechkin warmup``).
 
+Results do not depend on the route a process took: by rent or buy the kernel serves single
+configurations only, where it performs the plain-Python route's operations in the same order
+(the same bits; tests/model/test_fk_routes.py); batches and the tree FK
+(:func:`mechkin.model.kinematics.forward_kinematics`) run compiled only with
+``MECHKIN_JIT=1`` (other operation orders: equal to 1e-12, not bit for bit), so a serial run
+and its distributed workers give identical output.
+
 ``MECHKIN_JIT`` is read on the first call of a job (a process, or since :func:`reset`); once
 loaded, the kernel serves the rest of the job (:func:`reset` forgets it and the flag).
 
@@ -65,6 +72,9 @@ KERNEL = None
 #: (p + k, 16), (m, k, 4, 4) arrays, C-ordered, aligned and writable); frame_poses reads this
 #: attribute on every call. The dispatcher when numba does not expose it.
 ENTRY = None
+#: Whether the kernel serves batches and the tree FK too (``MECHKIN_JIT=1``); by rent or buy
+#: it serves single configurations only, where it gives the numpy route's bits exactly.
+EVERYWHERE = False
 
 
 @lru_cache(maxsize=1)
@@ -105,7 +115,7 @@ def kernel_for_job(path_joints: int, rows: int):
     """The compiled kernel when this call should run compiled, else None (see the module
     docstring: rent or buy; ``MECHKIN_JIT=1`` always, ``=0`` never)."""
     global _spent, _flag
-    if KERNEL is not None:
+    if KERNEL is not None and (rows == 1 or EVERYWHERE):
         return KERNEL
     flag = _flag
     if flag is None:  # read once per job (os.environ costs about 0.5 us per lookup)
@@ -115,6 +125,8 @@ def kernel_for_job(path_joints: int, rows: int):
     if flag == "0":
         return None
     if flag != "1":
+        if rows != 1:  # batches: the numpy routes (the same bits in every process)
+            return None
         est = estimate_s(path_joints, rows)
         if _spent + est <= load_cost_s():
             _spent += est  # a race between threads only shifts the switch by one call
@@ -124,7 +136,8 @@ def kernel_for_job(path_joints: int, rows: int):
 
 def load():
     """Import (and on a cold cache compile) the kernel; it serves every later call."""
-    global KERNEL, ENTRY
+    global KERNEL, ENTRY, EVERYWHERE
+    EVERYWHERE = os.environ.get("MECHKIN_JIT") == "1"
     if KERNEL is None:
         fk_jit = _jit_module()
         if not quiet and is_cached() is False:
@@ -154,9 +167,10 @@ def _jit_module():
 def reset() -> None:
     """Forget the loaded kernel, the numpy time spent and the MECHKIN_JIT flag read (tests;
     a new job)."""
-    global KERNEL, ENTRY, _spent, _flag
+    global KERNEL, ENTRY, EVERYWHERE, _spent, _flag
     with _lock:
         KERNEL = ENTRY = None
+        EVERYWHERE = False
         _spent = 0.0
         _flag = None
 

@@ -255,7 +255,8 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
         plans = mech.__dict__.get("_fk_plans")
         plan = None if plans is None else plans.get(tuple(idx))
         shape = qs.shape
-        if plan is not None and len(shape) == 2 and shape[1] == plan.n:
+        if (plan is not None and len(shape) == 2 and shape[1] == plan.n
+                and (shape[0] == 1 or fk_accel.EVERYWHERE)):
             fl = qs.flags
             if fl.c_contiguous and fl.writeable and fl.aligned:
                 out = np.empty(plan.shape1 if shape[0] == 1 else (shape[0], plan.k, 4, 4))
@@ -332,6 +333,16 @@ class _PathPlan:
     k: int  # frames
     jit: np.ndarray  # (p + k, 16): the compiled kernel's plan (mechkin.model.fk_jit)
     shape1: tuple[int, int, int, int]  # (1, k, 4, 4): the output of one configuration
+
+    def __getstate__(self) -> dict:
+        """Pickled without the generated single-configuration function (made again on first
+        use: mechanisms travel to distributed workers with their cached plans)."""
+        state = dict(self.__dict__)
+        state.pop("_one", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
 
 def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan:

@@ -117,12 +117,15 @@ def test_rent_or_buy(monkeypatch):
         assert fk_accel.KERNEL is None
     np.testing.assert_allclose(frame_poses(mech, q, ee), ref, rtol=0, atol=1e-12)
     assert fk_accel.KERNEL is not None  # the fourth would pass it: loaded for good
-    # one big call pays at once
+    # batches stay on the numpy routes without MECHKIN_JIT=1 (the same bits in every process),
+    # also once the kernel serves single configurations
+    big = np.repeat(q, 2000, axis=0)
+    ref_big = frame_poses(mech, big, ee)
     fk_accel.reset()
     monkeypatch.setattr(fk_accel, "LOAD_S", 1e-3)
     monkeypatch.setattr(fk_accel, "LOAD_WARM_S", 1e-3)
-    frame_poses(mech, np.repeat(q, 2000, axis=0), ee)
-    assert fk_accel.KERNEL is not None
+    np.testing.assert_array_equal(frame_poses(mech, big, ee), ref_big)
+    assert fk_accel.KERNEL is None
     # MECHKIN_JIT=0: never
     fk_accel.reset()
     monkeypatch.setenv("MECHKIN_JIT", "0")
@@ -244,3 +247,13 @@ def test_compiled_single_configuration_equals_the_plain_python_route(name):
         out = np.empty((1, plan.k, 4, 4))
         kern(q[None].copy(), plan.jit, out)
         np.testing.assert_array_equal(out, K._plan_one(plan, q))
+
+
+def test_a_mechanism_with_cached_plans_pickles():
+    import pickle
+
+    mech = load_mechanism(MECH / "puma560.yaml")
+    frame_poses(mech, mech.home[None], [mech.end_effector])  # plan + generated function
+    back = pickle.loads(pickle.dumps(mech))
+    np.testing.assert_array_equal(frame_poses(back, back.home[None], [back.end_effector]),
+                                  frame_poses(mech, mech.home[None], [mech.end_effector]))
