@@ -8,10 +8,15 @@ Two FK routes. :func:`forward_kinematics` returns every link (the tree, one batc
 depth; from ``LARGE_BATCH`` configurations on, block by block through the all-links path plan).
 :func:`frame_poses` evaluates only the joints on the paths from the base to the requested
 frames: a :class:`_PathPlan` per mechanism and frame set (cached on the mechanism like the other
-caches here) with the constants folded (``C = B_parent A_child``); one configuration runs in
-plain Python floats, a few as 4x4 products, many block by block in a column-major layout
-(``PLAN_BLOCK`` configurations, one wide (4 x 4) @ (4 x 3b) product per constant), keeping only
-the poses still needed. All routes agree to round-off (tests/model/test_fast_fk.py).
+caches here) with the constants folded (``C = B_parent A_child``). Routes: the compiled kernel
+of :mod:`mechkin.model.fk_jit` for any batch size once :mod:`mechkin.model.fk_accel` has
+loaded it (rent or buy: only when the numpy time of the process would exceed numba's load
+cost; ``MECHKIN_JIT=1`` always, ``=0`` never); else one configuration in plain Python floats
+(a straight-line function generated per plan, the constants' exact zeros and ones folded), a
+few as 4x4 products, many block by block in a column-major layout (``PLAN_BLOCK``
+configurations, one wide (4 x 4) @ (4 x 3b) product per constant, below OpenBLAS's threading
+threshold), keeping only the poses still needed. All routes agree to round-off
+(tests/model/test_fast_fk.py, tests/model/test_fk_routes.py).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mechkin.model import fk_accel
 from mechkin.model.mechanism import Mechanism
 from mechkin.spatial.rotations import quat_from_matrix, skew
 
@@ -127,16 +133,24 @@ def forward_kinematics(mech: Mechanism, qs: np.ndarray) -> Kinematics:
     Each joint's transform ``A Z(q) B`` is ``c P_c + s P_s + d P_d + P_0`` with constant
     matrices (kim1995 Eq. (2): the joint index s_i picks rotation or translation), and joints of
     one depth of the tree are composed together (one batched product per depth), so a 36-joint
-    Stewart platform costs 7 batched products, a 6R arm 6.
+    Stewart platform costs 7 batched products, a 6R arm 6. Below ``LARGE_BATCH``
+    configurations the compiled path plan of every link (:mod:`mechkin.model.fk_jit`) does
+    it once :mod:`mechkin.model.fk_accel` has loaded it (one Stewart configuration: a few us
+    instead of about 0.2 ms); from ``LARGE_BATCH`` on, the numpy path plan block by block.
     """
     qs = np.asarray(qs, dtype=np.float64)
     if qs.ndim != 2 or qs.shape[1] != mech.n:
         raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
     m = qs.shape[0]
-    if m >= LARGE_BATCH and _links_are_frames(mech):
-        # the link body frames through the block-wise path plan (link-major storage)
-        plan = _path_plan(mech, np.arange(mech.n_links), ("links",))
-        return Kinematics(q=qs, T_links=_plan_large(plan, qs, link_major=True), mech=mech)
+    if _links_are_frames(mech):
+        kern = fk_accel.kernel_for_job(mech.n, m) if m < LARGE_BATCH else None
+        if kern is not None:  # the compiled path plan of every link body frame
+            plan = _path_plan(mech, np.arange(mech.n_links), ("links",))
+            return Kinematics(q=qs, T_links=_plan_compiled(kern, plan, qs), mech=mech)
+        if m >= LARGE_BATCH:
+            # the link body frames through the block-wise path plan (link-major storage)
+            plan = _path_plan(mech, np.arange(mech.n_links), ("links",))
+            return Kinematics(q=qs, T_links=_plan_large(plan, qs, link_major=True), mech=mech)
     T = np.empty((mech.n_links, m, 4, 4))  # link-major while composing, contiguous per link
     T[0] = np.eye(4)
     if m >= LARGE_BATCH:
@@ -157,12 +171,17 @@ LARGE_BATCH = 256
 
 
 def _links_are_frames(mech: Mechanism) -> bool:
-    """Whether frames 0..nl-1 are the link body frames (identity offsets), as built."""
-    nl = mech.n_links
-    return (len(mech.frame_names) >= nl and bool(np.array_equal(mech.frame_link[:nl],
-                                                                np.arange(nl)))
-            and bool(np.array_equal(mech.frame_offset[:nl], np.broadcast_to(np.eye(4),
-                                                                            (nl, 4, 4)))))
+    """Whether frames 0..nl-1 are the link body frames (identity offsets), as built (cached
+    on the mechanism)."""
+    hit = mech.__dict__.get("_links_are_frames")
+    if hit is None:
+        nl = mech.n_links
+        hit = (len(mech.frame_names) >= nl
+               and bool(np.array_equal(mech.frame_link[:nl], np.arange(nl)))
+               and bool(np.array_equal(mech.frame_offset[:nl],
+                                       np.broadcast_to(np.eye(4), (nl, 4, 4)))))
+        object.__setattr__(mech, "_links_are_frames", hit)
+    return hit
 
 
 def _a_as_rz_tz(mech: Mechanism) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -222,10 +241,27 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
     Only the joints on the paths from the base to the requested frames are evaluated (a plan
     per mechanism and frame set, cached on the mechanism, see :func:`_path_plan`); the result
     equals ``forward_kinematics(mech, qs).frames(mech, idx)`` to round-off.
+
+    Routes: the compiled kernel (:mod:`mechkin.model.fk_jit`) once
+    :mod:`mechkin.model.fk_accel` has loaded it (rent or buy; ``MECHKIN_JIT=1`` always,
+    ``MECHKIN_JIT=0`` never), else plain Python floats (one configuration), 4x4 products (a
+    few) or column-major blocks (many). The hot path of one configuration is a cached plan
+    lookup, one output allocation and the kernel call.
     """
-    qs = np.asarray(qs, dtype=np.float64)
-    if qs.ndim != 2 or qs.shape[1] != mech.n:
-        raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
+    kern = fk_accel.ENTRY
+    if kern is not None and type(idx) is list and type(qs) is np.ndarray and qs.dtype is _F64:
+        # the hot path (compiled, a list of frames, a float64 array): plan lookup, the
+        # kernel's own argument types checked here, allocation, call without numba's dispatch
+        plans = mech.__dict__.get("_fk_plans")
+        plan = None if plans is None else plans.get(tuple(idx))
+        shape = qs.shape
+        if (plan is not None and len(shape) == 2 and shape[1] == plan.n
+                and (shape[0] == 1 or fk_accel.EVERYWHERE)):
+            fl = qs.flags
+            if fl.c_contiguous and fl.writeable and fl.aligned:
+                out = np.empty(plan.shape1 if shape[0] == 1 else (shape[0], plan.k, 4, 4))
+                kern(qs, plan.jit, out)
+                return out
     plans = mech.__dict__.get("_fk_plans")
     try:  # the cache key: the frame indices as given (a list or an integer array)
         key = tuple(idx) if type(idx) is list else (
@@ -233,20 +269,40 @@ def frame_poses(mech: Mechanism, qs: np.ndarray, idx: list[int] | np.ndarray | N
         plan = None if plans is None else plans.get(key)
     except TypeError:  # unhashable (nested) indices: the tree FK decides
         return forward_kinematics(mech, qs).frames(mech, idx)
+    qs = np.asarray(qs, dtype=np.float64)
+    if qs.ndim != 2 or qs.shape[1] != mech.n:
+        raise ValueError(f"qs: expected shape (m, {mech.n}), got {qs.shape}")
     if plan is None:
         fi = np.arange(len(mech.frame_names)) if idx is None else np.asarray(idx)
         if fi.ndim != 1 or (fi.size and fi.dtype.kind not in "iu"):
             return forward_kinematics(mech, qs).frames(mech, idx)
         plan = _path_plan(mech, fi.astype(int), key)
+        if key is None:  # all frames: found under None next time
+            mech.__dict__["_fk_plans"][None] = plan
     m = qs.shape[0]
     if not plan.frames_py:
         return np.zeros((m, 0, 4, 4))
+    kern = fk_accel.kernel_for_job(len(plan.steps), m)
+    if kern is not None:
+        return _plan_compiled(kern, plan, qs)
     if m == 1:
-        return _plan_one(plan, qs[0])
+        return _plan_one_fast(plan, qs[0])
     if m >= PLAN_LARGE_BATCH:
         return _plan_large(plan, qs)
     return _plan_small(plan, qs)
 
+
+def _plan_compiled(kern, plan: _PathPlan, qs: np.ndarray) -> np.ndarray:
+    """The compiled route on a float64 (m, n) array of any layout (copied to C order)."""
+    fl = qs.flags
+    if not (fl.c_contiguous and fl.writeable and fl.aligned):
+        qs = np.array(qs, dtype=np.float64, order="C")
+    out = np.empty((qs.shape[0], plan.k, 4, 4))
+    kern(qs, plan.jit, out)
+    return out
+
+
+_F64 = np.dtype(np.float64)
 
 #: From this batch size on, :func:`frame_poses` composes column by column (structure of
 #: arrays) instead of with batched 4x4 products.
@@ -273,6 +329,20 @@ class _PathPlan:
     last_use: tuple[int, ...]  # per step, the last step (or frame output p) that reads it
     steps: tuple  # per step (joint, revolute, parent step, top 3 rows of C) as Python floats
     frames_py: tuple  # per frame (step, top 3 rows of E) as Python floats
+    n: int  # joints of the mechanism (the width of qs)
+    k: int  # frames
+    jit: np.ndarray  # (p + k, 16): the compiled kernel's plan (mechkin.model.fk_jit)
+    shape1: tuple[int, int, int, int]  # (1, k, 4, 4): the output of one configuration
+
+    def __getstate__(self) -> dict:
+        """Pickled without the generated single-configuration function (made again on first
+        use: mechanisms travel to distributed workers with their cached plans)."""
+        state = dict(self.__dict__)
+        state.pop("_one", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
 
 def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan:
@@ -318,8 +388,13 @@ def _path_plan(mech: Mechanism, fi: np.ndarray, key: object = None) -> _PathPlan
                   for j, r, pi, c in zip(joints, rev, parent, C, strict=True))
     frames_py = tuple((st, tuple(tuple(row) for row in e[:3].tolist()))
                       for st, e in zip(frame_step, E, strict=True))
+    k = len(frame_step)
+    jit = np.zeros((p + k, 16))
+    jit[:, :12] = np.concatenate([C[:, :3], E[:, :3]]).reshape(p + k, 12)
+    jit[:p, 12], jit[:p, 13], jit[:p, 14] = joints, rev, parent
+    jit[p:, 12] = frame_step
     plan = _PathPlan(joints, parent, C, rev, all_rev, factors, frame_step, E, tuple(last),
-                     steps, frames_py)
+                     steps, frames_py, mech.n, k, jit, (1, k, 4, 4))
     if len(cache) < 64:
         cache[key] = plan
     return plan
@@ -368,6 +443,100 @@ def _plan_one(plan: _PathPlan, q: np.ndarray) -> np.ndarray:
     return np.array(flat).reshape(1, len(plan.frames_py), 4, 4)
 
 
+def _term(a, b):
+    """The product a * b of two entries (a float constant or a variable name) for generated
+    code: exact zeros drop (None), ones pass the other through, constants fold (the same IEEE
+    product as at run time)."""
+    if isinstance(a, float) and isinstance(b, float):
+        return a * b
+    if isinstance(b, float):
+        a, b = b, a
+    if isinstance(a, float):
+        if a == 0.0:
+            return None
+        if a == 1.0:
+            return b
+        if a == -1.0:
+            return f"-{b}"
+        return f"{a!r} * {b}"
+    return f"{a} * {b}"
+
+
+def _sum(terms: list, lines: list[str], name: str):
+    """Entry ``name`` = the sum of ``terms`` in their order (None: an exact zero, dropped):
+    a float constant, a variable name, or a new variable assigned in ``lines``."""
+    kept = [t for t in terms if t is not None and not (isinstance(t, float) and t == 0.0)]
+    if not kept:
+        return 0.0
+    if len(kept) == 1 and isinstance(kept[0], float):
+        return kept[0]
+    if len(kept) == 1 and kept[0].isidentifier():
+        return kept[0]
+    if all(isinstance(t, float) for t in kept):
+        acc = kept[0]
+        for t in kept[1:]:
+            acc = acc + t
+        return acc
+    lines.append(f"    {name} = " + " + ".join(t if isinstance(t, str) else repr(t)
+                                              for t in kept))
+    return name
+
+
+def _one_function(plan: _PathPlan):
+    """Straight-line Python for one configuration of ``plan`` (generated once per plan): the
+    products of :func:`_plan_one` in the same order, with C's and E's exact zeros and ones
+    folded (D-H constants are mostly 0 and +-1), so the result equals :func:`_plan_one`'s
+    (up to the sign of zeros) at a fraction of the cost."""
+    lines: list[str] = []
+    X: list = []
+    for i, (j, rev, pi, C) in enumerate(plan.steps):
+        L = [[C[t][b] for b in range(4)] for t in range(3)]
+        if rev:
+            lines.append(f"    c{i} = cos(q[{j}])")
+            lines.append(f"    s{i} = sin(q[{j}])")
+            for t in range(3):
+                a0, a1 = C[t][0], C[t][1]
+                L[t][0] = _sum([_term(a0, f"c{i}"), _term(a1, f"s{i}")], lines, f"l{i}_{t}0")
+                L[t][1] = _sum([_term(a1, f"c{i}"), _term(-a0, f"s{i}")], lines, f"l{i}_{t}1")
+        else:
+            lines.append(f"    d{i} = q[{j}]")
+            for t in range(3):
+                L[t][3] = _sum([C[t][3], _term(C[t][2], f"d{i}")], lines, f"l{i}_{t}3")
+        if pi < 0:
+            X.append(L)
+            continue
+        P = X[pi]
+        Xi = [[_sum([_term(P[a][t], L[t][b]) for t in range(3)] + ([P[a][3]] if b == 3 else []),
+                    lines, f"x{i}_{a}{b}") for b in range(4)] for a in range(3)]
+        X.append(Xi)
+    out = []
+    for f, (st, E) in enumerate(plan.frames_py):
+        if st < 0:
+            rows = [list(r) for r in E]
+        else:
+            P = X[st]
+            rows = [[_sum([_term(P[a][t], E[t][b]) for t in range(3)]
+                          + ([P[a][3]] if b == 3 else []), lines, f"e{f}_{a}{b}")
+                     for b in range(4)] for a in range(3)]
+        for r in rows:
+            out += [v if isinstance(v, str) else repr(v) for v in r]
+        out += ["0.0", "0.0", "0.0", "1.0"]
+    src = ("def one(q):\n" + "\n".join(lines) + ("\n" if lines else "")
+           + f"    return array([{', '.join(out)}]).reshape(1, {len(plan.frames_py)}, 4, 4)\n")
+    env = {"cos": math.cos, "sin": math.sin, "array": np.array}
+    exec(compile(src, f"<mechkin path plan, {len(plan.steps)} joints>", "exec"), env)  # noqa: S102
+    return env["one"]
+
+
+def _plan_one_fast(plan: _PathPlan, q: np.ndarray) -> np.ndarray:
+    """One configuration through the plan's generated function (made on first use)."""
+    fn = plan.__dict__.get("_one")
+    if fn is None:
+        fn = _one_function(plan)
+        object.__setattr__(plan, "_one", fn)
+    return fn(q.tolist())
+
+
 def _plan_small(plan: _PathPlan, qs: np.ndarray) -> np.ndarray:
     """Few configurations: every path joint's ``C Z(q)`` in one product, then 4x4 products."""
     m = qs.shape[0]
@@ -410,33 +579,35 @@ def _times_const(X: np.ndarray, C: np.ndarray) -> np.ndarray:
     return (C.T @ X.reshape(4, -1)).reshape(X.shape)
 
 
-#: Configurations per block of :func:`_plan_large` (the block's poses stay in cache and one
-#: (4 x 4) @ (4 x 3 block) product is too small for BLAS to spread over threads).
-PLAN_BLOCK = 4096
+#: Configurations per block of :func:`_plan_large`: the block's poses stay in cache, and each
+#: constant's (4 x 4) @ (4 x 3 block) product stays below OpenBLAS's threading threshold
+#: (m n k <= 2 * 65536 * 4, i.e. block <= 10922: thread-pool GEMMs on these products were 2-5x
+#: slower on two cores, measured), so no BLAS threads are started.
+PLAN_BLOCK = 8192
 
 
 def _plan_large(plan: _PathPlan, qs: np.ndarray, link_major: bool = False) -> np.ndarray:
     """Many configurations, block by block: poses kept column-major ((4, 3, b): column, row,
     sample), Z(q) mixes two columns (revolute) or shifts one (prismatic), constants are one
     wide product each; a step's pose is dropped once its last child has read it. Memory
-    beyond the result: a few blocks of poses."""
+    beyond the result: a few blocks of poses (the joint values, cosines and sines too are
+    taken block by block, so the cost stays linear in m)."""
     m = qs.shape[0]
     k = len(plan.frame_step)
     store = np.empty((k, m, 4, 4) if link_major else (m, k, 4, 4))
     out = np.moveaxis(store, 0, 1) if link_major else store  # (m, k, 4, 4) either way
-    out[:, :, 3, :3] = 0.0
-    out[:, :, 3, 3] = 1.0
-    for f, st in enumerate(plan.frame_step):
-        if st < 0:
-            out[:, f] = plan.E[f]
     eye = np.eye(4)
     E_id = [bool(np.array_equal(E, eye)) for E in plan.E]
-    qT = np.ascontiguousarray(qs[:, plan.joints].T)  # (p, m)
     rev = plan.rev
-    cT = np.cos(np.where(rev[:, None], qT, 0.0))
-    sT = np.sin(np.where(rev[:, None], qT, 0.0))
+    cols = plan.joints
     for a in range(0, m, PLAN_BLOCK):
         b = min(m, a + PLAN_BLOCK)
+        ob = out[a:b]
+        ob[:, :, 3, :3] = 0.0
+        ob[:, :, 3, 3] = 1.0
+        qT = qs[a:b, cols].T  # (p, b)
+        cT = np.cos(qT)
+        sT = np.sin(qT)
         X: list[np.ndarray | None] = [None] * len(plan.joints)
         for i, pi in enumerate(plan.parent):
             if pi < 0:
@@ -447,19 +618,21 @@ def _plan_large(plan: _PathPlan, qs: np.ndarray, link_major: bool = False) -> np
                 if plan.last_use[pi] == i:
                     X[pi] = None
             if rev[i]:
-                c, s = cT[i, a:b], sT[i, a:b]
+                c, s = cT[i], sT[i]
                 y0 = Y[0] * c
                 y0 += Y[1] * s
                 Y[1] *= c
                 Y[1] -= Y[0] * s
                 Y[0] = y0
             else:
-                Y[3] += Y[2] * qT[i, a:b]
+                Y[3] += Y[2] * qT[i]
             X[i] = Y
         for f, st in enumerate(plan.frame_step):
             if st >= 0:
                 Y = X[st] if E_id[f] else _times_const(X[st], plan.E[f])
-                out[a:b, f, :3, :] = np.moveaxis(Y, (0, 1), (2, 1))
+                ob[:, f, :3, :] = np.moveaxis(Y, (0, 1), (2, 1))
+            else:
+                ob[:, f] = plan.E[f]
     return out
 
 

@@ -1,7 +1,9 @@
-"""The path-only FK of :func:`mechkin.model.kinematics.frame_poses` (one configuration in plain
-Python, small batches by 4x4 products, large batches block by block, column-major) against the
-tree FK and against a naive per-configuration composition of ``A Z(q) B`` (kim1995 Eq. (2)) on
-every bundled mechanism; and the fk task's open-chain shortcut against the loop-closure solver.
+"""The path-only FK of :func:`mechkin.model.kinematics.frame_poses` against the tree FK and
+against a naive per-configuration composition of ``A Z(q) B`` (kim1995 Eq. (2)) on every bundled
+mechanism, by every route: ``fk_route = "numpy"`` (MECHKIN_JIT=0: one configuration in plain
+Python, small batches by 4x4 products, large batches block by block, column-major) and
+``"compiled"`` (MECHKIN_JIT=1: the numba kernel of mechkin.model.fk_jit for every batch size);
+and the fk task's open-chain shortcut against the loop-closure solver.
 """
 
 from __future__ import annotations
@@ -11,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mechkin.model import fk_accel, load_mechanism
 from mechkin.model import kinematics as K
-from mechkin.model import load_mechanism
 from mechkin.model.closure import ClosureStatus, solve_trajectory
 from mechkin.model.kinematics import forward_kinematics, frame_poses
 
@@ -20,6 +22,17 @@ ROOT = Path(__file__).resolve().parents[2]
 FILES = sorted((ROOT / "mechanisms").glob("*.yaml"))
 # one configuration, small batches, the first large batch, and more than one block
 SIZES = (1, 2, 7, K.PLAN_LARGE_BATCH, K.PLAN_BLOCK + 37)
+
+
+@pytest.fixture(params=["numpy", "compiled"])
+def fk_route(request, monkeypatch):
+    """frame_poses by one route: numpy / plain Python (MECHKIN_JIT=0) or compiled (=1)."""
+    if request.param == "compiled":
+        pytest.importorskip("numba")
+    monkeypatch.setenv("MECHKIN_JIT", "0" if request.param == "numpy" else "1")
+    fk_accel.reset()
+    yield request.param
+    fk_accel.reset()
 
 
 def _naive(mech, q: np.ndarray, f: int) -> np.ndarray:
@@ -48,7 +61,7 @@ def _frame_sets(mech, rng) -> list:
 
 
 @pytest.mark.parametrize("path", FILES, ids=[p.stem for p in FILES])
-def test_path_fk_matches_tree_fk(path):
+def test_path_fk_matches_tree_fk(path, fk_route):
     mech = load_mechanism(path)
     rng = np.random.default_rng(len(mech.joint_names))
     span = np.where(mech.s == 0, np.pi, 0.5)
@@ -64,7 +77,7 @@ def test_path_fk_matches_tree_fk(path):
 
 
 @pytest.mark.parametrize("path", FILES, ids=[p.stem for p in FILES])
-def test_path_fk_matches_naive_composition(path):
+def test_path_fk_matches_naive_composition(path, fk_route):
     mech = load_mechanism(path)
     rng = np.random.default_rng(7)
     nf = len(mech.frame_names)
@@ -77,7 +90,7 @@ def test_path_fk_matches_naive_composition(path):
                                            atol=1e-12)
 
 
-def test_puma560_ready_pose_published():
+def test_puma560_ready_pose_published(fk_route):
     # Robotics Toolbox for Python 1.x, rtb.models.DH.Puma560().fkine(qr), qr = (0, 90, -90, 0,
     # 0, 0) deg: tool at (0.0203, -0.15005, 1.53543) m with the identity orientation
     mech = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
@@ -102,7 +115,7 @@ def test_plan_only_walks_the_path_and_is_cached():
         assert mech.__dict__["_fk_plans"][(f,)] is plan
 
 
-def test_edge_inputs_like_the_tree_fk():
+def test_edge_inputs_like_the_tree_fk(fk_route):
     mech = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
     rng = np.random.default_rng(3)
     for m in (0, 1, 4, K.PLAN_LARGE_BATCH):
