@@ -212,7 +212,7 @@ fk:
     q4: {{type: ramp, from: 0, to: 90}}
     q5: {{type: sinusoid, amplitude: 45, frequency: 1}}
     q6: {{type: constant, value: 0}}
-outputs: {{csv: true, plots: false, mcap: false}}
+outputs: {{csv: true, plots: false, mcap: false, table: {table}}}
 """
 
 
@@ -420,25 +420,36 @@ def main() -> None:  # noqa: C901 - one linear script
             row.pe.append(cli_wall(imp_cmd, env))
         rows.append(row)
         steps = 20_000 if quick else 100_000
-        sc = tmp / "fk100k.yaml"
-        sc.write_text(FK100K.format(mech=ROOT / "mechanisms" / "puma560.yaml",
-                                    stop=(steps - 1) * 0.001))
-        fk_cmd = [py, "-m", "mechkin", "fk", str(sc), "--no-plots", "-o", str(tmp / "fk_out")]
         from mechkin.config.scenario import load_scenario
         from mechkin.tasks.fk import independent_motion
 
-        _, qv = independent_motion(load_scenario(sc), puma)
+        ver_cmd = [py, "-m", "mechkin", "--version"]
+        fk_rows = {}
+        for table in ("csv", "npz"):
+            sc = tmp / f"fk100k_{table}.yaml"
+            sc.write_text(FK100K.format(mech=ROOT / "mechanisms" / "puma560.yaml",
+                                        stop=(steps - 1) * 0.001, table=table))
+            fk_rows[table] = (sc, [py, "-m", "mechkin", "fk", str(sc), "--no-plots", "-o",
+                                   str(tmp / f"fk_out_{table}")])
+        _, qv = independent_motion(load_scenario(fk_rows["csv"][0]), puma)
         q_all = puma.assemble(qv, np.zeros((len(qv), 0)))
-        row = Row(f"`mechkin fk` of {steps:,} PUMA configurations (CSV), wall",
-                  "batched API `frame_poses` on the same configurations", "s", 1.0)
+        rows_fk = {t: Row(f"`mechkin fk` of {steps:,} PUMA configurations "
+                          f"(`outputs.table: {t}`), wall",
+                          "batched API `frame_poses` on the same configurations", "s", 1.0)
+                   for t in fk_rows}
+        ver = []
         for _ in range(max(2, R // 2)):
-            row.mk.append(cli_wall(fk_cmd, env))
-            row.pe.append(_t(lambda: frame_poses(puma, q_all, ee)))
-        summ = json.loads((tmp / "fk_out" / "summary.json").read_text())
-        row.note = (f"in the CLI run: closure {summ['solve_time_s']:.2f} s, rates and "
-                    f"singularity classes {summ['rates_time_s']:.2f} s; the rest is start-up, "
-                    "records and CSV text")
-        rows.append(row)
+            ver.append(cli_wall(ver_cmd, env))
+            for t, (_, cmd) in fk_rows.items():
+                rows_fk[t].mk.append(cli_wall(cmd, env))
+                rows_fk[t].pe.append(_t(lambda: frame_poses(puma, q_all, ee)))
+        for t, row in rows_fk.items():
+            summ = json.loads((tmp / f"fk_out_{t}" / "summary.json").read_text())
+            row.note = (f"in the CLI run: FK {summ['solve_time_s']:.2f} s, rates and "
+                        f"singularity classes {summ['rates_time_s']:.2f} s; the rest is "
+                        f"start-up, scenario, records and the table (`mechkin --version` "
+                        f"alone: {statistics.median(ver):.2f} s)")
+            rows.append(row)
         if rtb is not None:
             rtb.close()
     took = (_dt.datetime.now(_dt.timezone.utc) - started).total_seconds()
