@@ -1,4 +1,4 @@
-"""``mechkin warmup [MECH.yaml ...]``: compile the numba IK kernels ahead of first use.
+"""``mechkin warmup [MECH.yaml ...]``: compile the numba IK and FK kernels ahead of first use.
 
 Without a mechanism the kernels of a tiny open chain and a tiny four-bar are compiled, which
 covers every mechanism (the kernels are specialised on argument types, not on a mechanism).
@@ -63,4 +63,11 @@ def _warmup(paths: list[Path]) -> None:
             how = ("loaded from cache" if item.was_cached else "compiled"
                    if item.was_cached is False else "ready")
             typer.echo(f"{item.seconds:6.1f} s ({how})")
+        from mechkin.model import fk_accel
+
+        sys.stdout.write(f"  {'fk_jit.plan_poses':24s} {'forward kinematics':28s} ... ")
+        sys.stdout.flush()
+        dt, cached = fk_accel.warm()
+        how = "loaded from cache" if cached else "compiled" if cached is False else "ready"
+        typer.echo(f"{dt:6.1f} s ({how})")
         typer.echo(f"done in {time.perf_counter() - t_all:.1f} s")

@@ -145,8 +145,9 @@ def mark_loaded(kind: str) -> None:
 
 
 def is_loaded(kind: str) -> bool:
-    """Whether this process has run the compiled kernels of ``kind`` ("open", "closed")."""
-    return kind in _loaded
+    """Whether this process has run the compiled kernels of ``kind`` ("open", "closed") and
+    may use them (``MECHKIN_JIT=0`` turns them off even then)."""
+    return kind in _loaded and compiled_lm_available()
 
 
 def use_compiled(kind: str, rows: int) -> bool:
