@@ -306,6 +306,33 @@ def main() -> None:  # noqa: C901 - one linear script
                 r_pin.pe.append(_t(lambda qp=qp: [pin.forwardKinematics(pmodel, pdata, x)
                                                    for x in qp]))
         rows += [r_rtb, r_pin]
+        # the same calls with the defaults a user gets (no MECHKIN_JIT: the plain-Python
+        # route until rent or buy loads the kernel), in a fresh process
+        np.save(tmp / "q1.npy", q1[:n1])
+        child = ("import sys, time, numpy as np\n"
+                 "from mechkin.model import load_mechanism\n"
+                 "from mechkin.model.kinematics import frame_poses\n"
+                 f"m = load_mechanism({str(ROOT / 'mechanisms' / 'puma560.yaml')!r})\n"
+                 f"q = np.load({str(tmp / 'q1.npy')!r}); ee = [m.end_effector]\n"
+                 "frame_poses(m, q[:1], ee)\n"
+                 "t0 = time.perf_counter()\n"
+                 "for k in range(len(q)):\n    frame_poses(m, q[k:k + 1], ee)\n"
+                 "print(time.perf_counter() - t0, 'numba' in sys.modules)\n")
+        env_def = dict(os.environ, PYTHONPATH=str(ROOT))
+        env_def.pop("MECHKIN_JIT", None)
+        r_def = Row("single FK, PUMA 560, same calls with the defaults (no `MECHKIN_JIT`), "
+                    "fresh process", "rtb `ETS.eval(q)`", "us", 1e6 / n1)
+        numba_seen = set()
+        for _ in range(R):
+            out = subprocess.run([sys.executable, "-c", child], env=env_def, check=True,
+                                 capture_output=True, text=True).stdout.split()
+            r_def.mk.append(float(out[0]))
+            numba_seen.add(out[1])
+            if rtb is not None:
+                r_def.pe.append(rtb.ask("fk1", "puma", n1)["dt"])
+        r_def.note = ("numba not loaded (the plain-Python route)" if numba_seen == {"False"}
+                      else "numba loaded in the child")
+        rows.append(r_def)
 
         # ---- batched FK -----------------------------------------------------------------
         sizes = (10_000, 100_000) if quick else (10_000, 100_000, 1_000_000)
@@ -445,7 +472,7 @@ def main() -> None:  # noqa: C901 - one linear script
                 rows_fk[t].pe.append(_t(lambda: frame_poses(puma, q_all, ee)))
         for t, row in rows_fk.items():
             summ = json.loads((tmp / f"fk_out_{t}" / "summary.json").read_text())
-            row.note = (f"in the CLI run: FK {summ['solve_time_s']:.2f} s, rates and "
+            row.note = (f"in the CLI run: FK {summ['solve_time_s']:.3g} s, rates and "
                         f"singularity classes {summ['rates_time_s']:.2f} s; the rest is "
                         f"start-up, scenario, records and the table (`mechkin --version` "
                         f"alone: {statistics.median(ver):.2f} s)")
