@@ -34,27 +34,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from timing import FK100K as SCENARIO  # noqa: E402 - the speed table's scenario
+
 from mechkin.config.scenario import load_scenario  # noqa: E402
 from mechkin.model import load_mechanism  # noqa: E402
 from mechkin.model.kinematics import forward_kinematics, frame_poses  # noqa: E402
-
-#: The FK100K scenario of benchmarks/speed_table.py, with the table format as a parameter.
-SCENARIO = """name: puma_fk_100k
-task: fk
-mechanism: {mech}
-units: {{length: m, angle: deg}}
-fk:
-  time: {{start: 0, stop: {stop:.3f}, step: 0.001}}
-  motion:
-    q1: {{type: sinusoid, amplitude: 60, frequency: 0.25}}
-    q2: {{type: sinusoid, offset: 90, amplitude: 20, frequency: 0.5}}
-    q3: {{type: sinusoid, offset: -90, amplitude: 30, frequency: 0.5, phase: 90}}
-    q4: {{type: ramp, from: 0, to: 90}}
-    q5: {{type: sinusoid, amplitude: 45, frequency: 1}}
-    q6: {{type: constant, value: 0}}
-outputs: {{csv: true, plots: false, mcap: false, table: {table}}}
-"""
-
 
 #: CPU seconds (user + sys) of the last child run by :func:`wall`, per command label
 CPU: dict[str, list[float]] = {}

@@ -44,6 +44,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+from timing import FK100K  # noqa: E402
+
 from mechkin.model import load_mechanism  # noqa: E402
 from mechkin.model.kinematics import frame_poses  # noqa: E402
 from mechkin.solvers.ik import IkOptions, IkStatus, solve_ik, solve_ik_batch  # noqa: E402
@@ -199,21 +201,6 @@ def cli_wall(args: list[str], env: dict) -> float:
     return time.perf_counter() - t0
 
 
-FK100K = """name: puma_fk_100k
-task: fk
-mechanism: {mech}
-units: {{length: m, angle: deg}}
-fk:
-  time: {{start: 0, stop: {stop:.3f}, step: 0.001}}
-  motion:
-    q1: {{type: sinusoid, amplitude: 60, frequency: 0.25}}
-    q2: {{type: sinusoid, offset: 90, amplitude: 20, frequency: 0.5}}
-    q3: {{type: sinusoid, offset: -90, amplitude: 30, frequency: 0.5, phase: 90}}
-    q4: {{type: ramp, from: 0, to: 90}}
-    q5: {{type: sinusoid, amplitude: 45, frequency: 1}}
-    q6: {{type: constant, value: 0}}
-outputs: {{csv: true, plots: false, mcap: false, table: {table}}}
-"""
 
 
 def main() -> None:  # noqa: C901 - one linear script

@@ -232,14 +232,16 @@ def user_cache_dir() -> Path:
     return base / "mechkin" / "numba"
 
 
-def configure_numba_cache(package_dir: Path | None = None) -> str | None:
+def configure_numba_cache(package_dir: Path | None = None, writable=None) -> str | None:
     """Choose numba's cache folder before numba is imported; returns it (None: numba's
     default, this package's ``__pycache__``). ``NUMBA_CACHE_DIR`` set by the user is kept;
-    a read-only package folder sends the cache to :func:`user_cache_dir`."""
+    a read-only package folder (``writable``, default :func:`_writable`) sends the cache to
+    :func:`user_cache_dir`. The IK kernels' rule too
+    (:func:`mechkin.solvers.ik.accel.configure_numba_cache`)."""
     given = os.environ.get("NUMBA_CACHE_DIR")
     if given:
         return given
-    if _writable(package_dir or PACKAGE_DIR):
+    if (writable or _writable)(package_dir or PACKAGE_DIR):
         return None
     folder = user_cache_dir()
     try:

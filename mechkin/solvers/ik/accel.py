@@ -11,9 +11,10 @@
 
 Design
 ------
-Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports only the standard library
-(never numba itself). :mod:`mechkin.solvers.ik.lm` and :mod:`mechkin.solvers.ik.cg_golden`
-read ``accel.compiled_lm_available()`` at call time, so monkeypatching this module's attribute
+Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports only the standard library and
+:mod:`mechkin.model.fk_accel` (the shared cache-folder rule; never numba itself).
+:mod:`mechkin.solvers.ik.lm` and :mod:`mechkin.solvers.ik.cg_golden` read
+``accel.compiled_lm_available()`` at call time, so monkeypatching this module's attribute
 switches the back end everywhere (a patched function is obeyed as it is: no job-size rule).
 """
 
@@ -22,10 +23,11 @@ from __future__ import annotations
 import importlib.util
 import os
 import sys
-import tempfile
 import threading
 from functools import lru_cache
 from pathlib import Path
+
+from mechkin.model import fk_accel as _fk_accel
 
 #: The IK package folder: numba's default cache is its ``__pycache__``.
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -51,31 +53,10 @@ _AVAILABLE = compiled_lm_available
 # ---- cache folder ------------------------------------------------------------------------------
 
 
-def user_cache_dir() -> Path:
-    """The per-user folder for mechkin's compiled kernels (platformdirs' user cache dir):
-    ``$XDG_CACHE_HOME/mechkin/numba`` or ``~/.cache/mechkin/numba`` (Linux, BSD),
-    ``~/Library/Caches/mechkin/numba`` (macOS), ``%LOCALAPPDATA%\\mechkin\\Cache\\numba``
-    (Windows)."""
-    if sys.platform == "win32":
-        base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
-        return base / "mechkin" / "Cache" / "numba"
-    if sys.platform == "darwin":
-        return Path.home() / "Library" / "Caches" / "mechkin" / "numba"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg) if xdg and os.path.isabs(xdg) else Path.home() / ".cache"
-    return base / "mechkin" / "numba"
-
-
-def _writable(folder: Path) -> bool:
-    """Whether numba can write its cache into ``folder/__pycache__`` (as numba tests it)."""
-    target = folder / "__pycache__"
-    try:
-        target.mkdir(exist_ok=True)
-        with tempfile.TemporaryFile(dir=target):
-            pass
-    except OSError:
-        return False
-    return True
+# One cache-folder rule for the FK and IK kernels (mechkin.model.fk_accel, standard library
+# only): the user cache folder and the writability test are shared.
+user_cache_dir = _fk_accel.user_cache_dir
+_writable = _fk_accel._writable
 
 
 def configure_numba_cache(package_dir: Path | None = None) -> str | None:
@@ -86,21 +67,7 @@ def configure_numba_cache(package_dir: Path | None = None) -> str | None:
     is not writable (a system or read-only install), ``NUMBA_CACHE_DIR`` is set to
     :func:`user_cache_dir` (created), so the kernels compile once per user instead of in
     every process. If numba is already imported its config is updated too."""
-    given = os.environ.get("NUMBA_CACHE_DIR")
-    if given:
-        return given
-    if _writable(package_dir or PACKAGE_DIR):
-        return None
-    folder = user_cache_dir()
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError:
-        return None  # numba falls back to its own user-wide locator
-    os.environ["NUMBA_CACHE_DIR"] = str(folder)
-    cfg = sys.modules.get("numba.core.config")
-    if cfg is not None:
-        cfg.CACHE_DIR = str(folder)
-    return str(folder)
+    return _fk_accel.configure_numba_cache(package_dir or PACKAGE_DIR, writable=_writable)
 
 
 # ---- which back end for this job ---------------------------------------------------------------
@@ -150,6 +117,18 @@ def is_loaded(kind: str) -> bool:
     return kind in _loaded and compiled_lm_available()
 
 
+def _settled(kind: str) -> bool | None:
+    """The answer of :func:`use_compiled` when it does not depend on the job's size: False
+    without numba or with ``MECHKIN_JIT=0``; True when the availability check is patched
+    (tests choosing a back end), with ``MECHKIN_JIT=1`` or once the kernels are loaded; else
+    None (rent or buy decides)."""
+    if not compiled_lm_available():
+        return False
+    if compiled_lm_available is not _AVAILABLE or os.environ.get("MECHKIN_JIT") == "1":
+        return True
+    return True if kind in _loaded else None
+
+
 def use_compiled(kind: str, rows: int) -> bool:
     """Whether an lm call of ``rows`` rows on a ``kind`` ("open" or "closed") chain runs
     compiled.
@@ -159,12 +138,9 @@ def use_compiled(kind: str, rows: int) -> bool:
     loaded in this process, or when the numpy time of this job so far plus this call's
     would exceed the load cost (module constants, measured); else the numpy path, and its
     estimated time is added to the job's."""
-    if not compiled_lm_available():
-        return False
-    if compiled_lm_available is not _AVAILABLE or os.environ.get("MECHKIN_JIT") == "1":
-        return True
-    if kind in _loaded:
-        return True
+    settled = _settled(kind)
+    if settled is not None:
+        return settled
     load, per_call, per_row = _COSTS[kind]
     est = per_call + per_row * max(int(rows), 0)
     with _lock:
@@ -179,12 +155,9 @@ def compiled_next(kind: str, rows: int) -> bool:
     call's numpy estimate (a peek: the fast single-solve path of
     :func:`mechkin.solvers.ik.solve.solve_ik` is taken only then, so the job's choice of back
     end is the same as without it)."""
-    if not compiled_lm_available():
-        return False
-    if compiled_lm_available is not _AVAILABLE or os.environ.get("MECHKIN_JIT") == "1":
-        return True
-    if kind in _loaded:
-        return True
+    settled = _settled(kind)
+    if settled is not None:
+        return settled
     load, per_call, per_row = _COSTS[kind]
     with _lock:
         return _spent[kind] + per_call + per_row * max(int(rows), 0) > load
