@@ -18,6 +18,7 @@ import pytest
 from mechkin.model import fk_accel, load_mechanism
 from mechkin.model import kinematics as K
 from mechkin.model.kinematics import forward_kinematics, frame_poses
+from tests.model.test_fast_fk import _naive
 
 ROOT = Path(__file__).resolve().parents[2]
 MECH = ROOT / "mechanisms"
@@ -203,23 +204,6 @@ def test_tree_fk_routes_and_the_closure_step(name, monkeypatch):
     for r in range(3):
         for f in range(mech.n_links):
             assert np.allclose(got["1"][0][r, f], _naive(mech, q[r], f), rtol=0, atol=1e-12)
-
-
-def _naive(mech, q: np.ndarray, f: int) -> np.ndarray:
-    """Pose of link frame f: A_j Z(q_j) B_j composed from the link to the base."""
-    T = mech.frame_offset[f].copy()
-    link = int(mech.frame_link[f])
-    while mech.link_parent_joint[link] >= 0:
-        j = int(mech.link_parent_joint[link])
-        Z = np.eye(4)
-        if mech.s[j] == 0:
-            c, s = np.cos(q[j]), np.sin(q[j])
-            Z[:2, :2] = [[c, -s], [s, c]]
-        else:
-            Z[2, 3] = q[j]
-        T = mech.A[j] @ Z @ mech.B[j] @ T
-        link = int(mech.joint_parent_link[j])
-    return T
 
 
 @pytest.mark.parametrize("path", sorted(MECH.glob("*.yaml")), ids=lambda p: p.stem)
