@@ -15,6 +15,18 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
+@pytest.fixture(autouse=True)
+def _fk_route_read_per_test():
+    """Every test starts a new FK "job": ``MECHKIN_JIT`` is read again and the rent-or-buy
+    state of :mod:`mechkin.model.fk_accel` is forgotten (a process reads the flag once, so a
+    test that set ``MECHKIN_JIT=1`` would otherwise leave batched FK compiled for the tests
+    after it, and serial-vs-worker comparisons would differ in the last bits)."""
+    from mechkin.model import fk_accel
+
+    fk_accel.reset()
+    yield
+
+
 @pytest.fixture
 def root() -> Path:
     return ROOT
