@@ -305,6 +305,35 @@ def _solve_open_compiled(kern: IkKernel, T_P: np.ndarray, w: np.ndarray,
 SMALL_BATCH = 1024
 
 
+class _RestartStarts:
+    """The starts of restart k (0-based) of the rows ``bad`` of a batch: the nearest codebook
+    poses not tried yet (rank k + 1 without a given start, k with one), then seeded random
+    joints within the limits (one generator per batch, ``opts.seed``, drawn only when used).
+    Shared by :func:`solve_ik_batch`'s general loop and :func:`_batch_open_compiled`, so both
+    restart from the same starts."""
+
+    def __init__(self, kern: IkKernel, T_P: np.ndarray, w: np.ndarray, given: bool,
+                 seed: int, fast: bool) -> None:
+        self.kern, self.T_P, self.w, self.given, self.seed = kern, T_P, w, given, seed
+        self.fast = fast
+        self.rng = None
+
+    def __call__(self, k: int, bad: np.ndarray) -> np.ndarray:
+        kern = self.kern
+        rank = k if self.given else k + 1
+        if rank < SEED_RESTARTS:
+            if self.fast and bad.size == 1:
+                return seed_rows(kern, self.T_P[bad[0]], self.w[bad[0]], rank, 1)
+            start = seed_starts(kern, self.T_P[bad], self.w[bad], ranks=(rank,))
+            if start is not None:
+                return start[:, 0]
+        if self.rng is None:
+            self.rng = np.random.default_rng(self.seed)
+            self.lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
+            self.hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
+        return self.rng.uniform(self.lo, self.hi, size=(bad.size, kern.iv.size))
+
+
 def _batch_open_compiled(kern: IkKernel, T_P: np.ndarray, q_v0: np.ndarray | None,
                          weights: np.ndarray | None, opts: IkOptions, t0: float
                          ) -> IkBatchResult:
@@ -347,23 +376,14 @@ def _batch_open_compiled(kern: IkKernel, T_P: np.ndarray, q_v0: np.ndarray | Non
 
     q, f, iters, conv, _, e0 = attempt(qv0, F0, T_P, w)
     ok = (e0[:, 2] <= opts.tol_pos) & (e0[:, 3] <= opts.tol_ori)
-    rng = None
+    starts = _RestartStarts(kern, T_P, w, q_v0 is not None, opts.seed, fast=True)
     restarted = False
     for k in range(opts.restarts):
         bad = np.flatnonzero(~ok)
         if bad.size == 0:
             break
         restarted = True
-        rank = k + 1 if q_v0 is None else k
-        if rank < SEED_RESTARTS:
-            start = (seed_rows(kern, T_P[bad[0]], w[bad[0]], rank, 1) if bad.size == 1
-                     else seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))[:, 0])
-        else:
-            if rng is None:
-                rng = np.random.default_rng(opts.seed)
-                lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
-                hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
-            start = rng.uniform(lo, hi, size=(bad.size, nv))
+        start = starts(k, bad)
         Tb = T_P[bad]
         q2, f2, it2, conv2, _, e2 = attempt(start, kern.chain.first_frame(Tb), Tb, w[bad])
         iters[bad] += it2
@@ -492,28 +512,14 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         ok = check(q, T_P, w) & closed
     else:
         ok = (e0[:, 2] <= opts.tol_pos) & (e0[:, 3] <= opts.tol_ori) & closed
-    rng = None
+    starts = _RestartStarts(kern, T_P, w_seed, q_v0 is not None, opts.seed, fast)
     restarted = False
     for k in range(opts.restarts):
         bad = np.flatnonzero(~ok)
         if bad.size == 0:
             break
         restarted = True
-        if rng is None:
-            rng = np.random.default_rng(opts.seed)
-            lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
-            hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
-        # the nearest codebook poses not tried yet first (also when a start was given),
-        # then seeded random starts
-        rank = k + 1 if q_v0 is None else k
-        if rank >= SEED_RESTARTS:
-            start = None
-        elif fast and bad.size == 1:
-            start = seed_rows(kern, T_P[bad[0]], w[bad[0]], rank, 1)[None]
-        else:
-            start = seed_starts(kern, T_P[bad], w[bad], ranks=(rank,))
-        start = (start[:, 0] if start is not None
-                 else rng.uniform(lo, hi, size=(bad.size, nv)))
+        start = starts(k, bad)
         r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
         iters[bad] += r2["iters"]
         lower = r2["f"] < f[bad]
