@@ -41,7 +41,12 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
-from mechkin.tasks.fk_base import base_into_record, base_into_summary, base_trajectory
+from mechkin.tasks.fk_base import (
+    base_into_record,
+    base_into_summary,
+    base_trajectory,
+    check_table_lengths,
+)
 from mechkin.tasks.fk_batch import (
     is_open_chain,
     label_counts,
@@ -118,10 +123,7 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
                                 f"joint {name!r}")
         if problems:
             raise ConfigError(problems)
-        lens = {k: len(v) for k, v in tab.items()}
-        if len(set(lens.values())) != 1 or lens["t"] == 0:
-            raise ConfigError(f"{doc.where(('fk', 'table'))}: columns must have the same "
-                              f"non-zero length, got {lens}")
+        check_table_lengths(doc, ("fk", "table"), tab)
         t = np.asarray(tab["t"], dtype=float)
         qv = np.column_stack([
             np.asarray(tab[name], dtype=float)

@@ -115,10 +115,7 @@ def _from_table(spec: BaseSpec, t: np.ndarray, sc: Any
                  f"{', '.join(BASE_COORDS)})" for k in tab if k != "t" and k not in BASE_COORDS]
     if problems:
         raise ConfigError(problems)
-    lens = {k: len(v) for k, v in tab.items()}
-    if len(set(lens.values())) != 1 or lens["t"] == 0:
-        raise ConfigError(f"{doc.where(key)}: columns must have the same non-zero length, "
-                          f"got {lens}")
+    check_table_lengths(doc, key, tab)
     t_tab = np.asarray(tab["t"], float)
     x = np.zeros((len(t_tab), 6))
     for k, name in enumerate(BASE_COORDS):
@@ -289,3 +286,12 @@ def base_into_record(base: BaseTrajectory | None, rec: Any, T_e: np.ndarray | No
     rec.columns = new
     rec.world_frame = base.frame
     rec.T_world_base = base.T
+
+
+def check_table_lengths(doc: Any, key: tuple, tab: dict) -> None:
+    """A ``table:`` (``t`` and one list per column) whose columns differ in length or are
+    empty: one located ConfigError (the fk motion table and the base table)."""
+    lens = {k: len(v) for k, v in tab.items()}
+    if len(set(lens.values())) != 1 or lens["t"] == 0:
+        raise ConfigError(f"{doc.where(key)}: columns must have the same non-zero length, "
+                          f"got {lens}")
