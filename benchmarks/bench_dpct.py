@@ -12,14 +12,14 @@ import time
 
 import numpy as np
 
-from mechkin.solvers.dpct import (
+from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
     TrackResult,
     solve_conveyor_tracking,
 )
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
-from mechkin.solvers.path import PlanarTwoLinkLinePath
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 
 PATH = PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732])
 DYN = PlanarTwoLinkDynamics()

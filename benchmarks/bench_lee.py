@@ -23,7 +23,7 @@ from mechkin.solvers.closed_form.lee_spherical import (
     forward_position_batch,
     inverse_position,
 )
-from mechkin.solvers.workspace import lee_evaluator, orientation_maps
+from mechkin.solvers.workspace.maps import lee_evaluator, orientation_maps
 
 
 def main() -> None:

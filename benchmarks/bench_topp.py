@@ -19,7 +19,7 @@ Timed, same process, interleaved repeats, medians:
   returns them) with ``compute_parameterization`` (toppra's planner alone).
 
 Durations are compared with toppra's converged value (N = 4000). The DP of
-:mod:`mechkin.solvers.dpct` (``objective="time"``, analytic path, its own transition model) is
+:mod:`mechkin.solvers.track.dpct` (``objective="time"``, analytic path, its own transition model) is
 run once per grid for reference. toppra is the ``bench`` extra (``pip install -e ".[bench]"``);
 without it only mechkin's numbers are printed.
 """
@@ -33,10 +33,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from mechkin.solvers.dpct import TrackLimits, solve_conveyor_tracking
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
-from mechkin.solvers.path import PlanarTwoLinkLinePath
-from mechkin.solvers.topp import (
+from mechkin.solvers.track.dpct import TrackLimits, solve_conveyor_tracking
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath
+from mechkin.solvers.track.topp import (
     constraint_rows,
     plan_time_optimal,
     solve_topp,

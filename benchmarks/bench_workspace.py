@@ -5,8 +5,8 @@ Command::
     python benchmarks/bench_workspace.py [--repeat 3] [--skip-design]
 
 Targets: one alpha-beta-gamma map of 201 x 201 x 3 poses with sigma_KI <= 1 s; one million
-poses <= 10 s (both through :func:`mechkin.solvers.workspace.orientation_maps` with
-:func:`mechkin.solvers.workspace.lee_evaluator`, i.e. Eq. (9) leg lengths and Eq. (21) sigma_KI
+poses <= 10 s (both through :func:`mechkin.solvers.workspace.maps.orientation_maps` with
+:func:`mechkin.solvers.workspace.maps.lee_evaluator`, i.e. Eq. (9) leg lengths and Eq. (21) sigma_KI
 in closed form); forward position (all assembly modes) per call; the lee design sweep over
 r = 0.25, 0.5, 0.75 (Fig. 2 gamma range on a 91 x 91 x 361 grid plus the Figs. 3-5 maps on
 181 x 181) on 1 and 2 worker processes.
@@ -27,8 +27,8 @@ from mechkin.solvers.closed_form.lee_spherical import (
     forward_position_batch,
     inverse_position,
 )
-from mechkin.solvers.sweeps import lee_design_sweep
-from mechkin.solvers.workspace import lee_evaluator, orientation_maps
+from mechkin.solvers.workspace.sweeps import lee_design_sweep
+from mechkin.solvers.workspace.maps import lee_evaluator, orientation_maps
 
 DEG = math.pi / 180.0
 

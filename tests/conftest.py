@@ -52,3 +52,25 @@ def lm_backend(request, monkeypatch):
     monkeypatch.setattr(accel, "compiled_lm_available",
                         lambda: request.param == "compiled")
     return request.param
+
+
+_MISSING_PACKAGE = ("could not import", "No module named", "not installed")
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """With ``MECHKIN_REQUIRE_EXTRAS=1`` (set by ``.ci/run``) a test skipped because a package
+    is missing fails the run: every package the suite uses is in the ``[test]`` extra, so such a
+    skip means the extra and the suite disagree. Skips on purpose (``MECHKIN_SLOW_TESTS``) pass."""
+    if os.environ.get("MECHKIN_REQUIRE_EXTRAS") != "1":
+        return
+    missing = []
+    for rep in terminalreporter.stats.get("skipped", []):
+        reason = str(rep.longrepr[2] if isinstance(rep.longrepr, tuple) else rep.longrepr)
+        if any(s in reason for s in _MISSING_PACKAGE):
+            missing.append(f"{rep.nodeid}: {reason}")
+    if missing:
+        terminalreporter.write_line(
+            f"{len(missing)} test(s) skipped for a missing package (add it to [test]):", red=True)
+        for line in missing[:20]:
+            terminalreporter.write_line("  " + line)
+        terminalreporter._session.exitstatus = 1  # noqa: SLF001 (pytest has no public setter)

@@ -83,7 +83,7 @@ class GammaRangeSpec(Spec):
     ``range`` and ``n``: the gamma grid searched; ``mode``: ``extent`` (smallest/largest grid
     gamma in the workspace) or ``component`` (the run of workspace containing ``ref``; needs
     ``ref``); ``n_alpha``/``n_beta``: the alpha-beta grid of this map, over the section's
-    alpha and beta ranges. See :mod:`mechkin.solvers.workspace`.
+    alpha and beta ranges. See :mod:`mechkin.solvers.workspace.maps`.
     """
 
     range: Pair

@@ -1,7 +1,7 @@
 """The record of a track run (park §2-§5): what ``mechkin.io.track_out`` writes.
 
 :class:`TrackTrajectory` is the realised trajectory at the DP nodes (the solver
-:mod:`mechkin.solvers.dpct` returns it inside its ``TrackResult``); :class:`TrackRecord` adds
+:mod:`mechkin.solvers.track.dpct` returns it inside its ``TrackResult``); :class:`TrackRecord` adds
 the plain arrays the CSV, the plots like park Figs. 4-8 and the MCAP need (frame tree, stick
 segments, the other grids of a grid study, the part's phase-plane reference, the limits).
 

@@ -4,13 +4,13 @@ Every kind of ``workspace:`` section has its record of plain arrays and JSON-rea
 
 * :class:`OrientationMaps`, :class:`GammaRange` and :class:`LeeWorkspaceRecord`: lee's
   isotropy maps (Figs. 3-5) and gamma_min/gamma_max (Fig. 2), computed by
-  :func:`mechkin.solvers.workspace.lee_workspace`;
+  :func:`mechkin.solvers.workspace.maps.lee_workspace`;
 * :class:`DesignSweepRecord`: one lee record per value of a design parameter
-  (:func:`mechkin.solvers.sweeps.lee_design_sweep`);
+  (:func:`mechkin.solvers.workspace.sweeps.lee_design_sweep`);
 * :class:`TaskSpaceRecord`: reachability and dexterity of task-space poses
-  (:func:`mechkin.solvers.sweeps.task_space_sweep`);
+  (:func:`mechkin.solvers.workspace.sweeps.task_space_sweep`);
 * :class:`JointSweepRecord`: reachable positions and dexterity of a joint-space sweep
-  (:func:`mechkin.solvers.joint_sweep.joint_sweep`).
+  (:func:`mechkin.solvers.workspace.joint_sweep.joint_sweep`).
 
 :class:`WorkspaceOutput` wraps one of them with what only the writer needs (titles, CSV
 column names, plot options); it is the ``data`` of the workspace :class:`~mechkin.records.Report`.
@@ -70,7 +70,7 @@ class OrientationMaps:
 @dataclass(frozen=True)
 class GammaRange:
     """gamma_min / gamma_max over the alpha-beta plane (lee Fig. 2); see
-    :mod:`mechkin.solvers.workspace` for the definitions.
+    :mod:`mechkin.solvers.workspace.maps` for the definitions.
 
     Attributes
     ----------
@@ -169,7 +169,7 @@ class DesignSweepRecord:
     records : tuple of LeeWorkspaceRecord
         ``records[i]`` computed with ``parameter = values[i]``.
     comparison : list of dict
-        :func:`mechkin.solvers.sweeps.design_comparison` of the records (JSON-ready).
+        :func:`mechkin.solvers.workspace.sweeps.design_comparison` of the records (JSON-ready).
     """
 
     parameter: str
@@ -196,7 +196,7 @@ class TaskSpaceRecord:
         Verified by forward kinematics [m], [rad].
     iterations : ndarray of int, shape (m,)
     isotropy, isotropy_position, condition_number, manipulability : ndarray, shape (m,)
-        Dexterity at the solutions (see :mod:`mechkin.solvers.sweeps`); 0 (condition number: 0
+        Dexterity at the solutions (see :mod:`mechkin.solvers.workspace.sweeps`); 0 (condition number: 0
         too) where not reachable.
     isotropy_normalized : ndarray, shape (m,) or None
         The dimensionally honest isotropy (translational rows / ``characteristic_length``);
@@ -241,14 +241,14 @@ class JointSweepRecord:
     isotropy_normalized : ndarray, shape (m,) or None
         sigma_min/sigma_max of the Jacobian with translational rows divided by
         ``characteristic_length`` (and prismatic columns multiplied by it): the dimensionally
-        honest index (:mod:`mechkin.solvers.dexterity`).
+        honest index (:mod:`mechkin.solvers.workspace.dexterity`).
     characteristic_length : float or None
         [m].
     seed : ndarray of int, shape (m,), optional
         The sample whose solution started this sample's loop closure (-1: home).
     mode_change : ndarray of bool, shape (m,), optional
         The dependent joints jumped away from the branch of the seed sample (a change of
-        assembly mode; see :func:`mechkin.solvers.joint_sweep.joint_sweep`).
+        assembly mode; see :func:`mechkin.solvers.workspace.joint_sweep.joint_sweep`).
     reseeded : ndarray of bool, shape (m,), optional
         The closure failed from the seed sample and was solved from home instead.
     """

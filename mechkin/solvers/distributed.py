@@ -3,7 +3,7 @@ r"""Long loop-closure trajectories in chunks with overlapping warm starts (jobs 
 The continuation of :func:`mechkin.model.closure.solve_trajectory` (kim1995 §5.1 Steps 1-5)
 is sequential: each step starts from the previous solution, which keeps the motion on one
 assembly mode. :func:`solve_trajectory_chunks` splits a long motion into chunks that run as
-independent jobs (:func:`mechkin.solvers.sweeps.run_jobs`: local processes or a Dask
+independent jobs (:func:`mechkin.solvers.workspace.sweeps.run_jobs`: local processes or a Dask
 cluster) and still follows the assembly mode of a single run:
 
 1. **Coarse pass** (here): the same continuation on every ``stride``-th step gives a solved
@@ -47,7 +47,7 @@ def trajectory_job(job: dict[str, Any]) -> ClosureResult:
     its warm start."""
     mech = job["mechanism"]
     if not hasattr(mech, "dependent"):
-        from mechkin.solvers.sweeps import job_mechanism
+        from mechkin.solvers.workspace.sweeps import job_mechanism
 
         mech = job_mechanism(mech)
     return solve_trajectory(mech, job["q_v"], job["q_w0"], **job["kw"])

@@ -2,7 +2,7 @@
 inclined planes, one case or a walk -> skate -> roll switching sequence.
 
 :func:`run` converts the section to SI steps, solves them with
-:func:`mechkin.solvers.biped.solve_sequence` (closed forms of hwang2023 §2.2-§2.4), checks every
+:func:`mechkin.solvers.biped.sequence.solve_sequence` (closed forms of hwang2023 §2.2-§2.4), checks every
 leg by forward kinematics (the closed-form chain and the mechanism file's model), evaluates the
 ``expect:`` entries and returns a :class:`~mechkin.records.Report` whose
 :class:`~mechkin.records.biped.BipedRecord` ``mechkin.io.biped_out`` writes (``leg_right.csv``,
@@ -29,7 +29,7 @@ from mechkin.model.drawing import frame_tree
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.records import Report
 from mechkin.records.biped import BipedPlot, BipedRecord
-from mechkin.solvers.biped import (
+from mechkin.solvers.biped.sequence import (
     EE_FRAMES,
     SIDES,
     BipedFrame,
@@ -40,7 +40,7 @@ from mechkin.solvers.biped import (
     geometry_from_mechanism,
     solve_sequence,
 )
-from mechkin.solvers.closed_form.biped_leg import (
+from mechkin.solvers.biped.leg import (
     STATUS_OK,
     InclinedPlane,
     LegSolution,

@@ -3,7 +3,7 @@
 Every long job of a task is split into independent **jobs** by its solver (ik: chunks of
 targets; workspace: design values, task-space chunks, joint-sweep subtrees, lee maps; track:
 the grids of a grid study; fk: chunks of a long trajectory with overlapping warm starts) and
-run by :func:`mechkin.solvers.sweeps.run_jobs` in this process, on ``--workers N`` local
+run by :func:`mechkin.solvers.workspace.sweeps.run_jobs` in this process, on ``--workers N`` local
 processes or on a Dask cluster (``--scheduler ADDRESS``). The results come back in job order,
 so the executor never changes them (see each task for what is bitwise identical).
 
@@ -56,7 +56,7 @@ class Execution:
         return self.address is not None or (self.workers is not None and self.workers > 1)
 
     def n_workers(self, default: int = 1) -> int | None:
-        """Local processes for :func:`~mechkin.solvers.sweeps.run_jobs` (None on Dask)."""
+        """Local processes for :func:`~mechkin.solvers.workspace.sweeps.run_jobs` (None on Dask)."""
         if self.address is not None:
             return None
         return int(self.workers) if self.workers is not None else int(default)
@@ -109,14 +109,14 @@ def check(ex: Execution) -> None:
     """Bad options are bad input (exit 2) before any work: a worker count the machine cannot
     hold (:func:`mechkin.tasks.budget.check_workers`), a scheduler without the dask extra or
     that does not answer, has no workers or workers without this mechkin version
-    (:func:`mechkin.solvers.sweeps.connect_cluster`)."""
+    (:func:`mechkin.solvers.workspace.sweeps.connect_cluster`)."""
     if ex.address is not None:
         try:
             import distributed  # noqa: F401
         except ImportError:
             raise ConfigError("--scheduler: running on a Dask cluster needs the optional extra "
                               "(pip install 'mechkin[dask]')") from None
-        from mechkin.solvers.sweeps import connect_cluster
+        from mechkin.solvers.workspace.sweeps import connect_cluster
 
         # fail fast, before the output folder or any work: a wrong address, no workers,
         # workers without this mechkin (ClusterError, one line, exit 2)
@@ -148,7 +148,7 @@ def map_jobs(fn: Callable[[Any], Any], jobs: Sequence[Any], description: str,
     default_workers : int
         Local processes when ``ex.workers`` is None.
     """
-    from mechkin.solvers.sweeps import run_jobs
+    from mechkin.solvers.workspace.sweeps import run_jobs
     from mechkin.tasks.progress import progress_bar
 
     ex = current() if ex is None else ex

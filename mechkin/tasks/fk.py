@@ -222,7 +222,7 @@ def _solve_split(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, kw: dict[str
     (:func:`mechkin.solvers.distributed.solve_trajectory_chunks`: same assembly mode as one
     process, joints equal within the closure tolerance)."""
     from mechkin.solvers.distributed import solve_trajectory_chunks
-    from mechkin.solvers.sweeps import run_jobs
+    from mechkin.solvers.workspace.sweeps import run_jobs
     from mechkin.tasks.progress import progress_bar
 
     m = len(qv)

@@ -255,7 +255,7 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
 def _sequence_job(job: dict[str, Any]) -> dict[str, Any]:
     """One chunk of a sequential solve (a worker job): the ``overlap`` targets before the
     chunk (warm-up of a warm-started chain, from the initial guess), then the chunk."""
-    from mechkin.solvers.sweeps import job_mechanism
+    from mechkin.solvers.workspace.sweeps import job_mechanism
 
     mech = job_mechanism(job["mechanism"])
     o = job["overlap"]
@@ -296,7 +296,7 @@ def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
     single run within the solver's tolerance, so the solutions agree within the ik
     tolerances (``tolerances.position`` / ``orientation``), on the same branch.
     """
-    from mechkin.solvers.sweeps import mechanism_spec
+    from mechkin.solvers.workspace.sweeps import mechanism_spec
 
     spec: IkSpec = sc.section
     k = len(T_P)
@@ -332,7 +332,7 @@ def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
 
 def _batch_job(job: dict[str, Any]) -> list[IkResult]:
     """One chunk of a batched solve (a worker job)."""
-    from mechkin.solvers.sweeps import job_mechanism
+    from mechkin.solvers.workspace.sweeps import job_mechanism
 
     mech = job_mechanism(job["mechanism"])
     br = solve_ik_batch(mech, job["T_P"], q_v0=job["q_v0"], q_w0=job["q_w0"],
@@ -345,7 +345,7 @@ def _solve_batch(sc: Scenario, T_P: np.ndarray, W: np.ndarray, qv0: np.ndarray,
                  ) -> tuple[list[IkResult], dict[str, Any] | None]:
     """``batch: true``: the batched lm in chunks of :data:`BATCH_CHUNK` targets on the run's
     executor (bitwise the same results in one process and on any number of workers)."""
-    from mechkin.solvers.sweeps import mechanism_spec
+    from mechkin.solvers.workspace.sweeps import mechanism_spec
 
     k = len(T_P)
     mspec = mechanism_spec(sc.mechanism_path)

@@ -1,14 +1,14 @@
 """The track task: conveyor tracking (or minimum time) by DP in the phase plane (park §2-§5).
 
-The hand moves on a path of :mod:`mechkin.solvers.path_geometry` (a straight line, park Eq. (7),
+The hand moves on a path of :mod:`mechkin.solvers.track.path_geometry` (a straight line, park Eq. (7),
 a circular arc or a C2 spline, r its normalised arc length) with its orientation held, slerped
-or free; the joints follow it by the path inverse kinematics of :mod:`mechkin.solvers.path_ik`
+or free; the joints follow it by the path inverse kinematics of :mod:`mechkin.solvers.track.path_ik`
 (continued along the path from the start solution, on the branch the scenario names); the
 torques come from the mechanism's inertial parameters
-(recursive Newton-Euler, park Eq. (8)); :func:`mechkin.solvers.track_plan.plan_track` plans
-``r(t)`` by the DP of :func:`mechkin.solvers.dpct.solve_conveyor_tracking` or, for the time and
+(recursive Newton-Euler, park Eq. (8)); :func:`mechkin.solvers.track.plan.plan_track` plans
+``r(t)`` by the DP of :func:`mechkin.solvers.track.dpct.solve_conveyor_tracking` or, for the time and
 intercept objectives without a jerk limit (``planner: auto``), by TOPP-RA
-(:mod:`mechkin.solvers.intercept`). Returns a
+(:mod:`mechkin.solvers.track.intercept`). Returns a
 :class:`mechkin.records.Report` whose record (:class:`mechkin.records.track.TrackRecord`) the
 writer :mod:`mechkin.io.track_out` turns into ``track.csv``, plots like park Figs. 4-8 and
 ``track.mcap``; writes nothing.
@@ -37,26 +37,26 @@ from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.records import Report
 from mechkin.records.track import GridTrace, TrackRecord
-from mechkin.solvers.dpct import (
+from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
     TrackResult,
     TrackStatus,
 )
-from mechkin.solvers.dynamics import InverseDynamics
-from mechkin.solvers.dynamics_from_mechanism import (
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
+from mechkin.solvers.dynamics.from_mechanism import (
     dynamics_from_mechanism,
     planar_two_link_from_mechanism,
 )
-from mechkin.solvers.path_geometry import (
+from mechkin.solvers.track.path_geometry import (
     ArcGeometry,
     LineGeometry,
     PathGeometry,
     SlerpOrientation,
     SplineGeometry,
 )
-from mechkin.solvers.path_ik import HandLineIK, HandPathIK, PathIKError
-from mechkin.solvers.track_plan import plan_track
+from mechkin.solvers.track.path_ik import HandLineIK, HandPathIK, PathIKError
+from mechkin.solvers.track.plan import plan_track
 from mechkin.spatial.rotations import matrix_from_rpy
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 from mechkin.tasks.track_cases import case_record, case_traces, dp_options, solve_cases
@@ -80,7 +80,7 @@ def _dynamics(sc: Scenario, mech: Mechanism) -> InverseDynamics:
 
 def path_geometry(sc: Scenario) -> PathGeometry:
     """The scenario's hand path in SI: a line, arc or spline of
-    :mod:`mechkin.solvers.path_geometry`."""
+    :mod:`mechkin.solvers.track.path_geometry`."""
     spec: TrackSpec = sc.section
     path = spec.path
     units = sc.spec.units
@@ -147,7 +147,7 @@ def hand_ik(sc: Scenario, mech: Mechanism) -> HandPathIK:
     orientation = path_orientation(sc, geometry)
     try:
         if mech.is_closed and len(mech.dependent):  # closed chain: IK in q_v, loops closed
-            from mechkin.solvers.closed_path_ik import ClosedHandLineIK, ClosedHandPathIK
+            from mechkin.solvers.track.closed_path_ik import ClosedHandLineIK, ClosedHandPathIK
 
             cmask = path_mask(spec.path, len(mech.independent))
             if geometry.straight and orientation is None:

@@ -26,7 +26,7 @@ from mechkin.config.track_spec import (
 )
 from mechkin.errors import ConfigError
 from mechkin.records.track import CaseTrace
-from mechkin.solvers.dpct import DPOptions, TrackLimits, TrackResult
+from mechkin.solvers.track.dpct import DPOptions, TrackLimits, TrackResult
 
 
 def dp_options(spec: DpSpec | None) -> DPOptions:

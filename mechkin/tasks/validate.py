@@ -231,7 +231,7 @@ def ik_problems(sc: Any, mech: Any) -> list[str]:
 def biped_problems(sc: Any, mech: Any) -> list[str]:
     """The mechanism's legs must be the hwang2023 closed-form legs (what ``run_biped`` checks
     first)."""
-    from mechkin.solvers.biped import geometry_from_mechanism
+    from mechkin.solvers.biped.sequence import geometry_from_mechanism
 
     try:
         with np.errstate(all="raise"):
@@ -258,7 +258,7 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
     data missing, not a serial chain, not a planar 2R arm for closed_form_2link), limits not
     one per joint, an unknown hand frame, initial guess or branch joints."""
     from mechkin.config.track_spec import limit_count_message, mechanism_limits_si
-    from mechkin.solvers.dynamics_from_mechanism import (
+    from mechkin.solvers.dynamics.from_mechanism import (
         dynamics_from_mechanism,
         planar_two_link_from_mechanism,
     )

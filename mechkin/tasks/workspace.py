@@ -3,19 +3,19 @@ sweeps. A validated ``workspace:`` scenario -> :class:`mechkin.records.Report`; 
 
 Kinds of section (:mod:`mechkin.config.workspace_spec`):
 
-* ``lee_spherical``: :func:`mechkin.solvers.workspace.lee_workspace` with the design taken
+* ``lee_spherical``: :func:`mechkin.solvers.workspace.maps.lee_workspace` with the design taken
   from the mechanism file (R, r, P, stroke) and overridden by ``parameters``: sigma_KI maps
   per named gamma set and gamma_min/gamma_max (Fig. 2). With ``design: {parameter, values}``
-  the maps are computed once per value (:func:`mechkin.solvers.sweeps.lee_design_sweep`)
+  the maps are computed once per value (:func:`mechkin.solvers.workspace.sweeps.lee_design_sweep`)
   with a comparison table.
 * ``joint_sweep``: the independent joints on a grid or at random (seeded); for a closed chain
   the loop closure (kim1995 §5.1) is solved for every sample, continued from a solved
-  neighbour so the sweep keeps one assembly mode (:func:`mechkin.solvers.joint_sweep.joint_sweep`;
+  neighbour so the sweep keeps one assembly mode (:func:`mechkin.solvers.workspace.joint_sweep.joint_sweep`;
   mode changes and closure failures are counted): reachable positions of a frame, bounding
   box, voxel and convex-hull volumes, statistics of Yoshikawa's manipulability and of the
   isotropy of the reduced frame Jacobian.
 * ``task_space``: a grid (or seeded random set) of task-space poses through the batched ik
-  (:func:`mechkin.solvers.sweeps.task_space_sweep`): reachability and dexterity.
+  (:func:`mechkin.solvers.workspace.sweeps.task_space_sweep`): reachability and dexterity.
 
 Every kind runs as jobs on ``workers`` local processes or on a Dask cluster (``scheduler`` /
 ``executor: {kind: dask, address}``, or the run's :mod:`mechkin.tasks.distributed` options):
@@ -222,7 +222,7 @@ def lee_design(scenario: Scenario) -> dict[str, Any]:
 
 
 def _lee_params(sc: Scenario, design: dict[str, Any]) -> dict[str, Any]:
-    """Keyword arguments of :func:`mechkin.solvers.workspace.lee_workspace` (SI)."""
+    """Keyword arguments of :func:`mechkin.solvers.workspace.maps.lee_workspace` (SI)."""
     spec = sc.section
     A = angle_factor(sc.spec.units.angle)
     full = (-90.0 * math.pi / 180.0, 90.0 * math.pi / 180.0)
@@ -299,7 +299,7 @@ def _listed_poses(sc: Scenario, columns: tuple[str, ...], optional: tuple[str, .
 
 
 def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
-    from mechkin.solvers.workspace import lee_workspace
+    from mechkin.solvers.workspace.maps import lee_workspace
 
     design = lee_design(sc)
     params = _lee_params(sc, design)
@@ -310,8 +310,8 @@ def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
     split = ex["ex"].split
     try:
         with _progress_bar(ex, f"{sc.name}: maps") as cb:
-            if split:  # one job per map (mechkin.solvers.sweeps.lee_workspace_jobs)
-                from mechkin.solvers.sweeps import lee_map_jobs, lee_workspace_jobs
+            if split:  # one job per map (mechkin.solvers.workspace.sweeps.lee_workspace_jobs)
+                from mechkin.solvers.workspace.sweeps import lee_map_jobs, lee_workspace_jobs
 
                 n_jobs = len(lee_map_jobs(params))
                 rec = lee_workspace_jobs(**params, workers=ex["workers"],
@@ -332,7 +332,7 @@ def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
 
 
 def _run_lee_design(sc: Scenario, ex: dict[str, Any]) -> Report:
-    from mechkin.solvers.sweeps import default_workers, design_summary, lee_design_sweep
+    from mechkin.solvers.workspace.sweeps import default_workers, design_summary, lee_design_sweep
 
     spec = sc.section
     dspec = spec.design
@@ -375,7 +375,7 @@ def _run_lee_design(sc: Scenario, ex: dict[str, Any]) -> Report:
 
 def _task_poses(sc: Scenario) -> np.ndarray:
     """Target poses (m, 4, 4), SI, of a task_space section."""
-    from mechkin.solvers.sweeps import task_space_grid, task_space_random
+    from mechkin.solvers.workspace.sweeps import task_space_grid, task_space_random
     from mechkin.spatial.euler_conventions import euler_matrix
     from mechkin.spatial.rotations import matrix_from_quat
 
@@ -461,7 +461,7 @@ def _joint_columns(mech: Any) -> list[str]:
 
 def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
     from mechkin.model import load_mechanism
-    from mechkin.solvers.sweeps import task_space_summary, task_space_sweep
+    from mechkin.solvers.workspace.sweeps import task_space_summary, task_space_sweep
 
     spec = sc.section
     if sc.mechanism_path is None:
@@ -565,8 +565,8 @@ def _sweep_values(sc: Scenario, mech: Any) -> tuple[np.ndarray, list[str]]:
 
 def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     from mechkin.model import load_mechanism
-    from mechkin.solvers.joint_sweep import joint_sweep, point_cloud_volume
-    from mechkin.solvers.workspace import sigma_statistics
+    from mechkin.solvers.workspace.joint_sweep import joint_sweep, point_cloud_volume
+    from mechkin.solvers.workspace.maps import sigma_statistics
 
     spec = sc.section
     if sc.mechanism_path is None:
@@ -581,8 +581,8 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     grid_shape = tuple(spec.joints[n].n for n in swept) if spec.method == "grid" else None
     split = ex["ex"].split
     jobs_kw: dict[str, Any] = {}
-    if split:  # jobs of samples / continuation subtrees (mechkin.solvers.joint_sweep)
-        from mechkin.solvers.sweeps import mechanism_spec, run_jobs
+    if split:  # jobs of samples / continuation subtrees (mechkin.solvers.workspace.joint_sweep)
+        from mechkin.solvers.workspace.sweeps import mechanism_spec, run_jobs
 
         n_w = ex["workers"] if ex["address"] is None else None
         jobs_kw = {"run_jobs": lambda fn, jobs, prog: run_jobs(

@@ -390,9 +390,9 @@ def test_biped_legs_match_eq1_product(biped):
 
 
 def test_biped_matches_the_closed_form_module(biped):
-    """The file and mechkin.solvers.closed_form.biped_leg describe the same legs (same
+    """The file and mechkin.solvers.biped.leg describe the same legs (same
     estimates)."""
-    bl = pytest.importorskip("mechkin.solvers.closed_form.biped_leg")
+    bl = pytest.importorskip("mechkin.solvers.biped.leg")
     geo = bl.HWANG2023_ESTIMATED
     qs = _random_configs(biped, 10, seed=23)
     for side, s in (("right", "r"), ("left", "l")):

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from mechkin.solvers.closed_form.biped_leg import (
+from mechkin.solvers.biped.leg import (
     HWANG2023_ESTIMATED,
     BipedSolution,
     InclinedPlane,

@@ -19,7 +19,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from mechkin.solvers.closed_form.lee_spherical import LeeGeometry, isotropy_index
-from mechkin.solvers.workspace import lee_evaluator, orientation_maps
+from mechkin.solvers.workspace.maps import lee_evaluator, orientation_maps
 
 FIG_RADII = (0.25, 0.5, 0.75)  # Figs. 3, 4, 5
 GAMMAS_TEXT_DEG = (20.0, 30.0, 40.0)  # lee §3.2 text

@@ -18,15 +18,15 @@ from functools import cache
 import numpy as np
 import pytest
 
-from mechkin.solvers.dpct import (
+from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
     TrackResult,
     TrackStatus,
     solve_conveyor_tracking,
 )
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
-from mechkin.solvers.path import PlanarTwoLinkLinePath
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 
 PATH = PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732])  # §5.1
 REFERENCE = ConveyorReference(part_start=[-0.9, 1.732], belt_velocity=[0.2, 0.0])  # §5.1

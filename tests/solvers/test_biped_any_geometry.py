@@ -2,7 +2,7 @@
 
 A second biped (other link lengths, hip offsets with y and z, foot extension, blade radius and
 joint limits; its mechanism file is written here) is read by
-:func:`mechkin.solvers.biped.geometry_from_mechanism`; every class (walk §2.2, skate §2.2/§2.3,
+:func:`mechkin.solvers.biped.sequence.geometry_from_mechanism`; every class (walk §2.2, skate §2.2/§2.3,
 roll §2.4) is solved on random planes and random full body poses for both legs and checked
 against the *general model's* forward kinematics (mechkin.model), not the closed form's own.
 End to end (mechkin.tasks.biped.run): a tilted body with a different plane under each leg, a pose
@@ -22,8 +22,8 @@ from mechkin.config.scenario import load_scenario
 from mechkin.errors import ConfigError
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import frame_poses
-from mechkin.solvers.biped import geometry_from_mechanism
-from mechkin.solvers.closed_form.biped_leg import (
+from mechkin.solvers.biped.sequence import geometry_from_mechanism
+from mechkin.solvers.biped.leg import (
     HWANG2023_ESTIMATED,
     STATUS_AT_LIMIT,
     InclinedPlane,

@@ -14,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.optimize import brentq
 
-from mechkin.solvers.closed_form.biped_leg import (
+from mechkin.solvers.biped.leg import (
     HWANG2023_ESTIMATED,
     Q_MAX,
     Q_MIN,

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from mechkin.config.mechanism_file import read_mechanism_spec
-from mechkin.solvers.biped_rolling_chain import solve_blade_tilt_by_closure
-from mechkin.solvers.closed_form.biped_leg import (
+from mechkin.solvers.biped.rolling_chain import solve_blade_tilt_by_closure
+from mechkin.solvers.biped.leg import (
     HWANG2023_ESTIMATED,
     InclinedPlane,
     LegTask,

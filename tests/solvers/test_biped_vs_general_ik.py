@@ -8,7 +8,7 @@ import pytest
 
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import frame_poses
-from mechkin.solvers.closed_form import biped_leg as bl
+from mechkin.solvers.biped import leg as bl
 from mechkin.solvers.ik import IkOptions, IkStatus, solve_ik
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -21,9 +21,9 @@ import pytest
 from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure, solve_trajectory
 from mechkin.model.kinematics import forward_kinematics
-from mechkin.solvers.closed_dynamics import ClosedChainDynamics, closed_motion
-from mechkin.solvers.dynamics import InverseDynamics
-from mechkin.solvers.dynamics_from_mechanism import dynamics_from_mechanism
+from mechkin.solvers.dynamics.closed_chain import ClosedChainDynamics, closed_motion
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
+from mechkin.solvers.dynamics.from_mechanism import dynamics_from_mechanism
 
 ROOT = Path(__file__).resolve().parents[2]
 RNG = np.random.default_rng(11)

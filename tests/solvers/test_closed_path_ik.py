@@ -23,9 +23,9 @@ from mechkin.config.scenario import load_scenario
 from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import closure_residual, forward_kinematics
-from mechkin.solvers.closed_dynamics import ClosedChainDynamics
-from mechkin.solvers.closed_path_ik import ClosedHandLineIK, ClosedHandPathIK
-from mechkin.solvers.path_geometry import ArcGeometry, SlerpOrientation
+from mechkin.solvers.dynamics.closed_chain import ClosedChainDynamics
+from mechkin.solvers.track.closed_path_ik import ClosedHandLineIK, ClosedHandPathIK
+from mechkin.solvers.track.path_geometry import ArcGeometry, SlerpOrientation
 from mechkin.spatial.rotations import matrix_from_rpy
 from mechkin.tasks import track
 
@@ -190,7 +190,7 @@ def test_closed_path_ik_closes_the_loops_and_follows_the_line(make) -> None:
 
 
 def test_closed_path_ik_bad_start_is_located() -> None:
-    from mechkin.solvers.path_ik import PathIKError
+    from mechkin.solvers.track.path_ik import PathIKError
 
     mech = load_mechanism(ROOT / "mechanisms" / "kim1995_direct_drive.yaml")
     with pytest.raises(PathIKError, match="cannot reach") as exc:

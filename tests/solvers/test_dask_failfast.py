@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from mechkin.errors import ClusterError
-from mechkin.solvers.sweeps import connect_cluster
+from mechkin.solvers.workspace.sweeps import connect_cluster
 
 distributed = pytest.importorskip("distributed")
 ROOT = Path(__file__).resolve().parents[2]

@@ -21,7 +21,7 @@ import pytest
 from scipy.integrate import quad
 
 from mechkin.errors import ConfigError
-from mechkin.solvers.dpct import (
+from mechkin.solvers.track.dpct import (
     ConveyorReference,
     DPOptions,
     TrackLimits,
@@ -32,8 +32,8 @@ from mechkin.solvers.dpct import (
     step_arrays,
     wait_cost,
 )
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
-from mechkin.solvers.path import PlanarTwoLinkLinePath, phase_coefficients
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath, phase_coefficients
 
 PATH = PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732])  # park §5.1
 REF = ConveyorReference(part_start=[-0.9, 1.732], belt_velocity=[0.2, 0.0])  # park §5.1

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from mechkin.solvers.dynamics import (
+from mechkin.solvers.dynamics.open_chain import (
     InverseDynamics,
     PlanarTwoLinkDynamics,
     SerialChainDynamics,

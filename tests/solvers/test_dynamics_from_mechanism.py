@@ -7,8 +7,8 @@ import pytest
 
 from mechkin.errors import ModelError
 from mechkin.model import load_mechanism
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics, SerialChainDynamics
-from mechkin.solvers.dynamics_from_mechanism import (
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics, SerialChainDynamics
+from mechkin.solvers.dynamics.from_mechanism import (
     chain_order,
     dynamics_from_mechanism,
     planar_two_link_from_mechanism,
@@ -87,7 +87,7 @@ def test_closed_chain_gets_the_projected_tree_dynamics() -> None:
     """A closed chain is no longer refused: tree RNEA projected on the independent joints
     (tests/solvers/test_closed_dynamics.py checks it); the serial chain order still refuses it,
     and a massless closed chain is refused with a located reason."""
-    from mechkin.solvers.closed_dynamics import ClosedChainDynamics
+    from mechkin.solvers.dynamics.closed_chain import ClosedChainDynamics
 
     dd = load_mechanism(ROOT / "mechanisms" / "kim1995_direct_drive.yaml")
     assert isinstance(dynamics_from_mechanism(dd), ClosedChainDynamics)

@@ -28,7 +28,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from mechkin.model import load_mechanism
-from mechkin.solvers.dynamics_from_mechanism import dynamics_from_mechanism
+from mechkin.solvers.dynamics.from_mechanism import dynamics_from_mechanism
 
 ROOT = Path(__file__).resolve().parents[2]
 QN = np.array([0.0, np.pi / 4, np.pi, 0.0, np.pi / 4, 0.0])

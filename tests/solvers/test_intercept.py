@@ -1,4 +1,4 @@
-"""TOPP-RA time and intercept plans of the track task (mechkin.solvers.intercept), the DP
+"""TOPP-RA time and intercept plans of the track task (mechkin.solvers.track.intercept), the DP
 intercept by decomposition (dpct reading 11), the accelerating belt, and toppra's
 rest-to-moving-state minimum time (skipped when toppra, the bench extra, is missing)."""
 
@@ -12,18 +12,18 @@ import pytest
 
 from mechkin.config.scenario import load_scenario
 from mechkin.errors import ConfigError
-from mechkin.solvers.dpct import (
+from mechkin.solvers.track.dpct import (
     ConveyorReference,
     PartMotion,
     TrackLimits,
     TrackResult,
     TrackStatus,
 )
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
-from mechkin.solvers.path import PlanarTwoLinkLinePath, phase_coefficients
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath, phase_coefficients
 from mechkin.solvers.result import Status
-from mechkin.solvers.topp import plan_time_optimal
-from mechkin.solvers.track_plan import plan_track as solve_conveyor_tracking
+from mechkin.solvers.track.topp import plan_time_optimal
+from mechkin.solvers.track.plan import plan_track as solve_conveyor_tracking
 from tests.scenario_copy import local_scenario as _local
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -186,7 +186,7 @@ def test_topp_joint_position_limit_names_the_joint_and_r() -> None:
 
 
 def test_planner_resolution() -> None:
-    from mechkin.solvers.dpct import resolve_planner
+    from mechkin.solvers.track.dpct import resolve_planner
 
     jerk = TrackLimits.symmetric(torque=TORQUE, jerk=np.array([2.3, 2.0]))
     assert resolve_planner("auto", "time", FULL) == "topp"

@@ -20,7 +20,7 @@ from mechkin.solvers.closed_form.lee_spherical import (
     evaluate_poses,
     inverse_position,
 )
-from mechkin.solvers.joint_sweep import continuation_tree, joint_sweep
+from mechkin.solvers.workspace.joint_sweep import continuation_tree, joint_sweep
 
 ROOT = Path(__file__).resolve().parents[2]
 LEE = ROOT / "mechanisms" / "lee_spherical_rrps.yaml"
@@ -196,7 +196,7 @@ def test_normalized_isotropy_is_invariant_under_the_length_unit(tmp_path):
 
 def test_characteristic_length_maximises_the_mean_normalized_isotropy():
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian
-    from mechkin.solvers.dexterity import characteristic_length, normalized_isotropy
+    from mechkin.solvers.workspace.dexterity import characteristic_length, normalized_isotropy
 
     rng = np.random.default_rng(2)
     mech = load_mechanism(PUMA)
@@ -210,7 +210,7 @@ def test_characteristic_length_maximises_the_mean_normalized_isotropy():
 
 
 def test_normalized_jacobian_of_a_prismatic_joint_is_dimensionless():
-    from mechkin.solvers.dexterity import normalized_isotropy, normalized_jacobian
+    from mechkin.solvers.workspace.dexterity import normalized_isotropy, normalized_jacobian
 
     # one revolute joint about z at distance r (v = omega x r) and one prismatic joint along x
     r = 0.2

@@ -7,8 +7,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from mechkin.errors import SingularityError
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics
-from mechkin.solvers.path import (
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.path import (
     IKLinePath,
     JointPath,
     PlanarTwoLinkLinePath,

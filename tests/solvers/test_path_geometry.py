@@ -18,14 +18,14 @@ from scipy.spatial.transform import Rotation, Slerp
 from mechkin.errors import ConfigError
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import forward_kinematics, frame_jacobian
-from mechkin.solvers.path_geometry import (
+from mechkin.solvers.track.path_geometry import (
     ArcGeometry,
     LineGeometry,
     SlerpOrientation,
     SplineGeometry,
     circumcircle,
 )
-from mechkin.solvers.path_ik import COMPONENTS, HandLineIK, HandPathIK
+from mechkin.solvers.track.path_ik import COMPONENTS, HandLineIK, HandPathIK
 from mechkin.spatial.rotations import matrix_from_rpy, rotation_log
 
 ROOT = Path(__file__).resolve().parents[2]

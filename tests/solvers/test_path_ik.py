@@ -12,8 +12,8 @@ from numpy.testing import assert_allclose
 
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import forward_kinematics, frame_jacobian
-from mechkin.solvers.path import PlanarTwoLinkLinePath
-from mechkin.solvers.path_ik import COMPONENTS, HandLineIK, PathIKError, left_jacobian_inverse
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath
+from mechkin.solvers.track.path_ik import COMPONENTS, HandLineIK, PathIKError, left_jacobian_inverse
 from mechkin.spatial.rotations import rot_axis, rotation_log
 
 ROOT = Path(__file__).resolve().parents[2]

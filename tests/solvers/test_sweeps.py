@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from mechkin.solvers.sweeps import (
+from mechkin.solvers.workspace.sweeps import (
     COND_CAP,
     design_comparison,
     dexterity,
@@ -19,7 +19,7 @@ from mechkin.solvers.sweeps import (
     task_space_random,
     task_space_sweep,
 )
-from mechkin.solvers.workspace import lee_workspace
+from mechkin.solvers.workspace.maps import lee_workspace
 
 ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "mechanisms" / "puma560.yaml"
@@ -163,7 +163,7 @@ def test_task_space_jobs_carry_the_mechanism_not_its_path(tmp_path, monkeypatch)
     they still run after the file is gone."""
     import shutil
 
-    import mechkin.solvers.sweeps as sw
+    import mechkin.solvers.workspace.sweeps as sw
     from mechkin.model import load_mechanism
     from mechkin.model.kinematics import forward_kinematics
 

@@ -1,4 +1,4 @@
-"""TOPP-RA (mechkin.solvers.topp): closed forms, a brute-force phase-plane integration, toppra.
+"""TOPP-RA (mechkin.solvers.track.topp): closed forms, a brute-force phase-plane integration, toppra.
 
 (a) a double integrator ``q = s`` (bang-bang closed forms, rest to rest and rest to a moving end
 state, acceleration and torque limits, with and without gravity); (b) park's 2-link arm along
@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from mechkin.errors import ConfigError
-from mechkin.solvers.dynamics import PlanarTwoLinkDynamics, SerialChainDynamics
-from mechkin.solvers.path import PlanarTwoLinkLinePath
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics, SerialChainDynamics
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 from mechkin.solvers.result import Status
-from mechkin.solvers.topp import (
+from mechkin.solvers.track.topp import (
     ConstraintRows,
     plan_time_optimal,
     solve_topp,

@@ -16,7 +16,7 @@ from mechkin.solvers.closed_form.lee_spherical import (
     isotropy_index,
     within_stroke,
 )
-from mechkin.solvers.workspace import (
+from mechkin.solvers.workspace.maps import (
     PoseEvaluation,
     area_fractions,
     gamma_range,

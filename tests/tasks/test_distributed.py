@@ -260,7 +260,7 @@ def test_fk_chunks_follow_the_assembly_mode_of_a_single_run(monkeypatch):
     from mechkin.model import load_mechanism
     from mechkin.model.closure import solve_trajectory
     from mechkin.solvers.distributed import solve_trajectory_chunks
-    from mechkin.solvers.sweeps import run_jobs
+    from mechkin.solvers.workspace.sweeps import run_jobs
 
     mech = load_mechanism(MECH / "five_bar.yaml")
     t = np.linspace(0.0, 2.0, 1200)

@@ -8,7 +8,7 @@ Three pieces, all independent of the CLI and of io/ (records: :mod:`mechkin.reco
   scheduler; needs the optional extra ``mechkin[dask]``). Results come back in job order and a
   job never depends on how many workers there are, so every executor gives identical results.
   A ``progress(done, total)`` callback reports completed jobs (the CLI draws a bar from it).
-* :func:`lee_design_sweep`: :func:`mechkin.solvers.workspace.lee_workspace` once per value of a
+* :func:`lee_design_sweep`: :func:`mechkin.solvers.workspace.maps.lee_workspace` once per value of a
   design parameter (``r``, ``R``, ``l_min``, ``l_max``), one job per value, and a comparison
   table (:func:`design_comparison`).
 * :func:`task_space_sweep`: task-space poses of a frame through the batched Levenberg-Marquardt
@@ -45,13 +45,13 @@ from typing import Any, TypeVar
 import numpy as np
 
 from mechkin.records.workspace import DesignSweepRecord, LeeWorkspaceRecord, TaskSpaceRecord
-from mechkin.solvers.dexterity import (
+from mechkin.solvers.workspace.dexterity import (
     COND_CAP,
     characteristic_length,
     dexterity,
     normalized_isotropy,
 )
-from mechkin.solvers.workspace import lee_workspace, sigma_statistics
+from mechkin.solvers.workspace.maps import lee_workspace, sigma_statistics
 
 __all__ = [
     "COND_CAP",
@@ -98,7 +98,7 @@ def _mp_context() -> multiprocessing.context.BaseContext:
     spawn; the server preloads this module so workers start without re-importing numpy."""
     if sys.platform != "win32" and "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["mechkin.solvers.sweeps"])
+        ctx.set_forkserver_preload(["mechkin.solvers.workspace.sweeps"])
         return ctx
     return multiprocessing.get_context("spawn")
 
@@ -317,7 +317,7 @@ def lee_design_sweep(
     progress: ProgressCallback | None = None,
     **params: Any,
 ) -> DesignSweepRecord:
-    """:func:`mechkin.solvers.workspace.lee_workspace` for every value of one design parameter.
+    """:func:`mechkin.solvers.workspace.maps.lee_workspace` for every value of one design parameter.
 
     Parameters
     ----------
@@ -597,7 +597,7 @@ def task_space_sweep(
         See :func:`run_jobs`.
     length : float, optional
         Characteristic length [m] of ``isotropy_normalized``; None: the one that best
-        conditions the reached poses (:func:`mechkin.solvers.dexterity.characteristic_length`).
+        conditions the reached poses (:func:`mechkin.solvers.workspace.dexterity.characteristic_length`).
 
     Returns
     -------

@@ -27,7 +27,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from mechkin.errors import SingularityError
-from mechkin.solvers.dynamics import InverseDynamics
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
 
 #: Smallest |sin q2| accepted by the planar 2R inverse kinematics (stretched or folded arm).
 SINGULAR_SIN_Q2 = 1e-9
@@ -193,7 +193,7 @@ class IKLinePath:
     ``q = ik(X_h)`` (park Eq. (9)); ``f' = J^+ (p1 - p0)`` with ``J = jacobian(q)`` the hand
     position Jacobian (least squares when J is not square or singular: a redundant arm gets
     the minimum-norm f', which is not the derivative of a posture-consistent f; for that use
-    :class:`mechkin.solvers.path_ik.HandLineIK`); ``f''`` by a central difference of
+    :class:`mechkin.solvers.track.path_ik.HandLineIK`); ``f''`` by a central difference of
     ``f'`` in r with step ``fd_step`` (the line extends past ``[0, 1]``, so the ends need no
     special case), which keeps the interface to two callables.
 

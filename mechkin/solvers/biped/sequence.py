@@ -2,13 +2,13 @@
 
 DESIGN: the solving half of ``mechkin ik`` with a ``biped:`` section. :func:`check_mechanism`
 finds the two 6-joint legs in the mechanism model and checks them against the closed-form
-chain (:mod:`mechkin.solvers.closed_form.biped_leg`, hwang2023 Eq. 1) by forward kinematics;
+chain (:mod:`mechkin.solvers.biped.leg`, hwang2023 Eq. 1) by forward kinematics;
 :func:`solve_sequence` solves every step with the closed form of its class (§2.2 known pose,
 §2.3 unknown blade tilt, §2.4 rolling without slipping) and animates roll steps frame by frame.
 Inputs are plain SI values (:class:`BipedStep`, :class:`LegInput`); the scenario's units and
 keys are converted by ``mechkin.tasks.biped``.
 
-Imports: numpy, model (forward kinematics), solvers.closed_form.biped_leg, spatial.
+Imports: numpy, model (forward kinematics), solvers.biped.leg, spatial.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism
 from mechkin.model.kinematics import forward_kinematics
-from mechkin.solvers.closed_form.biped_leg import (
+from mechkin.solvers.biped.leg import (
     HWANG2023_ESTIMATED,
     STATUS_OK,
     STATUS_UNREACHABLE,

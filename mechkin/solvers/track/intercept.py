@@ -1,13 +1,13 @@
 r"""Time-optimal and intercept plans of the track task by TOPP-RA (Pham & Pham 2018).
 
-DESIGN: the ``planner: topp`` back-end of :func:`mechkin.solvers.dpct.solve_conveyor_tracking`
+DESIGN: the ``planner: topp`` back-end of :func:`mechkin.solvers.track.dpct.solve_conveyor_tracking`
 for ``objective: time`` (rest to rest) and ``objective: intercept`` (rest to the part's position
 and velocity, then on the part to the end of the line) under torque, joint-velocity,
 joint-acceleration and joint-position limits (no jerk: TOPP-RA's stage constraints are linear in
 ``(s_ddot, s_dot^2)``, a jerk is not). It evaluates the path (``q, q', q''``) and the torque
 coefficients of park Eq. (12) on the grid ``r_i = i / N`` (:func:`phase_coefficients`), plans
-with :func:`mechkin.solvers.topp.plan_time_optimal` and returns the same
-:class:`~mechkin.solvers.dpct.TrackResult` (and :class:`TrackTrajectory` at the nodes) as the
+with :func:`mechkin.solvers.track.topp.plan_time_optimal` and returns the same
+:class:`~mechkin.solvers.track.dpct.TrackResult` (and :class:`TrackTrajectory` at the nodes) as the
 DP, so the writer's CSV, plots and MCAP are unchanged.
 
 **Joint positions.** The path is fixed, so ``q(r)`` is checked at every grid point before any
@@ -74,7 +74,7 @@ import numpy as np
 
 from mechkin.errors import ConfigError
 from mechkin.records.track import TrackTrajectory
-from mechkin.solvers.dpct import (
+from mechkin.solvers.track.dpct import (
     LIMIT_RTOL,
     ConveyorReference,
     DPGrid,
@@ -87,9 +87,9 @@ from mechkin.solvers.dpct import (
     limit_usage,
     position_limit_message,
 )
-from mechkin.solvers.dynamics import InverseDynamics
-from mechkin.solvers.path import JointPath, PhaseCoefficients, phase_coefficients
-from mechkin.solvers.topp import ToppResult, plan_time_optimal
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
+from mechkin.solvers.track.path import JointPath, PhaseCoefficients, phase_coefficients
+from mechkin.solvers.track.topp import ToppResult, plan_time_optimal
 
 #: Relative tolerance of the intercept condition ``T_fast <= T_part`` (round-off).
 TIME_RTOL = 1e-12
@@ -486,14 +486,14 @@ def plan_intercept_dp(
     ``i*`` with ``T_DP(i*) <= T_part(x1[i*])`` is found by bisection (the module docstring's
     interval argument), and the hand waits at rest at ``r = 0`` for the difference.
 
-    Used by :func:`mechkin.solvers.dpct.solve_conveyor_tracking` for ``objective="intercept"``
+    Used by :func:`mechkin.solvers.track.dpct.solve_conveyor_tracking` for ``objective="intercept"``
     with ``planner="dp"`` when the part starts ahead of the hand or the belt accelerates: the
     single backward pass of reading 10 keeps one time per node and no grid state holds an
     accelerating part's speed. The jerk of the one transition where the fastest leg joins the
     part is not a constraint (reading 6: the last transition of a DP has no jerk check); it is
     reported in the limit usage like every other.
     """
-    from mechkin.solvers.dpct import _reachable_x2_max, _run_dp
+    from mechkin.solvers.track.dpct import _reachable_x2_max, _run_dp
 
     t0 = time.perf_counter()
     if N1 < 1 or N2 < 1:

@@ -2,14 +2,14 @@
 or TOPP-RA (``planner: auto | dp | topp``).
 
 DESIGN: one entry point, :func:`plan_track`, with the arguments of
-:func:`mechkin.solvers.dpct.solve_conveyor_tracking` plus ``planner``. ``auto`` (the scenario
+:func:`mechkin.solvers.track.dpct.solve_conveyor_tracking` plus ``planner``. ``auto`` (the scenario
 default) plans ``objective: time`` and ``objective: intercept`` by TOPP-RA
-(:func:`mechkin.solvers.intercept.plan_track_topp`, O(N1)) when torque, velocity or
+(:func:`mechkin.solvers.track.intercept.plan_track_topp`, O(N1)) when torque, velocity or
 acceleration limits bound the speed and no jerk limit is set, and everything else by the DP.
 With the DP, an intercept whose part starts ahead of the hand or rides an accelerating belt
-goes through :func:`mechkin.solvers.intercept.plan_intercept_dp` (dpct reading 11: the
+goes through :func:`mechkin.solvers.track.intercept.plan_intercept_dp` (dpct reading 11: the
 single backward pass of reading 10 keeps one time per node and no grid state holds an
-accelerating part's speed); the rest is :func:`~mechkin.solvers.dpct.solve_conveyor_tracking`.
+accelerating part's speed); the rest is :func:`~mechkin.solvers.track.dpct.solve_conveyor_tracking`.
 This module exists so that dpct and intercept do not import each other.
 
 Imports: mechkin.solvers (dpct, intercept, dynamics, path).
@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from typing import Literal
 
 from mechkin.errors import ConfigError
-from mechkin.solvers.dpct import (
+from mechkin.solvers.track.dpct import (
     DEFAULT_DP,
     NT_FRACTION,
     ConveyorReference,
@@ -31,9 +31,9 @@ from mechkin.solvers.dpct import (
     resolve_planner,
     solve_conveyor_tracking,
 )
-from mechkin.solvers.dynamics import InverseDynamics
-from mechkin.solvers.intercept import plan_intercept_dp, plan_track_topp
-from mechkin.solvers.path import JointPath
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
+from mechkin.solvers.track.intercept import plan_intercept_dp, plan_track_topp
+from mechkin.solvers.track.path import JointPath
 
 
 def plan_track(
@@ -53,7 +53,7 @@ def plan_track(
 ) -> TrackResult:
     """Plan the hand's motion along the path (module docstring for the choice of planner).
 
-    Parameters are those of :func:`mechkin.solvers.dpct.solve_conveyor_tracking`; TOPP-RA
+    Parameters are those of :func:`mechkin.solvers.track.dpct.solve_conveyor_tracking`; TOPP-RA
     uses the ``N1 + 1`` points ``r = i / N1`` and ignores ``N2``, ``nt_fraction`` and
     ``x2_max``.
 

@@ -6,7 +6,7 @@ O(N) (one backward and one forward pass over the grid), for ``objective: time`` 
 and for an intercept (rest to a moving end state ``s_dot_end``). It takes plain arrays, not
 mechkin objects: the grid ``s (N+1,)``, ``q'(s)``, ``q''(s) (N+1, n)``, the torque coefficients
 ``A, B, C (N+1, n)`` (or an inverse dynamics to build them, :func:`torque_coefficients`) and
-limit vectors. The phase-plane DP of :mod:`mechkin.solvers.dpct` stays for tracking and for
+limit vectors. The phase-plane DP of :mod:`mechkin.solvers.track.dpct` stays for tracking and for
 jerk limits, which this planner cannot express.
 
 Formulation (Pham & Pham 2018, §III). With ``x = s_dot^2`` and ``u = s_ddot``, ``qd = q' s_dot``
@@ -196,7 +196,7 @@ def torque_coefficients(
     inverse_dynamics : callable
         ``tau = inverse_dynamics(q, qd, qdd)``, batched over the first axis: ``(K, n)`` arrays
         in, ``(K, n)`` out (e.g. ``InverseDynamics.inverse_dynamics`` of
-        :mod:`mechkin.solvers.dynamics`).
+        :mod:`mechkin.solvers.dynamics.open_chain`).
     q, dq, ddq : array, shape (K, n)
         ``q(s)``, ``q'(s)``, ``q''(s)`` at the grid points.
 

@@ -1,10 +1,10 @@
 r"""Inverse kinematics of a hand frame along a path, on one branch (park Eq. (7), (9)-(11)).
 
-The hand moves on a path ``p(r)`` of :mod:`mechkin.solvers.path_geometry` (a straight line
+The hand moves on a path ``p(r)`` of :mod:`mechkin.solvers.track.path_geometry` (a straight line
 ``p0 + r (p1 - p0)``, park Eq. (7); a circular arc; a C2 spline through via points; ``r`` the
 normalised arc length) with its orientation held at the start orientation ``R0`` ("fixed
 orientation", park §3.1), interpolated between given orientations ``R*(r)`` (slerp,
-:class:`mechkin.solvers.path_geometry.SlerpOrientation`) or free. The task coordinates are the
+:class:`mechkin.solvers.track.path_geometry.SlerpOrientation`) or free. The task coordinates are the
 components of
 
 .. math:: x(q, r) = [\,p(q);\ \varphi(q, r)\,], \qquad \varphi = \log(R(q) R^*(r)^T)
@@ -68,7 +68,7 @@ import numpy as np
 
 from mechkin.errors import ConfigError
 from mechkin.model.kinematics import forward_kinematics, frame_jacobian
-from mechkin.solvers.path_geometry import LineGeometry, PathGeometry, SlerpOrientation
+from mechkin.solvers.track.path_geometry import LineGeometry, PathGeometry, SlerpOrientation
 from mechkin.spatial.rotations import rotation_log
 
 #: Continuation table of the inverse kinematics: r from -IK_MARGIN to 1 + IK_MARGIN.
@@ -132,7 +132,7 @@ def left_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
 class HandPathIK:
     """Inverse kinematics of frame ``frame`` along a path geometry, on one branch.
 
-    Implements :class:`mechkin.solvers.path.JointPath` (``hand``, ``q``, ``dq``, ``ddq``).
+    Implements :class:`mechkin.solvers.track.path.JointPath` (``hand``, ``q``, ``dq``, ``ddq``).
 
     Parameters
     ----------
@@ -141,7 +141,7 @@ class HandPathIK:
     frame : int
         Index of the hand frame.
     geometry : PathGeometry
-        The hand path ``p(r)`` (:mod:`mechkin.solvers.path_geometry`; r is the normalised arc
+        The hand path ``p(r)`` (:mod:`mechkin.solvers.track.path_geometry`; r is the normalised arc
         length).
     q0 : array (n,)
         Initial guess of the start solution [rad | m]; the held orientation ``R0`` is the

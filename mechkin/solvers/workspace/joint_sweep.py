@@ -4,7 +4,7 @@ r"""Joint-space sweeps: where a frame goes when the independent joints sweep a s
 of a closed chain (kim1995 §5.1, Newton on ``phi(q_v, q_w) = 0``), and returns per sample the
 position of a frame, whether the sample is **reachable** (loop closure converged, every joint
 within its limits, everything finite) and, when asked, the dexterity of the reduced frame
-Jacobian ``J = J_v + J_w dq_w/dq_v`` (kim1995 Eq. (10); :mod:`mechkin.solvers.dexterity`).
+Jacobian ``J = J_v + J_w dq_w/dq_v`` (kim1995 Eq. (10); :mod:`mechkin.solvers.workspace.dexterity`).
 
 :func:`point_cloud_volume` measures the reachable positions: the bounding box, the volume of
 the occupied voxels (cubes of a given edge) and of the convex hull (an upper bound for
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from mechkin.records.workspace import JointSweepRecord
-from mechkin.solvers.dexterity import characteristic_length, dexterity, normalized_isotropy
+from mechkin.solvers.workspace.dexterity import characteristic_length, dexterity, normalized_isotropy
 
 __all__ = ["continuation_tree", "joint_sweep", "point_cloud_volume"]
 
@@ -244,7 +244,7 @@ def sweep_job(job: dict[str, Any]) -> dict[str, np.ndarray]:
     """
     mech = job["mechanism"]
     if not hasattr(mech, "dependent"):
-        from mechkin.solvers.sweeps import job_mechanism
+        from mechkin.solvers.workspace.sweeps import job_mechanism
 
         mech = job_mechanism(mech)
     qv = job["q_v"]
@@ -360,12 +360,12 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         ``run_jobs``, jobs (the trunk counts as one).
     length : float, optional
         Characteristic length [m] of the normalized isotropy
-        (:func:`mechkin.solvers.dexterity.normalized_isotropy`); None: the one that best
-        conditions the reachable samples (:func:`mechkin.solvers.dexterity.characteristic_length`).
+        (:func:`mechkin.solvers.workspace.dexterity.normalized_isotropy`); None: the one that best
+        conditions the reachable samples (:func:`mechkin.solvers.workspace.dexterity.characteristic_length`).
         The Jacobians of all samples are kept for it (48 n_v bytes per sample).
     run_jobs : callable, optional
         ``run_jobs(fn, jobs, progress) -> results in job order`` (``progress(done, total)``
-        or None) (e.g. :func:`mechkin.solvers.sweeps.
+        or None) (e.g. :func:`mechkin.solvers.workspace.sweeps.
         run_jobs` on workers): the sweep runs as about ``n_jobs`` jobs of :func:`sweep_job`.
         Continuation: the trunk of the continuation tree here, then whole subtrees
         (:func:`subtree_jobs`) as closure jobs, each from its trunk parent's solution. Then

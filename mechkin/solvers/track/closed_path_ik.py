@@ -2,7 +2,7 @@ r"""Path inverse kinematics of a closed chain: in the independent joints, the lo
 
 Design
 ------
-:class:`mechkin.solvers.path_ik.HandPathIK` continues ``q = f(r)`` along the hand's path by
+:class:`mechkin.solvers.track.path_ik.HandPathIK` continues ``q = f(r)`` along the hand's path by
 Newton's method on the task coordinates (park Eq. (9)-(11)). For a closed chain the unknowns
 are the independent joints ``q_v`` (kim1995 Eq. (3)); every evaluation closes the loops for the
 dependent ones, ``phi_R(q_v, q_w) = 0`` (kim1995 Eq. (4), :func:`mechkin.model.closure.
@@ -22,8 +22,8 @@ To the DP it answers with **all** joints (``n_joints = mech.n``): ``q(r)`` assem
 
 .. math:: f'_w = S f'_v, \qquad f''_w = -\Phi_w^+(\Phi_v f''_v + \gamma(q, f'))
 
-(the closure differentiated along r, :func:`mechkin.solvers.closed_dynamics.closed_motion`),
-which is what :class:`mechkin.solvers.closed_dynamics.ClosedChainDynamics` takes; the joint
+(the closure differentiated along r, :func:`mechkin.solvers.dynamics.closed_chain.closed_motion`),
+which is what :class:`mechkin.solvers.dynamics.closed_chain.ClosedChainDynamics` takes; the joint
 position limits of the passive joints are DP constraints like the others. A branch sign on a
 dependent joint is checked on the assembled table.
 
@@ -40,9 +40,9 @@ from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.model.mechanism import Mechanism
 from mechkin.model.reduced import reduced_jacobian
-from mechkin.solvers.closed_dynamics import closed_motion, sensitivity
-from mechkin.solvers.path_geometry import LineGeometry, PathGeometry, SlerpOrientation
-from mechkin.solvers.path_ik import (
+from mechkin.solvers.dynamics.closed_chain import closed_motion, sensitivity
+from mechkin.solvers.track.path_geometry import LineGeometry, PathGeometry, SlerpOrientation
+from mechkin.solvers.track.path_ik import (
     FD_F2,
     FD_F2_REDUNDANT,
     HandPathIK,
@@ -301,7 +301,7 @@ class ClosedHandPathIK(HandPathIK):
 
 class ClosedHandLineIK(ClosedHandPathIK):
     """:class:`ClosedHandPathIK` on the straight line ``p0 -> p1`` (the signature of
-    :class:`~mechkin.solvers.path_ik.HandLineIK`)."""
+    :class:`~mechkin.solvers.track.path_ik.HandLineIK`)."""
 
     def __init__(self, mech: Mechanism, frame: int, p0: np.ndarray, p1: np.ndarray,
                  q0: np.ndarray, tol: float, branch: dict[int, int] | None = None,

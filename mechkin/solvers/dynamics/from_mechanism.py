@@ -3,13 +3,13 @@
 The mechanism already stores every joint as ``T_parent_child(q_i) = A_i @ Z(q_i) @ B_i`` with
 ``Z`` a rotation about (``s_i = 0``) or a translation along (``s_i = 1``) the local z axis
 (kim1995 Eq. (2)), and the inertial parameters of every link in its link frame. That is exactly
-the description :class:`~mechkin.solvers.dynamics.SerialChainDynamics` takes, so building the
+the description :class:`~mechkin.solvers.dynamics.open_chain.SerialChainDynamics` takes, so building the
 recursive Newton-Euler model (park Eq. (8): ``U = M(q) qdd + h(q, qd)``) is a matter of walking
 the chain from the base and picking, per joint, its ``A``, ``B``, ``s`` and the inertials of its
 child link.
 
 A closed chain (cut links) or a branching tree gets
-:class:`~mechkin.solvers.closed_dynamics.ClosedChainDynamics` instead: Newton-Euler on the
+:class:`~mechkin.solvers.dynamics.closed_chain.ClosedChainDynamics` instead: Newton-Euler on the
 spanning tree, projected on the independent joints by the virtual-work principle (kim1995
 Eq. (3)-(4)); :func:`chain_order` itself still accepts only a serial chain.
 """
@@ -22,8 +22,8 @@ import numpy as np
 
 from mechkin.errors import ModelError
 from mechkin.model import Mechanism
-from mechkin.solvers.closed_dynamics import ClosedChainDynamics
-from mechkin.solvers.dynamics import InverseDynamics, PlanarTwoLinkDynamics, SerialChainDynamics
+from mechkin.solvers.dynamics.closed_chain import ClosedChainDynamics
+from mechkin.solvers.dynamics.open_chain import InverseDynamics, PlanarTwoLinkDynamics, SerialChainDynamics
 
 __all__ = [
     "MechanismDynamics",
@@ -129,7 +129,7 @@ def dynamics_from_mechanism(mech: Mechanism) -> InverseDynamics:
         :class:`MechanismDynamics` that permutes to and from the chain order.
     ClosedChainDynamics
         For a closed chain or a branching tree (all-joint interface: ``tau_v`` in the
-        independent columns, 0 in the passive ones; :mod:`mechkin.solvers.closed_dynamics`).
+        independent columns, 0 in the passive ones; :mod:`mechkin.solvers.dynamics.closed_chain`).
 
     Raises
     ------

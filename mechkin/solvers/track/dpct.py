@@ -74,8 +74,8 @@ stated model can reproduce, see PAPER_NOTES):
     ``t(0, 0)`` at stage 0, so ``J*(0, 0) = t_a``: the earliest steady tracking the grid and
     the limits allow. ``1e-6`` times the tracking cost of Eq. (28) breaks ties between plans
     with the same ``t_a``. Not in park; ``t_a`` of the tracking objective is an upper bound.
-11. **Intercept by decomposition** (:func:`mechkin.solvers.intercept.plan_intercept_dp`, chosen
-    by :func:`mechkin.solvers.track_plan.plan_track` when the part starts ahead of the hand or
+11. **Intercept by decomposition** (:func:`mechkin.solvers.track.intercept.plan_intercept_dp`, chosen
+    by :func:`mechkin.solvers.track.plan.plan_track` when the part starts ahead of the hand or
     the belt accelerates, ``ConveyorReference.belt_acceleration``): reading 10's single pass
     keeps one time per node (reading 9's caveat) and no grid state holds an accelerating
     part's speed. Instead, for an intercept stage the DP's minimum time from rest to the
@@ -106,8 +106,8 @@ import numpy as np
 
 from mechkin.errors import ConfigError
 from mechkin.records.track import TrackTrajectory  # re-exported: the realised plan
-from mechkin.solvers.dynamics import InverseDynamics
-from mechkin.solvers.path import JointPath, PhaseCoefficients, phase_coefficients
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
+from mechkin.solvers.track.path import JointPath, PhaseCoefficients, phase_coefficients
 from mechkin.solvers.result import Status
 
 logger = logging.getLogger(__name__)
@@ -292,10 +292,10 @@ class ConveyorReference:
         Eq. (17) divides by one component of ``X_h(t_f) - X_h(t_0)``; the largest is used, and
         the part must move on the hand's line (else no steady state with zero error exists).
 
-        On a curved path (``path.geometry``, :mod:`mechkin.solvers.path_geometry`, not
+        On a curved path (``path.geometry``, :mod:`mechkin.solvers.track.path_geometry`, not
         straight) the part moves along the path itself: ``r0`` is the path parameter (normalised
         arc length) of ``part_start`` and ``rd = V_b . t(r0) / L``
-        (:meth:`~mechkin.solvers.path_geometry.PathGeometry.conveyor_phase`).
+        (:meth:`~mechkin.solvers.track.path_geometry.PathGeometry.conveyor_phase`).
 
         Raises
         ------
@@ -525,7 +525,7 @@ class TrackResult:
         The readings of the DP stage the plan was made with.
     planner : {"dp", "topp"}
         The phase-plane DP of this module or the TOPP-RA planner of
-        :mod:`mechkin.solvers.intercept` (``grid.N2 = 0``: it has no r' grid).
+        :mod:`mechkin.solvers.track.intercept` (``grid.N2 = 0``: it has no r' grid).
     intercept_r : float or None
         TOPP intercept only: the path parameter where the hand meets the part.
     """
@@ -1157,7 +1157,7 @@ def solve_conveyor_tracking(
 ) -> TrackResult:
     r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
 
-    :func:`mechkin.solvers.track_plan.plan_track` chooses between this DP, the DP intercept
+    :func:`mechkin.solvers.track.plan.plan_track` chooses between this DP, the DP intercept
     by decomposition (reading 11) and TOPP-RA (``planner`` auto / dp / topp).
 
     ``objective="tracking"``: DPCT, the tracking cost of Eq. (22)/(28) against ``reference``
@@ -1218,7 +1218,7 @@ def solve_conveyor_tracking(
             f"conveyor.belt_acceleration: the {objective} objective of the single-pass DP "
             "cannot follow an accelerating belt (its r' grid holds the part's speed at the "
             "single state N_t, park Eq. (24), and time is not a DP state); use objective "
-            "intercept through mechkin.solvers.track_plan.plan_track (TOPP-RA, or the DP by "
+            "intercept through mechkin.solvers.track.plan.plan_track (TOPP-RA, or the DP by "
             "decomposition, reading 11)")
     intercept = objective == "intercept"
     opts = DEFAULT_DP if dp is None else dp
