@@ -24,6 +24,7 @@ FORBIDDEN = {
     "io": {"config", "model", "solvers", "tasks", "cli", "api"},
     "tasks": {"io", "cli", "api"},
     "api": {"cli", "io"},
+    "solver": {"cli", "io", "api"},
     "errors": {"config", "model", "solvers", "tasks", "io", "records", "cli", "api", "spatial"},
 }
 ALLOWED_EDGES = {("mechkin.records", "mechkin.io.report")}
