@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from mechkin.solver import SolverBase
+from mechkin.solver import SolverBase, open_fk
 
 if TYPE_CHECKING:  # pragma: no cover
 
@@ -76,8 +76,6 @@ def fk(
         (m, 4, 4) in the base frame.
     """
     if not mech.cuts:  # open chain: no loop closure, only the frames asked for (issue 29)
-        from mechkin.solver import open_fk
-
         return open_fk(mech, q_v, q_w0, frames)
     import numpy as np
 
