@@ -142,7 +142,7 @@ class SolverBase:
         self._accel = fk_accel
         self._np, self._ndarray, self._f64, self._empty = np, np.ndarray, np.dtype(np.float64), \
             np.empty
-        self._shape_v, self._shape_1 = (self.n_v,), (1, n)
+        self._shape_v, self._shape_1, self._stride1 = (self.n_v,), (1, n), (8,)
         self._p = len(self._plan.steps) if self._plan is not None else 0
         if compiled and self._plan is not None and fk_accel.compiled_fk_available():
             fk_accel.load()
@@ -226,14 +226,18 @@ class SolverBase:
         The fastest call: open chains whose joints are all independent go straight to the
         plan's compiled kernel or generated function."""
         if self._fast:
-            if type(q_v) is self._ndarray and q_v.dtype is self._f64 and q_v.shape == self._shape_v:
-                q = q_v.reshape(self._shape_1)
-                if not q.flags.c_contiguous:
-                    q = q.copy()
+            if (type(q_v) is self._ndarray and q_v.dtype is self._f64
+                    and q_v.shape == self._shape_v and q_v.strides == self._stride1):
+                q = q_v[None]  # (1, n), C-ordered: the kernel's own argument types
             else:
                 q = self._np.array(q_v, dtype=self._f64, ndmin=2)
                 if q.shape != self._shape_1:
                     q = self._check(q_v)
+            entry = self._accel.ENTRY
+            if entry is not None:  # the hot path: allocation and the kernel call
+                out = self._empty(self._plan.shape1)
+                entry(q, self._plan.jit, out)
+                return out[0, 0]
             return self._one(q)[0, 0]
         import numpy as np
 
