@@ -151,6 +151,22 @@ class SolverBase:
         self._ik_args = (method, weights, restarts, seed)
         self._ik_opts: Any = None
 
+    _RUNTIME = ("_accel", "_np", "_ndarray", "_f64", "_empty")
+
+    def __getstate__(self) -> dict:
+        """Pickled without its module references (a mechanism carries its cached solvers to
+        distributed workers); :meth:`__setstate__` restores them."""
+        return {k: v for k, v in self.__dict__.items() if k not in self._RUNTIME}
+
+    def __setstate__(self, state: dict) -> None:
+        import numpy as np
+
+        from mechkin.model import fk_accel
+
+        self.__dict__.update(state)
+        self._accel, self._np, self._ndarray = fk_accel, np, np.ndarray
+        self._f64, self._empty = np.dtype(np.float64), np.empty
+
     # ---- forward kinematics --------------------------------------------------------------
     def _q(self, qv: Any, q_w0: Any):
         """All joints (m, n) from q_v (m, n_v) and the dependent joints' guess."""
