@@ -3,9 +3,11 @@
 One module per task: :mod:`~mechkin.tasks.fk`, :mod:`~mechkin.tasks.ik`,
 :mod:`~mechkin.tasks.track`, :mod:`~mechkin.tasks.workspace` and :mod:`~mechkin.tasks.biped`
 (an ``ik`` scenario with a ``biped:`` section). Each has ``run(scenario, **options) -> Report``
-and writes no file; ``Report.write`` (mechkin.io) does that.
+and writes no file; ``Report.write`` does that, through the writer this package installs
+(:mod:`mechkin.tasks.write`, the task layer's one door to io).
 
-Imports: config, model, solvers, spatial, records (never io/ or cli/).
+Imports: config, model, solvers, spatial, records; io only through :mod:`mechkin.tasks.write`;
+never cli/.
 """
 
 from __future__ import annotations
@@ -14,7 +16,10 @@ import importlib
 from pathlib import Path
 from typing import Any
 
-from mechkin.records import Report
+from mechkin.records import Report, set_report_writer
+from mechkin.tasks.write import write_report
+
+set_report_writer(write_report)
 
 TASKS = ("fk", "ik", "track", "workspace")
 

@@ -29,6 +29,15 @@ from mechkin.model.drawing import frame_tree
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.records import Report
 from mechkin.records.biped import BipedPlot, BipedRecord
+from mechkin.solvers.biped.leg import (
+    STATUS_OK,
+    InclinedPlane,
+    LegSolution,
+    LegTask,
+    biped_polylines,
+    body_transform,
+    psi_from_ee_rotation,
+)
 from mechkin.solvers.biped.sequence import (
     EE_FRAMES,
     SIDES,
@@ -39,15 +48,6 @@ from mechkin.solvers.biped.sequence import (
     StepResult,
     geometry_from_mechanism,
     solve_sequence,
-)
-from mechkin.solvers.biped.leg import (
-    STATUS_OK,
-    InclinedPlane,
-    LegSolution,
-    LegTask,
-    biped_polylines,
-    body_transform,
-    psi_from_ee_rotation,
 )
 from mechkin.spatial.euler_conventions import Side, contact_angles_from_matrix
 from mechkin.spatial.rotations import rot_x, rot_y, rot_z

@@ -28,6 +28,7 @@ from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
+from mechkin.solvers.closed_form.all_solutions import closed_form_all
 from mechkin.solvers.ik import (
     IkOptions,
     IkResult,
@@ -41,7 +42,6 @@ from mechkin.solvers.ik.all_solutions import (
     TOL_ORI_ALL,
     TOL_POS_ALL,
     IkSolutions,
-    closed_form_all,
     multistart_all,
     wrapped,
 )
