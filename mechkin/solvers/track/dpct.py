@@ -74,8 +74,9 @@ stated model can reproduce, see PAPER_NOTES):
     ``t(0, 0)`` at stage 0, so ``J*(0, 0) = t_a``: the earliest steady tracking the grid and
     the limits allow. ``1e-6`` times the tracking cost of Eq. (28) breaks ties between plans
     with the same ``t_a``. Not in park; ``t_a`` of the tracking objective is an upper bound.
-11. **Intercept by decomposition** (:func:`mechkin.solvers.track.intercept.plan_intercept_dp`, chosen
-    by :func:`mechkin.solvers.track.plan.plan_track` when the part starts ahead of the hand or
+11. **Intercept by decomposition**
+    (:func:`mechkin.solvers.track.intercept_dp.plan_intercept_dp`, chosen by
+    :func:`mechkin.solvers.track.plan.plan_track` when the part starts ahead of the hand or
     the belt accelerates, ``ConveyorReference.belt_acceleration``): reading 10's single pass
     keeps one time per node (reading 9's caveat) and no grid state holds an accelerating
     part's speed. Instead, for an intercept stage the DP's minimum time from rest to the
@@ -140,8 +141,7 @@ from mechkin.solvers.track.dp_problem import (
 )
 from mechkin.solvers.track.path import JointPath, PhaseCoefficients, phase_coefficients
 
-# the problem records and the limit model live in dp_problem and dp_limits (split by reading);
-# the public names stay importable from here
+# problem records: dp_problem; limit model: dp_limits; public names re-exported from here
 __all__ = [
     "DEFAULT_DP", "LIMIT_RTOL", "NT_FRACTION", "ConveyorReference", "DPGrid", "DPOptions",
     "PartMotion", "TrackLimits", "TrackResult", "TrackStatus", "TrackTrajectory", "limit_curve",
