@@ -154,3 +154,69 @@ def test_tasks_reach_io_through_write():
 def test_records_know_nothing_of_io():
     assert not [d for m, deps in GRAPH.items() if _layer(m) == "records"
                 for d in deps if _layer(d) == "io"]
+
+
+# ---- the rooms of solvers/ (docs/ARCHITECTURE.md keeps the table; this test keeps it true) ----
+
+ARCH = PKG.parent / "docs" / "ARCHITECTURE.md"
+
+
+def _table(marker: str) -> list[list[str]]:
+    """The rows of the markdown table after the ``<!-- marker: ...`` comment, cells stripped
+    of backticks."""
+    lines = ARCH.read_text(encoding="utf-8").splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith(f"<!-- {marker}:"))
+    rows = []
+    for ln in lines[start + 3:]:  # comment, header, separator
+        if not ln.startswith("|"):
+            break
+        rows.append([c.strip().replace("`", "") for c in ln.strip().strip("|").split("|")])
+    return rows
+
+
+ROOMS = {row[0]: {r.strip() for r in row[2].split(",") if r.strip()} for row in _table("rooms")}
+
+
+def _room(mod: str) -> str | None:
+    parts = mod.split(".")
+    return parts[2] if len(parts) > 2 and parts[1] == "solvers" else None
+
+
+def test_every_room_has_a_row():
+    have = {p.stem if p.is_file() else p.name for p in (PKG / "solvers").iterdir()
+            if (p.suffix == ".py" and p.stem != "__init__") or (p / "__init__.py").is_file()}
+    assert have == set(ROOMS), (f"docs/ARCHITECTURE.md rooms: missing "
+                                f"{sorted(have - set(ROOMS))}, stale {sorted(set(ROOMS) - have)}")
+    for room, allowed in ROOMS.items():
+        assert allowed <= set(ROOMS) - {room}, (room, allowed)
+
+
+@pytest.mark.parametrize("room", sorted(ROOMS))
+def test_room_imports_only_the_rooms_it_may(room):
+    bad = sorted({f"{m} -> {d}" for m, deps in GRAPH.items() if _room(m) == room
+                  for d in deps if _room(d) not in (None, room) and _room(d) not in ROOMS[room]})
+    assert not bad, f"room {room} may import {sorted(ROOMS[room])} only: {bad}"
+
+
+def test_rooms_form_no_cycle():
+    import graphlib
+
+    order = graphlib.TopologicalSorter({r: set(a) for r, a in ROOMS.items()})
+    order.prepare()  # raises CycleError on a cycle of allowed imports
+
+
+PAPERS = _table("papers")
+
+
+def test_papers_table_names_real_functions():
+    assert {row[0] for row in PAPERS} >= {"kim1995", "hwang2023", "park", "lee"}
+    missing = []
+    for _paper, _eqs, module, name in PAPERS:
+        path = PKG.parent / Path(*module.split("."))
+        path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+        tree = ast.parse(path.read_text(encoding="utf-8")) if path.is_file() else None
+        names = {n.name for n in (tree.body if tree else [])
+                 if isinstance(n, ast.FunctionDef | ast.ClassDef)}
+        if name not in names:
+            missing.append(f"{module}.{name}")
+    assert not missing, f"docs/ARCHITECTURE.md names what does not exist: {missing}"
