@@ -37,18 +37,17 @@ def run(scenario: Any, **options: Any) -> Report:
     ``options`` are the task's own run options (workspace: ``workers``, ``scheduler``,
     ``progress``).
     """
-    from mechkin.tasks.validate import validate_scenario
+    from mechkin.tasks.prepare import prepare
 
-    mech = None
-    if scenario.mechanism_path is not None:
-        from mechkin.model import load_mechanism
-
-        mech = load_mechanism(scenario.mechanism_path)
-    validate_scenario(scenario, mech)  # everything short of solving, as `mechkin check` does
+    # load and validate (everything short of solving, as `mechkin check` does), keeping what
+    # the checks computed that the run needs (the mechanism, its closed form, biped legs)
+    prepared = prepare(scenario)
     mod = importlib.import_module(f"mechkin.tasks.{task_module_name(scenario)}")
     import inspect
 
     accepted = inspect.signature(mod.run).parameters
+    if "prepared" in accepted:
+        options = {**options, "prepared": prepared}
     return mod.run(scenario, **{k: v for k, v in options.items() if k in accepted})
 
 

@@ -51,15 +51,18 @@ from mechkin.tasks.common import (
 from mechkin.tasks.distributed import resolve as resolve_execution
 from mechkin.tasks.ik_all import _all_solutions, _clean, _solution_rows, _solutions_record
 from mechkin.tasks.ik_solve import _safe_norm, _solve_batch, _solve_split, solve_sequence
+from mechkin.tasks.prepare import Prepared
 
 
-def _closed_form_kind(scenario: Scenario, mech: Mechanism) -> str:
-    """The closed form of ``mech`` by structure; a declared one that does not fit, or none
-    that fits, is bad input naming the mismatch."""
-    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch, recognise_closed_form
+def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
+    """The closed form of the mechanism by structure (recognised once: by the validation
+    when it ran); a declared one that does not fit, or none that fits, is bad input naming
+    the mismatch."""
+    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch
 
+    mech = prepared.mechanism
     try:
-        kind = recognise_closed_form(mech)
+        kind = prepared.recognise_closed_form()
     except ClosedFormMismatch as exc:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: {exc}") from None
     if kind is None:
@@ -166,18 +169,22 @@ def _check_targets(scenario: Scenario, mech: Mechanism, k: int) -> None:
                         extra_per_item=4000.0)
 
 
-def run(scenario: Scenario, progress: bool | None = None) -> Report:
+def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | None = None
+        ) -> Report:
     """Solve every precision point in order (each warm-started from the previous solution,
     kim1995 §5.2 Step 2), or all at once with ``batch: true``; verify each by forward
     kinematics. Returns the report (summary, expect results, motion record with the
-    convergence histories).
+    convergence histories). ``prepared``: what validation computed (:func:`mechkin.tasks.run`
+    hands it on: the mechanism and its closed form).
     """
     spec: IkSpec = scenario.section
-    mech = load_mechanism(scenario.mechanism_path)
+    if prepared is None or prepared.mechanism is None:
+        prepared = Prepared(mechanism=load_mechanism(scenario.mechanism_path))
+    mech = prepared.mechanism
     if mech.end_effector is None:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: mechanism {mech.name} has no "
                           "end_effector frame")
-    kind = _closed_form_kind(scenario, mech) if spec.method == "closed-form" else None
+    kind = _closed_form_kind(scenario, prepared) if spec.method == "closed-form" else None
     T_P, W, labels = _targets(scenario, mech)
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
@@ -201,7 +208,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
             results, guesses, _ = solve_sequence(mech, T_P, W, far, spec.method, kind, opts,
                                                  qv0, qw0, spec.warm_start, update)
     solve_s = time.perf_counter() - t0
-    all_sols = (_all_solutions(scenario, mech, T_P, W, results, guesses, far, opts)
+    all_sols = (_all_solutions(scenario, prepared, T_P, W, results, guesses, far, opts)
                 if spec.solutions == "all" else None)
     q = np.array([r.q for r in results])
     q = np.where(np.isfinite(q), q, mech.home)

@@ -32,18 +32,21 @@ from mechkin.solvers.ik.all_solutions import (
     wrapped,
 )
 from mechkin.tasks.ik_solve import _safe_norm
+from mechkin.tasks.prepare import Prepared
 
 
-def _all_solutions(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
+def _all_solutions(sc: Scenario, prepared: Prepared, T_P: np.ndarray, W: np.ndarray,
                    results: list[IkResult], guesses: list[tuple[np.ndarray, np.ndarray]],
                    far: np.ndarray, opts: IkOptions) -> list[IkSolutions]:
     """Every distinct verified solution of each target: the closed form when the mechanism
-    has one (declared or recognised), else multi-start lm; the method's answer is a candidate."""
-    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch, recognise_closed_form
+    has one (declared or recognised, once: ``prepared``), else multi-start lm; the method's
+    answer is a candidate."""
+    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch
 
     spec: IkSpec = sc.section
+    mech = prepared.mechanism
     try:
-        kind = recognise_closed_form(mech)
+        kind = prepared.recognise_closed_form()
     except ClosedFormMismatch:
         kind = None
     out: list[IkSolutions] = []
