@@ -79,18 +79,49 @@ def test_unusable_out_is_refused_before_any_work(tmp_path, kind):
         assert _visible(out) == ["mine.txt"]
 
 
+_HOLD = """
+import sys, time
+from mechkin.io.report import prepare_output
+with prepare_output(sys.argv[1], sys.argv[2]):
+    print("held", flush=True)
+    time.sleep(120)
+"""
+
+
+def _hold_lock(tmp_path: Path, out: Path, scenario: str) -> subprocess.Popen:
+    holder = subprocess.Popen([sys.executable, "-c", _HOLD, str(out), scenario],
+                              stdout=subprocess.PIPE, text=True, env=_env(tmp_path))
+    assert holder.stdout.readline().strip() == "held"
+    return holder
+
+
 def test_a_held_lock_refuses_a_second_run(tmp_path):
+    """A live run holds the lock: a second run is refused and leaves the lock alone, so a
+    third run is refused too (issue 28 item 2: the refused run deleted the lock)."""
     out = tmp_path / "o"
-    out.mkdir()
-    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    holder = _hold_lock(tmp_path, out, "kim1995_direct_drive_fk")
     try:
-        (out / ".mechkin.lock").write_text(f"{holder.pid}\n")
-        r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
-        assert r.returncode == 2 and f"pid {holder.pid}" in r.stderr
+        for _ in range(2):
+            r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
+            assert r.returncode == 2 and f"pid {holder.pid}" in r.stderr, r.stderr
+            assert len(r.stderr.strip().splitlines()) == 1
+            assert (out / ".mechkin.lock").read_text().strip() == str(holder.pid)
     finally:
         holder.kill()
-        holder.wait()
-    # the holder is gone: its lock is stale and taken over
+        holder.communicate()
+    # the holder is gone (SIGKILL: its lock file stays, the kernel dropped its flock)
+    assert (out / ".mechkin.lock").exists()
+    r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
+    assert r.returncode == 0, r.stderr
+    assert not (out / ".mechkin.lock").exists()
+
+
+def test_a_lock_file_with_a_live_pid_but_no_holder_is_taken_over(tmp_path):
+    """The pid in the file is only for the message: a lock nobody holds (its run was killed
+    and the pid reused) does not block the folder forever."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / ".mechkin.lock").write_text(f"{os.getpid()}\n")
     r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
     assert r.returncode == 0, r.stderr
     assert not (out / ".mechkin.lock").exists()
