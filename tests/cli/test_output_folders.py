@@ -160,10 +160,10 @@ def test_signal_at_random_moments_leaves_previous_or_complete_outputs(tmp_path, 
         old = now
 
 
-def _can_mount_tmpfs(where: Path) -> bool:
+def _can_mount_tmpfs(where: Path, size: str = "64m") -> bool:
     where.mkdir(parents=True, exist_ok=True)
     try:
-        r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64m", "tmpfs", str(where)],
+        r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(where)],
                            capture_output=True, timeout=20)
     except (OSError, subprocess.SubprocessError):
         return False
@@ -227,3 +227,22 @@ def test_sigterm_stops_a_two_worker_sweep(tmp_path):
     assert alive == [], f"worker processes left: {alive}"
     assert _leftovers(tmp_path) == []
     assert not out.exists() or _visible(out) == []
+
+
+def test_a_full_disk_is_exit_4_and_keeps_the_previous_run(tmp_path):
+    """A tmpfs that holds the small run but not the large one (issue 28 item 6: exit 3)."""
+    mnt = tmp_path / "mnt"
+    if not _can_mount_tmpfs(mnt, "192k"):
+        pytest.skip("cannot mount a tmpfs here (needs root or CAP_SYS_ADMIN)")
+    try:
+        out = mnt / "o"
+        r = _mechkin(tmp_path, "fk", str(FK), "--out", str(out), "--no-plots")
+        assert r.returncode == 0, r.stderr
+        before = {p.name: p.read_bytes() for p in out.iterdir()}
+        r = _mechkin(tmp_path, "fk", str(PUMA), "--out", str(out), "--force")
+        assert r.returncode == 4, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and "No space left" in lines[0] and str(out) in lines[0]
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True, timeout=20)
