@@ -86,6 +86,12 @@ def check_output_dir(out_dir: str | Path, scenario: str, *, force: bool = False)
     """Refuse an unusable output folder before any work (OutputDirError, exit 2)."""
     out = Path(out_dir)
     where = _short(str(out))
+    if not out.is_absolute():
+        try:
+            os.getcwd()
+        except OSError:
+            raise OutputDirError(f"--out {where}: the working directory no longer exists; "
+                                 "give an absolute --out") from None
     for part in out.absolute().parts:
         if len(part.encode("utf-8", "surrogateescape")) > 255:
             raise OutputDirError(f"--out {where}: a folder name of {len(part)} characters is "
