@@ -21,6 +21,7 @@ import contextlib
 import os
 import stat
 from pathlib import Path
+from typing import Any
 
 from mechkin.errors import ConfigError
 
@@ -222,3 +223,14 @@ def check_mjcf_files(path: str | os.PathLike[str]) -> str:
                                    hint="MECHKIN_MAX_ROBOT_MB raises the limit")
     check_count(main, "<body>", bodies)
     return text
+
+
+def redirect_mujoco_log(mujoco: Any) -> None:
+    """Send MuJoCo's warnings to mechkin's log (debug) instead of its default handler, which
+    appends them to ``MUJOCO_LOG.TXT`` in the working directory."""
+    import logging
+
+    log = logging.getLogger("mechkin.mujoco")
+    with contextlib.suppress(Exception):
+        if mujoco.get_mju_user_warning() is None:
+            mujoco.set_mju_user_warning(lambda msg: log.debug("MuJoCo: %s", msg))

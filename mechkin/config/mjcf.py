@@ -71,8 +71,9 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
     except ImportError:
         raise ConfigError(f"{path}: reading MJCF needs MuJoCo (pip install 'mechkin[mjcf]')"
                           ) from None
-    from mechkin.config.guarded_read import check_mjcf_files
+    from mechkin.config.guarded_read import check_mjcf_files, redirect_mujoco_log
 
+    redirect_mujoco_log(mujoco)  # never MUJOCO_LOG.TXT in the working directory
     text = check_mjcf_files(path)  # regular files within the limits, includes and meshes too
 
     def line_of(tag: str, name: str) -> int:
