@@ -32,10 +32,18 @@ _WHAT = (("ee_", "the end effector's"), ("t_s", "the time"), ("closure_", "the c
                                                                          "error"))
 
 
-def column_clash(joint: str) -> tuple[str, str] | None:
-    """(the joint's column, whose column it is) if one of ``joint``'s columns is a task's own
-    column, else None."""
-    for suffix in JOINT_SUFFIXES:
+def _suffixes(kind: str) -> tuple[str, ...]:
+    if kind == "prismatic":
+        return ("m", "m_s", "m_s2", "n", "mm")
+    if kind == "revolute":
+        return ("rad", "rad_s", "rad_s2", "nm", "deg")
+    return JOINT_SUFFIXES
+
+
+def column_clash(joint: str, kind: str = "") -> tuple[str, str] | None:
+    """(the joint's column, whose column it is) if one of ``joint``'s columns (of a joint of
+    type ``kind``) is a task's own column or in a task's name space, else None."""
+    for suffix in _suffixes(kind):
         col = f"{joint}_{suffix}"
         if _RESERVED.match(col):
             owner = next((w for p, w in _WHAT if col.startswith(p)), "a task's")
@@ -49,11 +57,11 @@ def check_joint_columns(spec: Any, doc: Any) -> None:
     problems = []
     for i, j in enumerate(getattr(spec, "joints", ()) or ()):
         name = str(getattr(j, "name", ""))
-        clash = column_clash(name)
+        clash = column_clash(name, str(getattr(j, "type", "")))
         if clash:
             col, owner = clash
             where = doc.where(("joints", i, "name")) if hasattr(doc, "where") else "joints"
-            problems.append(f"{where}: joint {name[:40]!r} would write column {col!r}, which "
-                            f"is {owner} column; rename the joint")
+            problems.append(f"{where}: joint {name[:40]!r} would write column {col!r}, a name "
+                            f"of {owner} columns ({col!r} there); rename the joint")
     if problems:
         raise ConfigError(problems)
