@@ -45,6 +45,8 @@ from typing import Any, TypeVar
 import numpy as np
 
 from mechkin.records.workspace import DesignSweepRecord, LeeWorkspaceRecord, TaskSpaceRecord
+from mechkin.solvers.cluster import DASK_TIMEOUT_S, connect_cluster  # noqa: F401 - re-exported
+from mechkin.solvers.cluster import run_dask as _run_dask
 from mechkin.solvers.workspace.dexterity import (
     COND_CAP,
     characteristic_length,
@@ -166,121 +168,6 @@ def _collect(done_iter: Iterable[Any], index: Mapping[Any, int], results: list[A
         results[index[fut]] = fut.result()
         if progress is not None:
             progress(k, total)
-
-
-#: Seconds to reach a scheduler and to see a worker (``MECHKIN_DASK_TIMEOUT`` overrides).
-DASK_TIMEOUT_S = 10.0
-_PROBE = "__import__('mechkin').__version__"
-
-
-def _dask_timeout() -> float:
-    import os
-
-    try:
-        return float(os.environ.get("MECHKIN_DASK_TIMEOUT", DASK_TIMEOUT_S))
-    except ValueError:
-        return DASK_TIMEOUT_S
-
-
-def _probe_scheduler(address: str, shown: str, timeout: float) -> None:
-    """Ask ``address`` who it is (the comm handshake and the ``identity`` op, both under one
-    timeout): a port that accepts but never answers (not a Dask scheduler) must not hang."""
-    import asyncio
-
-    from distributed.core import rpc
-
-    from mechkin.errors import ClusterError
-
-    async def ask() -> Any:
-        r = rpc(address, timeout=timeout)
-        try:
-            return await asyncio.wait_for(r.identity(), timeout)
-        finally:
-            await r.close_rpc()
-
-    try:
-        info = asyncio.run(asyncio.wait_for(ask(), timeout + 1.0))
-    except (OSError, TimeoutError, asyncio.TimeoutError, ValueError, EOFError) as exc:
-        raise ClusterError(f"--scheduler {shown}: no Dask scheduler answered within "
-                           f"{timeout:g} s ({type(exc).__name__}); is it running at that "
-                           "address?") from None
-    except Exception as exc:  # noqa: BLE001 - any protocol failure means: not a scheduler
-        raise ClusterError(f"--scheduler {shown}: not a Dask scheduler ({type(exc).__name__})"
-                           ) from None
-    if not isinstance(info, dict) or info.get("type") != "Scheduler":
-        raise ClusterError(f"--scheduler {shown}: answered, but is not a Dask scheduler")
-
-
-def connect_cluster(address: str) -> Any:
-    """A ``distributed.Client`` on ``address`` whose workers run this mechkin version.
-
-    Fails fast, each with one line (ClusterError, exit 2): an address that is not
-    ``tcp://host:port`` (or ``tls://``), nothing listening or no Dask scheduler answering
-    within the timeout, no worker within the timeout, workers that cannot import mechkin or run
-    another version of it.
-    """
-    from mechkin import __version__
-    from mechkin.errors import ClusterError
-
-    try:
-        from distributed import Client
-    except ImportError as exc:  # pragma: no cover - depends on the optional extra
-        raise ClusterError("--scheduler: running on a Dask cluster needs the optional extra: "
-                           "pip install 'mechkin[dask]'") from exc
-    shown = address if len(address) <= 80 else address[:77] + "..."
-    if "://" not in address or address.split("://", 1)[0] not in ("tcp", "tls", "inproc"):
-        raise ClusterError(f"--scheduler {shown}: expected an address like tcp://HOST:8786")
-    timeout = _dask_timeout()
-    _probe_scheduler(address, shown, timeout)
-    try:
-        client = Client(address, timeout=timeout)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise ClusterError(f"--scheduler {shown}: no Dask scheduler answered within "
-                           f"{timeout:g} s ({type(exc).__name__}); is it running at that "
-                           "address?") from None
-    try:
-        try:
-            client.wait_for_workers(1, timeout=timeout)
-        except (TimeoutError, OSError):
-            raise ClusterError(f"--scheduler {shown}: the scheduler has no workers (none "
-                               f"joined within {timeout:g} s)") from None
-        versions = client.run(eval, _PROBE, on_error="return")
-        bad = {w: v for w, v in versions.items() if v != __version__}
-        if bad:
-            w, v = next(iter(bad.items()))
-            why = (f"cannot import mechkin ({type(v).__name__}: {str(v)[:60]})"
-                   if isinstance(v, BaseException) else f"runs mechkin {str(v)[:20]}")
-            raise ClusterError(f"--scheduler {shown}: {len(bad)} of {len(versions)} workers "
-                               f"cannot run this job: worker {w} {why}, this is mechkin "
-                               f"{__version__}; install the same mechkin on every worker")
-    except BaseException:
-        client.close()
-        raise
-    return client
-
-
-def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
-              progress: ProgressCallback | None) -> list[R]:
-    from distributed import as_completed as dask_as_completed
-
-    from mechkin.errors import ClusterError
-
-    results: list[Any] = [None] * len(jobs)
-    client = connect_cluster(address)
-    try:
-        futures = [client.submit(fn, job, pure=False) for job in jobs]
-        index = {f.key: i for i, f in enumerate(futures)}
-        for k, fut in enumerate(dask_as_completed(futures), start=1):
-            try:
-                results[index[fut.key]] = fut.result()
-            except (ImportError, ModuleNotFoundError, AttributeError) as exc:
-                raise ClusterError(f"--scheduler {address[:80]}: a worker could not run the "
-                                   f"job ({type(exc).__name__}: {str(exc)[:80]})") from None
-            if progress is not None:
-                progress(k, len(jobs))
-    finally:
-        client.close()
-    return results
 
 
 # --------------------------------------------------------------------------- lee design sweeps
