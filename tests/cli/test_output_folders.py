@@ -246,3 +246,76 @@ def test_a_full_disk_is_exit_4_and_keeps_the_previous_run(tmp_path):
         assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     finally:
         subprocess.run(["umount", str(mnt)], capture_output=True, timeout=20)
+
+
+def _descendants(pid: int) -> list[int]:
+    out, todo = [], [pid]
+    while todo:
+        kids = _children_of(todo.pop())
+        out.extend(kids)
+        todo.extend(kids)
+    return out
+
+
+def _alive(pids: list[int]) -> list[int]:
+    alive = []
+    for k in pids:
+        try:
+            state = Path(f"/proc/{k}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            continue
+        if state != "Z":
+            alive.append(k)
+    return alive
+
+
+def test_sigkill_of_mechkin_takes_its_workers_with_it(tmp_path):
+    """SIGKILL to the main process of a --workers 2 sweep (no handler runs): the forkserver
+    sees its parent gone and the kernel stops the workers (PR_SET_PDEATHSIG), so no worker
+    outlives the run (issue 28 item 5: both workers were found alive 19 minutes later)."""
+    out = tmp_path / "o"
+    sc = ROOT / "scenarios" / "lee_design_sweep_r.yaml"
+    proc = subprocess.Popen([sys.executable, "-m", "mechkin", "workspace", str(sc), "--out",
+                             str(out), "--workers", "2", "--no-plots"], cwd=tmp_path,
+                            env=_env(tmp_path), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    kids: list[int] = []
+    t0 = time.time()
+    while time.time() - t0 < 90 and proc.poll() is None:
+        kids = _descendants(proc.pid)
+        if len(kids) >= 3:  # the forkserver and two workers
+            break
+        time.sleep(0.2)
+    if proc.poll() is not None:
+        pytest.skip("the sweep finished before its workers could be seen")
+    time.sleep(0.5)
+    kids = _descendants(proc.pid)
+    proc.kill()
+    proc.wait(timeout=30)
+    deadline = time.time() + 20
+    while _alive(kids) and time.time() < deadline:
+        time.sleep(0.2)
+    left = _alive(kids)
+    for k in left:  # do not leak them into the next test
+        os.kill(k, signal.SIGKILL)
+    assert left == [], f"worker processes left: {left}"
+
+
+def test_a_signal_while_a_new_folder_is_written_leaves_it_whole_or_absent(tmp_path):
+    """SIGTERM at random moments of a first run into a new --out: afterwards the folder is
+    absent or holds the complete run, never an empty folder (issue 28 item 5)."""
+    rng = random.Random(5)
+    for k in range(3):
+        out = tmp_path / f"o{k}"
+        proc = subprocess.Popen([sys.executable, "-m", "mechkin", "fk", str(PUMA), "--out",
+                                 str(out)], cwd=tmp_path, env=_env(tmp_path),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(rng.uniform(1.0, 6.0))
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+        assert "Traceback" not in err
+        assert _leftovers(tmp_path) == []
+        if out.exists():
+            names = set(_visible(out))
+            s = json.loads((out / "summary.json").read_text())
+            assert names == set(s["files"]) and s["status"] == "ok", names

@@ -105,6 +105,44 @@ def _mp_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("spawn")
 
 
+def die_with_parent(main_pid: int) -> None:
+    """A worker's initializer: the worker leaves as soon as mechkin's process ``main_pid`` is
+    gone, however it ended (SIGKILL included). A forkserver's workers hold the server's
+    liveness pipe, so neither the server nor they would otherwise notice; a daemon thread
+    polls ``main_pid`` once a second (and on Linux the kernel also kills the worker with its
+    parent, PR_SET_PDEATHSIG)."""
+    import signal
+    import threading
+    import time
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # pragma: no cover - no prctl
+            pass
+
+    def gone() -> bool:
+        try:
+            os.kill(main_pid, 0)
+        except ProcessLookupError:
+            return True
+        except OSError:
+            return False
+        return False
+
+    def watch() -> None:
+        while not gone():
+            time.sleep(1.0)
+        os._exit(1)
+
+    if gone():
+        os._exit(1)
+    threading.Thread(target=watch, daemon=True, name="mechkin-parent-watch").start()
+
+
 def run_jobs(
     fn: Callable[[T], R],
     jobs: Sequence[T],
@@ -156,7 +194,8 @@ def run_jobs(
                 progress(i + 1, total)
         return out
     results: list[Any] = [None] * total
-    with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context()) as pool:
+    with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures: dict[Future[R], int] = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
         _collect(as_completed(futures), futures, results, total, progress)
     return results
