@@ -1,21 +1,157 @@
-"""Jobs on a Dask cluster (``--scheduler tcp://HOST:PORT``), failing fast: every probe of the
-cluster is bounded by ``MECHKIN_DASK_TIMEOUT`` seconds (default 10, at most 600): a refused
-port answers at once (a plain TCP connect before the Dask comm, which retries until its
-timeout), a port that accepts but never answers, a scheduler without workers, workers that do
-not answer the version probe (a stopped worker) and workers without this mechkin version each
-end in one line (ClusterError, exit 2) before any work.
+"""Independent jobs run in order: sequentially, on local processes or on a Dask cluster.
 
-Imports: errors, mechkin (its version); distributed inside the functions (an optional extra).
+:func:`run_jobs` runs a list of independent jobs (a picklable top-level function and one
+argument per job) in order, sequentially (``workers=1``), on local processes
+(:class:`concurrent.futures.ProcessPoolExecutor`) or on a Dask cluster (``address`` of a
+scheduler; needs the optional extra ``mechkin[dask]``). Results come back in job order and a
+job never depends on how many workers there are, so every executor gives identical results.
+A ``progress(done, total)`` callback reports completed jobs. :func:`connect_cluster` checks a
+scheduler before any work, every probe bounded by ``MECHKIN_DASK_TIMEOUT`` (in (0, 600] s): a
+refused port answers at once, a stopped worker's silence times out. Local workers leave as soon
+as mechkin's process is gone (:func:`die_with_parent`). Split out of ``sweeps.py`` (issue 23: modules that fit in a head);
+the names stay importable from :mod:`mechkin.solvers.workspace.sweeps`.
+
+Imports: the standard library (dask lazily), mechkin.errors.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import multiprocessing
+import os
+import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from typing import Any, TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
+
 ProgressCallback = Callable[[int, int], None]
+"""``progress(done, total)``: called once with ``done = 0`` and after every completed job."""
+
+
+# --------------------------------------------------------------------------- execution
+
+
+def default_workers(n_jobs: int) -> int:
+    """min(cpu count, number of jobs), at least 1."""
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(cpus or 1, n_jobs))
+
+
+def _mp_context() -> multiprocessing.context.BaseContext:
+    """forkserver on POSIX (no fork of a threaded parent, e.g. a progress-bar thread), else
+    spawn; the server preloads this module so workers start without re-importing numpy."""
+    if sys.platform != "win32" and "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["mechkin.solvers.workspace.sweeps"])
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
+def die_with_parent(main_pid: int) -> None:
+    """A worker's initializer: the worker leaves as soon as mechkin's process ``main_pid`` is
+    gone, however it ended (SIGKILL included). A forkserver's workers hold the server's
+    liveness pipe, so neither the server nor they would otherwise notice; a daemon thread
+    polls ``main_pid`` once a second (and on Linux the kernel also kills the worker with its
+    parent, PR_SET_PDEATHSIG)."""
+    import signal
+    import threading
+    import time
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # pragma: no cover - no prctl
+            pass
+
+    def gone() -> bool:
+        try:
+            os.kill(main_pid, 0)
+        except ProcessLookupError:
+            return True
+        except OSError:
+            return False
+        return False
+
+    def watch() -> None:
+        while not gone():
+            time.sleep(1.0)
+        os._exit(1)
+
+    if gone():
+        os._exit(1)
+    threading.Thread(target=watch, daemon=True, name="mechkin-parent-watch").start()
+
+
+def run_jobs(
+    fn: Callable[[T], R],
+    jobs: Sequence[T],
+    *,
+    workers: int | None = None,
+    address: str | None = None,
+    progress: ProgressCallback | None = None,
+) -> list[R]:
+    """Run ``fn(job)`` for every job and return the results in job order.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level (picklable) function.
+    jobs : sequence
+        One picklable argument per job.
+    workers : int, optional
+        Local processes (default :func:`default_workers`); 1 runs in this process. Ignored
+        when ``address`` is given.
+    address : str, optional
+        Address of a Dask scheduler (``tcp://host:port``): the jobs run on that cluster
+        (``pip install mechkin[dask]``).
+    progress : callable, optional
+        ``progress(done, total)``.
+
+    Returns
+    -------
+    list
+        ``[fn(job) for job in jobs]``, whatever the executor.
+
+    Raises
+    ------
+    ImportError
+        ``address`` given but dask.distributed is not installed.
+    """
+    total = len(jobs)
+    if progress is not None:
+        progress(0, total)
+    if total == 0:
+        return []
+    if address is not None:
+        return _run_dask(fn, jobs, address, progress)
+    n = default_workers(total) if workers is None else max(1, min(int(workers), total))
+    if n == 1:
+        out: list[R] = []
+        for i, job in enumerate(jobs):
+            out.append(fn(job))
+            if progress is not None:
+                progress(i + 1, total)
+        return out
+    results: list[Any] = [None] * total
+    with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+        futures: dict[Future[R], int] = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
+        _collect(as_completed(futures), futures, results, total, progress)
+    return results
+
+
+def _collect(done_iter: Iterable[Any], index: Mapping[Any, int], results: list[Any], total: int,
+             progress: ProgressCallback | None) -> None:
+    for k, fut in enumerate(done_iter, start=1):
+        results[index[fut]] = fut.result()
+        if progress is not None:
+            progress(k, total)
+
 
 #: Seconds to reach a scheduler and to see a worker (``MECHKIN_DASK_TIMEOUT`` overrides).
 DASK_TIMEOUT_S = 10.0
@@ -178,8 +314,8 @@ def connect_cluster(address: str) -> Any:
     return client
 
 
-def run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
-             progress: ProgressCallback | None) -> list[R]:
+def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
+              progress: ProgressCallback | None) -> list[R]:
     from distributed import as_completed as dask_as_completed
 
     from mechkin.errors import ClusterError
