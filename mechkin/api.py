@@ -161,7 +161,7 @@ def ik(
     qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
     qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
     if batch:
-        from mechkin.tasks.ik import batch_results
+        from mechkin.tasks.ik_solve import batch_results
 
         W = np.broadcast_to(w, (len(T), 6))
         return batch_results(solve_ik_batch(mech, T, q_v0=qv, q_w0=qw, weights=W,
