@@ -144,6 +144,8 @@ class SolverBase:
             np.empty
         self._shape_v, self._shape_1, self._stride1 = (self.n_v,), (1, n), (8,)
         self._p = len(self._plan.steps) if self._plan is not None else 0
+        self._jit = None if self._plan is None else self._plan.jit
+        self._shape_out = None if self._plan is None else self._plan.shape1
         if compiled and self._plan is not None and fk_accel.compiled_fk_available():
             fk_accel.load()
         if method not in ("lm", "cg-golden"):
@@ -251,8 +253,8 @@ class SolverBase:
                     q = self._check(q_v)
             entry = self._accel.ENTRY
             if entry is not None:  # the hot path: allocation and the kernel call
-                out = self._empty(self._plan.shape1)
-                entry(q, self._plan.jit, out)
+                out = self._empty(self._shape_out)
+                entry(q, self._jit, out)
                 return out[0, 0]
             return self._one(q)[0, 0]
         import numpy as np
