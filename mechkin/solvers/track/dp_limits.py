@@ -52,6 +52,7 @@ class _Stage:
     dt: np.ndarray  # (N2+1, N2+1) 2 dx1 / (x2[j] + x2[l]); inf between two rest states
     inv_dt: np.ndarray  # (N2+1, N2+1)
     rdd: np.ndarray  # (N2+1, N2+1) (x2[l]^2 - x2[j]^2) / (2 dx1)
+    rdd_sorted: bool = False  # every row of rdd non-decreasing (the compiled stage's window)
 
 
 def _transition_checks(

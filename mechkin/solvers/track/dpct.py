@@ -98,6 +98,7 @@ park_conveyor_tracking_dp, §2-§4, Eq. (1)-(35); §5 for the reproduced cases.
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -110,6 +111,7 @@ from mechkin.records.track import TrackTrajectory  # re-exported: the realised p
 from mechkin.solvers.dynamics.open_chain import InverseDynamics
 from mechkin.solvers.track.dp_limits import (
     _describe,
+    _slack,
     _diagnose,
     _joint_names,
     _position_block,
@@ -201,16 +203,131 @@ def _run_dp(
     if opts.jerk_ends:  # the motion after the end node: on the part (r'' = 0) or at rest
         qdd_next[j_end] = pc.ddq[N1] * x_end**2  # park Eq. (11)
 
+    compiled = N1 > 1 and use_compiled_dp((N1 - 1) * (N2 + 1) ** 2)
     dt, inv_dt, rdd = step_arrays(x2[:, None], x2[None, :], dx1, opts.step_time)
     st = _Stage(x2=x2, dt=dt, inv_dt=inv_dt, rdd=rdd)
+    if compiled:  # r'' grows with l on every row (x2 ascending): the kernel's torque window
+        st.rdd_sorted = bool(np.all(np.diff(rdd, axis=1) >= 0.0))
     for i in range(N1 - 1, -1, -1):
-        with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
-            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu, intercept,
-                            opts)
+        out = None
+        if compiled and i >= 1:
+            out = _dp_stage_compiled(i, pc, limits, st, V, T, NP, qdd_next, reference, mu,
+                                     intercept)
+        if out is None:  # numpy: stage 0, no numba, or a dead stage (the diagnosis)
+            with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
+                out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu,
+                                intercept, opts)
         if isinstance(out, list):
             return _DPTables(V, NP, T, (i, out))
         qdd_next = out
     return _DPTables(V, NP, T, None)
+
+
+#: Rent or buy for the compiled DP stage (:mod:`mechkin.solvers.track.dp_jit`): the numpy
+#: stage costs about ``NUMPY_PAIR_S`` per ``(j, l)`` pair (and joint limit family); loading the
+#: compiled kernel (numba import and cache load) about ``COMPILED_LOAD_S`` once per process.
+#: Measured 2026-12-03 (2 cores, load ~10, numba 0.68, warm cache): park time-optimal 50 x 500
+#: (12.3 M pairs, torque limits) numpy 1.3 s; numba import + cache load ~0.4 s.
+NUMPY_PAIR_S = 1.0e-7
+COMPILED_LOAD_S = 0.5
+_dp_spent = [0.0]  # estimated numpy DP seconds so far in this process
+_dp_loaded = [False]
+
+
+def use_compiled_dp(pairs: int) -> bool:
+    """Whether a DP of ``pairs`` transition pairs (all stages) runs the compiled stage.
+
+    False without numba or with ``MECHKIN_JIT=0``; True with ``MECHKIN_JIT=1`` or once the
+    kernel is loaded in this process; else when the numpy DP time of this process so far plus
+    this call's estimate exceeds the load cost (rent or buy; the estimate counts pairs, never
+    measured time, so the choice does not depend on the machine's load). Both back ends give
+    the same tables bit for bit, so the choice never changes a result."""
+    from mechkin.solvers.ik import accel
+
+    if not accel.compiled_lm_available():
+        return False
+    if _dp_loaded[0] or os.environ.get("MECHKIN_JIT") == "1":
+        return True
+    est = pairs * NUMPY_PAIR_S
+    if _dp_spent[0] + est > COMPILED_LOAD_S:
+        return True
+    _dp_spent[0] += est
+    return False
+
+
+def _dp_stage_compiled(
+    i: int,
+    pc: PhaseCoefficients,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    st: _Stage,
+    V: np.ndarray,
+    T: np.ndarray,
+    NP: np.ndarray,
+    qdd_next: np.ndarray,
+    reference: tuple[float, float] | None,
+    mu: float = 0.0,
+    intercept: bool = False,
+) -> np.ndarray | None:
+    """:func:`_dp_stage` for a stage ``i >= 1`` by the compiled kernel (same tables bit for
+    bit). The per-row bounds are computed here with the numpy stage's expressions. Returns the
+    chosen accelerations, or None when no state survives (the numpy stage then redoes the
+    stage and names the blocking limits)."""
+    from mechkin.solvers.track import dp_jit
+
+    _dp_loaded[0] = True
+    x2 = st.x2
+    J = x2.shape[0]
+    n = pc.a.shape[1]
+    row_ok = np.ones(J, dtype=np.bool_)
+    tq_lo = np.zeros((J, n))
+    tq_hi = np.zeros((J, n))
+    tq_on = np.zeros(n, dtype=np.bool_)
+    qd_j = np.empty((J, n))
+    z = np.zeros(n)
+    bounds = {"qdd": (z, z), "jerk": (z, z)}
+    for fam in ("qdd", "jerk"):
+        if fam in limits:
+            lo, hi = limits[fam]
+            bounds[fam] = (lo - _slack(lo), hi + _slack(hi))
+    for k in range(n):
+        if "torque" in limits:
+            lo, hi = limits["torque"][0][k], limits["torque"][1][k]
+            c = pc.b[i, k] * x2**2 + pc.g[i, k]  # park Eq. (12) without the r'' term
+            a = pc.a[i, k]
+            if a == 0.0:
+                row_ok &= (c >= lo - _slack(lo)) & (c <= hi + _slack(hi))
+            else:
+                b1 = (lo - _slack(lo) - c) / a
+                b2 = (hi + _slack(hi) - c) / a
+                tq_lo[:, k], tq_hi[:, k] = np.minimum(b1, b2), np.maximum(b1, b2)
+                tq_on[k] = True
+        qd_j[:, k] = pc.dq[i, k] * x2  # park Eq. (10), (4)'
+        if "qd" in limits:
+            lo, hi = limits["qd"][0][k], limits["qd"][1][k]
+            row_ok &= (qd_j[:, k] >= lo - _slack(lo)) & (qd_j[:, k] <= hi + _slack(hi))
+    if reference is None:
+        mode, r0, rd_ref = dp_jit.MODE_TIME, 0.0, 0.0
+    else:
+        mode = dp_jit.MODE_INTERCEPT if intercept else dp_jit.MODE_TRACKING
+        r0, rd_ref = reference
+    V_i = np.empty(J)
+    T_i = np.empty(J)
+    NP_i = np.empty(J, dtype=np.int64)
+    qdd_new = np.empty((J, n))
+    alive = dp_jit.dp_stage(
+        x2, st.dt, st.inv_dt, st.rdd, np.ascontiguousarray(V[i + 1]),
+        np.ascontiguousarray(T[i + 1]), row_ok, tq_lo, tq_hi, tq_on, qd_j,
+        np.ascontiguousarray(pc.dq[i + 1]), np.ascontiguousarray(pc.dq[i]), "qdd" in limits,
+        bounds["qdd"][0], bounds["qdd"][1], "jerk" in limits, bounds["jerk"][0],
+        bounds["jerk"][1], np.ascontiguousarray(qdd_next, dtype=np.float64), mode,
+        float(pc.r[i]), float(r0), float(rd_ref), float(mu), -LIMIT_RTOL, STEADY_TOL,
+        INTERCEPT_TIE, st.rdd_sorted, V_i, T_i, NP_i, qdd_new)
+    if alive == 0:
+        return None
+    V[i] = V_i
+    T[i] = T_i
+    NP[i] = NP_i
+    return qdd_new
 
 
 def _dp_stage(
