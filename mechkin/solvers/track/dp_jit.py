@@ -36,13 +36,14 @@ MODE_TIME, MODE_TRACKING, MODE_INTERCEPT = 0, 1, 2
 
 
 @numba.njit(cache=True, nogil=True)
-def dp_stage(x2, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j, dq_next, dq_i,
+def dp_stage(x2, x2c, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j, dq_next, dq_i,
              use_qdd, qdd_lo, qdd_hi, use_jerk, jerk_lo, jerk_hi, qdd_next, mode, r_i, r0,
              rd_ref, mu, start_tol, steady_tol, tie, sorted_rdd, V_out, T_out, NP_out, qdd_out):
     """All rows ``j`` of one stage: ``V_out[j] = min_l cost(j, l)``, its ``l`` (NP), the node
     time and the chosen transition's joint accelerations (park Eq. (27)-(30), (32)).
 
-    ``row_ok (J,)``: the per-row checks (velocity, torque rows with ``a = 0``);
+    ``x2 (J,)`` the states of stage i, ``x2c (L,)`` those of stage i+1 (the same array on the
+    uniform grid; a band grid differs). ``row_ok (J,)``: the per-row checks (velocity, torque rows with ``a = 0``);
     ``tq_lo/tq_hi (J, n)``: the admissible ``r''`` interval per joint where ``tq_on[k]``;
     bounds already carry their round-off slack. ``sorted_rdd``: every row of ``rdd`` is
     non-decreasing in ``l`` (the caller checks it), so the pairs outside the torque window
@@ -101,7 +102,7 @@ def dp_stage(x2, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j, dq_
                 if use_qdd or use_jerk:
                     w = inv_dt[j, l]
                     for k in range(n):
-                        qdd = (dq_next[k] * x2[l] - qd_j[j, k]) * w
+                        qdd = (dq_next[k] * x2c[l] - qd_j[j, k]) * w
                         if use_qdd and not (qdd >= qdd_lo[k] and qdd <= qdd_hi[k]):
                             ok = False
                             break
@@ -140,5 +141,5 @@ def dp_stage(x2, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j, dq_
             T_out[j] = np.nan
         w = inv_dt[j, best]
         for k in range(n):
-            qdd_out[j, k] = (dq_next[k] * x2[best] - dq_i[k] * x2j) * w
+            qdd_out[j, k] = (dq_next[k] * x2c[best] - dq_i[k] * x2j) * w
     return alive
