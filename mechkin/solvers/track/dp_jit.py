@@ -55,6 +55,11 @@ def dp_stage(x2, x2c, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j
     n = dq_i.shape[0]
     inf = np.inf
     alive = 0
+    v_from, v_to = L, 0  # the successors with a finite cost-to-go: only they can be chosen
+    for l in range(L):
+        if np.isfinite(Vn[l]):
+            v_from = min(v_from, l)
+            v_to = l + 1
     for j in range(J):
         best = 0
         bestv = inf
@@ -85,6 +90,8 @@ def dp_stage(x2, x2c, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j
                     else:
                         a_ = m + 1
                 l_to = a_
+        l_from = max(l_from, v_from)
+        l_to = min(l_to, v_to)
         if row_ok[j]:
             for l in range(l_from, l_to):
                 vn = Vn[l]
