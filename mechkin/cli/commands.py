@@ -17,6 +17,7 @@ from mechkin.cli.fk import fk_cli
 from mechkin.cli.ik import ik_cli
 from mechkin.cli.import_export import export_cli, import_cli
 from mechkin.cli.info import info_cli
+from mechkin.cli.run import run_cli
 from mechkin.cli.track import track_cli
 from mechkin.cli.warmup import warmup_cli
 from mechkin.cli.workspace import workspace_cli
@@ -47,6 +48,7 @@ app.command("fk")(fk_cli)
 app.command("ik")(ik_cli)
 app.command("track")(track_cli)
 app.command("workspace")(workspace_cli)
+app.command("run")(run_cli)
 app.command("info")(info_cli)
 app.command("check")(check_cli)
 app.command("import")(import_cli)

@@ -7,6 +7,7 @@ converts them to SI once. ``mechkin schema mechanism|scenario`` prints their JSO
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator
 from typing import Annotated, Any, Literal
 
@@ -215,10 +216,32 @@ def pydantic_problems(
             if len(s) > 60:
                 s = s[:57] + "..."
             msg = f"{msg}, got {s}"
+            hint = number_hint(err["input"])
+            if hint:
+                msg = f"{msg}; {hint}"
         if msg.startswith("Value error, "):
             msg = msg[len("Value error, "):]
         out.append(f"{doc.path}:{doc.line_of(loc)}: {format_key_path(loc)}: {msg}")
     return list(dict.fromkeys(out))
+
+
+def number_hint(value: Any) -> str | None:
+    """``did you mean the number 1e-6? write 1.0e-6`` for a string YAML read from a number
+    written without a decimal point before its exponent (YAML 1.1), else None."""
+    if not isinstance(value, str) or len(value) > 40:
+        return None
+    text = value.strip()
+    try:
+        x = float(text)
+    except ValueError:
+        return None
+    if not math.isfinite(x) or text.lower() in ("nan", "inf", "infinity"):
+        return None
+    mant, e, exp = text.lower().partition("e")
+    if e and exp[:1] not in "+-":
+        exp = "+" + exp  # YAML 1.1 reads 1.0e6 as a string too
+    fixed = (mant if "." in mant else f"{mant}.0") + (f"e{exp}" if e else "")
+    return f"did you mean the number {text}? write {fixed}"
 
 
 def _is_union_tag(x: Any) -> bool:

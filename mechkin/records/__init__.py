@@ -20,7 +20,20 @@ from mechkin.records.motion import MotionRecord
 
 EXPECT_FAILED = "expect failed"
 
-__all__ = ["EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report"]
+#: Exit codes of a run (``mechkin --help``, the README, the JUnit output of ``mechkin run``).
+EXIT_OK, EXIT_SOLVER, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_OUTPUT, EXIT_EXPECT = 0, 1, 2, 3, 4, 5
+EXIT_CODES = {
+    EXIT_OK: "ok: every solve reached its goal and every expect: held",
+    EXIT_SOLVER: "a solver did not reach a target (outputs written, status says which)",
+    EXIT_BAD_INPUT: "bad input or an unusable output folder (nothing written)",
+    EXIT_INTERNAL: "internal error (a bug: please report it)",
+    EXIT_OUTPUT: "an output file could not be written (previous outputs intact)",
+    EXIT_EXPECT: "an expect: entry did not hold (outputs written, summary says which)",
+    130: "interrupted (SIGINT)",
+    143: "terminated (SIGTERM)",
+}
+
+__all__ = ["EXIT_CODES", "EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report"]
 
 
 @dataclass
@@ -121,14 +134,24 @@ class Report:
         return all(c.get("ok", False) for c in self.checks)
 
     @property
+    def failure_asserted(self) -> bool:
+        """An ``expect:`` entry states a status word (``{key: status, value: unreachable}``):
+        the scenario says how the solver ends, so its expects alone judge the run."""
+        return any(c.get("unit") == "word" for c in self.checks)
+
+    @property
     def ok(self) -> bool:
-        """Solver succeeded and every expect held."""
-        return self.solver_ok and self.expect_ok
+        """Every expect held, and the solver succeeded or an expect states its status."""
+        return self.expect_ok and (self.solver_ok or self.failure_asserted)
 
     @property
     def exit_code(self) -> int:
-        """0 all good, 1 a solver did not reach its goal or an expect failed."""
-        return 0 if self.ok else 1
+        """0 all good; 1 a solver did not reach its goal (unasserted); 5 an expect failed."""
+        if self.ok:
+            return EXIT_OK
+        if not self.solver_ok and not self.failure_asserted:
+            return EXIT_SOLVER
+        return EXIT_EXPECT
 
     def write(self, out_dir: str | Path | None = None, *, plots: bool = True) -> dict[str, Any]:
         """Write every output into ``out_dir`` (default ``outputs/<scenario>``), atomically;
