@@ -12,6 +12,7 @@ from __future__ import annotations
 import typer
 
 from mechkin import __version__
+from mechkin.errors import EXIT_CODES
 from mechkin.cli.check import check_cli
 from mechkin.cli.fk import fk_cli
 from mechkin.cli.ik import ik_cli
@@ -24,6 +25,7 @@ from mechkin.cli.workspace import workspace_cli
 
 app = typer.Typer(
     no_args_is_help=True,
+    epilog="Exit codes: " + "; ".join(f"{c} {what}" for c, what in EXIT_CODES.items()) + ".",
     add_completion=False,
     pretty_exceptions_enable=False,
     help="Kinematics of open, closed and complex-chain robot mechanisms described in YAML.",

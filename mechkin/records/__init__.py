@@ -20,18 +20,7 @@ from mechkin.records.motion import MotionRecord
 
 EXPECT_FAILED = "expect failed"
 
-#: Exit codes of a run (``mechkin --help``, the README, the JUnit output of ``mechkin run``).
-EXIT_OK, EXIT_SOLVER, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_OUTPUT, EXIT_EXPECT = 0, 1, 2, 3, 4, 5
-EXIT_CODES = {
-    EXIT_OK: "ok: every solve reached its goal and every expect: held",
-    EXIT_SOLVER: "a solver did not reach a target (outputs written, status says which)",
-    EXIT_BAD_INPUT: "bad input or an unusable output folder (nothing written)",
-    EXIT_INTERNAL: "internal error (a bug: please report it)",
-    EXIT_OUTPUT: "an output file could not be written (previous outputs intact)",
-    EXIT_EXPECT: "an expect: entry did not hold (outputs written, summary says which)",
-    130: "interrupted (SIGINT)",
-    143: "terminated (SIGTERM)",
-}
+from mechkin.errors import EXIT_CODES, EXIT_EXPECT, EXIT_OK, EXIT_SOLVER  # noqa: E402
 
 __all__ = ["EXIT_CODES", "EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report"]
 
