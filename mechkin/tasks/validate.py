@@ -303,6 +303,10 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
         for k in (getattr(spec.ik, key) or {}):
             if k not in names:
                 out.append(_unknown_joint(sc, ("track", "ik", key, k), k, names, "a joint"))
+    if not out:  # the hand path's start pose and the conveyor, as the run computes them
+        from mechkin.tasks.track_preflight import preflight_problems
+
+        out += preflight_problems(sc, mech)
     return out
 
 
