@@ -482,6 +482,10 @@ def expect_problems(sc: Any, mech: Any | None) -> list[str]:
                        f"{short(parts[0])} (keys: {short_list(sorted(top), 80)})")
             continue
         msg = _deep_key_problem(sc, mech, parts)
+        if not msg:  # the keys below the top, at any depth (tasks/expect_keys.py)
+            from mechkin.tasks.expect_keys import deep_key_problem
+
+            msg = deep_key_problem(sc, mech, parts, word=isinstance(e.value, str))
         if msg:
             out.append(f"{sc.doc.where(kp)}: {msg}")
     return out
