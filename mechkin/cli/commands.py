@@ -12,7 +12,6 @@ from __future__ import annotations
 import typer
 
 from mechkin import __version__
-from mechkin.errors import EXIT_CODES
 from mechkin.cli.check import check_cli
 from mechkin.cli.fk import fk_cli
 from mechkin.cli.ik import ik_cli
@@ -22,6 +21,7 @@ from mechkin.cli.run import run_cli
 from mechkin.cli.track import track_cli
 from mechkin.cli.warmup import warmup_cli
 from mechkin.cli.workspace import workspace_cli
+from mechkin.errors import EXIT_CODES
 
 app = typer.Typer(
     no_args_is_help=True,

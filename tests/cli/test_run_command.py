@@ -200,7 +200,7 @@ def test_bad_input_is_an_error_testcase_and_exit_2(tmp_path):
                 str(junit)])
     assert res.exit_code == 2, res.output
     root = _junit(junit)
-    err = root.find(".//testcase[@file='%s']/error" % bad)
+    err = root.find(f".//testcase[@file='{bad}']/error")
     assert err is not None and err.get("type") == "exit 2: bad input"
     assert str(bad) in err.get("message")
     assert root.find(f".//testcase[@file='{good}']/failure") is None
