@@ -11,7 +11,14 @@ import math
 from collections.abc import Iterator
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from mechkin.config.drawing_spec import DrawingSpec
 from mechkin.config.load import YamlDoc, format_key_path
@@ -47,17 +54,37 @@ class FrameSpec(Spec):
     rpy: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
+class InertiaByName(Spec):
+    """The inertia tensor by URDF's names (``<inertia ixx= ixy= ixz= iyy= iyz= izz=/>``)."""
+
+    ixx: Num
+    ixy: Num
+    ixz: Num
+    iyy: Num
+    iyz: Num
+    izz: Num
+
+
 class InertialSpec(Spec):
     """Rigid-body parameters of a link, in the link frame.
 
-    ``inertia`` is [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the centre of mass, in kg (length unit)^2.
+    ``inertia`` about the centre of mass, in kg (length unit)^2: six numbers in the order
+    [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] (MuJoCo's fullinertia order), or by URDF's names
+    ``{ixx, ixy, ixz, iyy, iyz, izz}`` (stored in the positional order).
     """
 
     mass: NonNegNum
     com: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
-    inertia: Annotated[list[Num], Field(min_length=6, max_length=6)] = Field(
+    inertia: Annotated[list[Num], Field(min_length=6, max_length=6)] | InertiaByName = Field(
         default_factory=lambda: [0.0] * 6
     )
+
+    @field_validator("inertia", mode="after")
+    @classmethod
+    def _positional(cls, v: Any) -> Any:
+        if isinstance(v, InertiaByName):  # URDF names -> [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]
+            return [v.ixx, v.iyy, v.izz, v.ixy, v.ixz, v.iyz]
+        return v
 
 
 class LinkSpec(Spec):

@@ -131,9 +131,12 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
     "InertialSpec": {
         "mass": "Mass [kg].",
         "com": f"Centre of mass in the link frame {_L}.",
-        "inertia": "[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the centre of mass, in kg (length "
-                   "unit)^2.",
+        "inertia": "About the centre of mass, in kg (length unit)^2: [Ixx, Iyy, Izz, Ixy, "
+                   "Ixz, Iyz] (MuJoCo's fullinertia order, not URDF's), or by URDF's names "
+                   "{ixx, ixy, ixz, iyy, iyz, izz}.",
     },
+    "InertiaByName": {k: f"I{k[1:]} (URDF <inertia {k}=...>)." for k in
+                      ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
     "LinkSpec": {
         "name": "Name of the link (unique in the mechanism).",
         "description": "Free text about the link.",
