@@ -175,3 +175,90 @@ def test_group_and_word_keys(tmp_path):
         {"key": "n_steps", "value": "ok"}))
     problems, _ = check_file_status(q)
     assert len(problems) == 1 and "is compared only with a status key" in problems[0]
+
+
+# ---- mutated scenarios: check ok -> not refused by the run ----------------------------------
+
+CHEAP = ["delta_fk", "five_bar_fk", "five_bar_ik", "delta_workspace", "hwang2023_fig7_h",
+         "planar_3rrr_fk"]
+
+
+def _numeric_paths(obj, pre=()):
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _numeric_paths(v, (*pre, k))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _numeric_paths(v, (*pre, i))
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        yield pre
+
+
+def _set(d, path, value):
+    for k in path[:-1]:
+        d = d[k]
+    d[path[-1]] = value
+
+
+def _mutate(d, rng):
+    """One edit of a scenario dict: a number scaled, negated, zeroed or made a string; a joint
+    or key renamed; a key dropped."""
+    d = json.loads(json.dumps(d))
+    section = next(k for k in ("fk", "ik", "biped", "workspace", "track") if k in d)
+    paths = [p for p in _numeric_paths(d[section])]
+    op = int(rng.integers(5))
+    if op <= 2 and paths:
+        p = (section, *paths[int(rng.integers(len(paths)))])
+        cur = d
+        for k in p:
+            cur = cur[k]
+        new = [cur * 10.0, -cur, 0, cur * 0.5, "1e-3", cur + 1000.0][int(rng.integers(6))]
+        _set(d, p, new)
+    elif op == 3:  # rename a key of a mapping in the section
+        maps = [p for p in _dict_paths(d[section])]
+        p = maps[int(rng.integers(len(maps)))]
+        m = d[section]
+        for k in p:
+            m = m[k]
+        if m:
+            k = list(m)[int(rng.integers(len(m)))]
+            m[k + "x"] = m.pop(k)
+    else:  # drop a key of the section
+        keys = list(d[section])
+        d[section].pop(keys[int(rng.integers(len(keys)))])
+    return d
+
+
+def _dict_paths(obj, pre=()):
+    if isinstance(obj, dict):
+        yield pre
+        for k, v in obj.items():
+            yield from _dict_paths(v, (*pre, k))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _dict_paths(v, (*pre, i))
+
+
+def test_200_mutated_scenarios_check_ok_means_the_run_accepts(tmp_path):
+    rng = np.random.default_rng(1)
+    base = {}
+    for name in CHEAP:
+        d = yaml.safe_load((SCEN / f"{name}.yaml").read_text())
+        d["mechanism"] = str((SCEN / d["mechanism"]).resolve())
+        base[name] = d
+    ok, refused = [], []
+    for k in range(200):
+        name = CHEAP[k % len(CHEAP)]
+        d = _mutate(base[name], rng)
+        d["name"] = f"m{k:03d}_{name}"
+        p = tmp_path / f"{d['name']}.yaml"
+        p.write_text(yaml.safe_dump(d, sort_keys=False))
+        problems, internal = check_file_status(p)
+        assert not internal, problems
+        (refused if problems else ok).append(p)
+    assert len(ok) > 20 and len(refused) > 20
+    # a sample of each runs for real: refused by check -> refused by the run (exit 2);
+    # ok by check -> the run starts (exit 0, 1 or 5: a solver or an expect may fail)
+    for p in ok[:6] + refused[:3]:
+        res = runner.invoke(app, ["run", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
+        assert (res.exit_code == 2) == (p in refused), (p.name, res.output)
