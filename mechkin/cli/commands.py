@@ -102,16 +102,37 @@ def version_cli() -> None:
 
 def run_app(argv: list[str] | None = None) -> None:
     """Run the typer app on ``argv`` (default ``sys.argv[1:]``), built with the named
-    subcommand only when there is one (Ctrl-C outside a command: one line, exit 130)."""
+    subcommand only when there is one; a bad option or argument (``--workers 0``) is one line
+    ``mechkin fk: error: ... (see --help)`` (exit 2); Ctrl-C outside a command: one line, exit
+    130. Leaves with SystemExit(code)."""
     import sys
+
+    import click
 
     args = sys.argv[1:] if argv is None else argv
     name = args[0] if args and args[0] in COMMANDS else None
     try:
-        build_app(name)(args=args)
+        code = build_app(name)(args=args, standalone_mode=False)
+    except click.exceptions.NoArgsIsHelpError as exc:  # plain `mechkin`: the help
+        exc.show()
+        raise SystemExit(exc.exit_code) from None
+    except click.UsageError as exc:
+        ctx = exc.ctx
+        where = ctx.command_path if ctx is not None else "mechkin"
+        msg = " ".join(str(exc.format_message()).split())
+        msg = msg if len(msg) <= 200 else msg[:197] + "..."
+        sys.stderr.write(f"{where}: error: {msg} (see --help)\n")
+        raise SystemExit(exc.exit_code) from None
+    except click.ClickException as exc:
+        exc.show()
+        raise SystemExit(exc.exit_code) from None
+    except click.exceptions.Abort:
+        typer.echo("Aborted!", err=True)
+        raise SystemExit(1) from None
     except KeyboardInterrupt:  # outside a command's own handler (argument parsing, start-up)
         typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
         raise SystemExit(130) from None
+    raise SystemExit(code if isinstance(code, int) else 0)
 
 
 _APP: list[typer.Typer] = []
