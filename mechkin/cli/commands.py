@@ -107,26 +107,29 @@ def run_app(argv: list[str] | None = None) -> None:
     130. Leaves with SystemExit(code)."""
     import sys
 
-    import click
+    try:  # typer >= 0.22 carries its own copy of click
+        from typer._click import exceptions as click_exc
+    except ImportError:  # pragma: no cover - older typer: click itself
+        from click import exceptions as click_exc
 
     args = sys.argv[1:] if argv is None else argv
     name = args[0] if args and args[0] in COMMANDS else None
     try:
         code = build_app(name)(args=args, standalone_mode=False)
-    except click.exceptions.NoArgsIsHelpError as exc:  # plain `mechkin`: the help
+    except click_exc.NoArgsIsHelpError as exc:  # plain `mechkin`: the help
         exc.show()
         raise SystemExit(exc.exit_code) from None
-    except click.UsageError as exc:
+    except click_exc.UsageError as exc:
         ctx = exc.ctx
         where = ctx.command_path if ctx is not None else "mechkin"
         msg = " ".join(str(exc.format_message()).split())
         msg = msg if len(msg) <= 200 else msg[:197] + "..."
         sys.stderr.write(f"{where}: error: {msg} (see --help)\n")
         raise SystemExit(exc.exit_code) from None
-    except click.ClickException as exc:
+    except click_exc.ClickException as exc:
         exc.show()
         raise SystemExit(exc.exit_code) from None
-    except click.exceptions.Abort:
+    except typer.Abort:
         typer.echo("Aborted!", err=True)
         raise SystemExit(1) from None
     except KeyboardInterrupt:  # outside a command's own handler (argument parsing, start-up)
