@@ -26,9 +26,8 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
-from mechkin.errors import OutputDirError
+from mechkin.errors import EXIT_CODES, OutputDirError
 from mechkin.io.atomic import atomic_write_text
-from mechkin.records import EXIT_CODES
 
 _KIND = {1: "solver result not ok", 2: "bad input", 3: "internal error", 4: "output error",
          5: "expect failed"}
