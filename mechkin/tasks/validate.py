@@ -37,6 +37,7 @@ import numpy as np
 
 from mechkin.config.load import short, short_list, short_str
 from mechkin.errors import ConfigError, MechkinError
+from mechkin.tasks.budget import MAX_TIME_S
 
 MAX_STEPS = 1_000_000
 MAX_SWEEP_SAMPLES = 5_000_000
@@ -155,6 +156,9 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
                 out.append(f"{doc.where(('fk', 'table', 't'))}: times must be non-decreasing")
             if t[0] < 0:
                 out.append(f"{doc.where(('fk', 'table', 't'))}: times must be >= 0")
+            if t[-1] > MAX_TIME_S:
+                out.append(f"{doc.where(('fk', 'table', 't'))}: times must be at most "
+                           f"{MAX_TIME_S:g} s, got {t[-1]:.3g}")
     elif spec.csv is not None:
         try:
             path = (doc.path.parent / spec.csv).resolve()

@@ -60,6 +60,9 @@ def _listed_poses(sc: Scenario, columns: tuple[str, ...], optional: tuple[str, .
     if not path.is_file():
         raise ConfigError(f"{sc.doc.where(('workspace', 'poses_csv'))}: file not found: "
                           f"{spec.poses_csv} (resolved to {path})")
+    from mechkin.config.guarded_read import MAX_TABLE_BYTES, check_file
+
+    check_file(path, what="poses CSV", limit=MAX_TABLE_BYTES)  # a regular file, size capped
     with path.open(newline="") as fh:
         rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
     if len(rows) < 2:

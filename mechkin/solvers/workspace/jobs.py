@@ -6,7 +6,9 @@ argument per job) in order, sequentially (``workers=1``), on local processes
 scheduler; needs the optional extra ``mechkin[dask]``). Results come back in job order and a
 job never depends on how many workers there are, so every executor gives identical results.
 A ``progress(done, total)`` callback reports completed jobs. :func:`connect_cluster` checks a
-scheduler before any work. Split out of ``sweeps.py`` (issue 23: modules that fit in a head);
+scheduler before any work, every probe bounded by ``MECHKIN_DASK_TIMEOUT`` (in (0, 600] s): a
+refused port answers at once, a stopped worker's silence times out. Local workers leave as soon
+as mechkin's process is gone (:func:`die_with_parent`). Split out of ``sweeps.py`` (issue 23: modules that fit in a head);
 the names stay importable from :mod:`mechkin.solvers.workspace.sweeps`.
 
 Imports: the standard library (dask lazily), mechkin.errors.
@@ -45,6 +47,44 @@ def _mp_context() -> multiprocessing.context.BaseContext:
         ctx.set_forkserver_preload(["mechkin.solvers.workspace.sweeps"])
         return ctx
     return multiprocessing.get_context("spawn")
+
+
+def die_with_parent(main_pid: int) -> None:
+    """A worker's initializer: the worker leaves as soon as mechkin's process ``main_pid`` is
+    gone, however it ended (SIGKILL included). A forkserver's workers hold the server's
+    liveness pipe, so neither the server nor they would otherwise notice; a daemon thread
+    polls ``main_pid`` once a second (and on Linux the kernel also kills the worker with its
+    parent, PR_SET_PDEATHSIG)."""
+    import signal
+    import threading
+    import time
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # pragma: no cover - no prctl
+            pass
+
+    def gone() -> bool:
+        try:
+            os.kill(main_pid, 0)
+        except ProcessLookupError:
+            return True
+        except OSError:
+            return False
+        return False
+
+    def watch() -> None:
+        while not gone():
+            time.sleep(1.0)
+        os._exit(1)
+
+    if gone():
+        os._exit(1)
+    threading.Thread(target=watch, daemon=True, name="mechkin-parent-watch").start()
 
 
 def run_jobs(
@@ -98,7 +138,8 @@ def run_jobs(
                 progress(i + 1, total)
         return out
     results: list[Any] = [None] * total
-    with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context()) as pool:
+    with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures: dict[Future[R], int] = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
         _collect(as_completed(futures), futures, results, total, progress)
     return results
@@ -117,13 +158,72 @@ DASK_TIMEOUT_S = 10.0
 _PROBE = "__import__('mechkin').__version__"
 
 
+#: The longest wait ``MECHKIN_DASK_TIMEOUT`` may ask for.
+MAX_DASK_TIMEOUT_S = 600.0
+
+
 def _dask_timeout() -> float:
+    """``MECHKIN_DASK_TIMEOUT`` seconds, in (0, 600] (ClusterError otherwise: 1e308 or inf
+    would wait for ever), default :data:`DASK_TIMEOUT_S`."""
+    import math
     import os
 
-    try:
-        return float(os.environ.get("MECHKIN_DASK_TIMEOUT", DASK_TIMEOUT_S))
-    except ValueError:
+    from mechkin.errors import ClusterError
+
+    raw = os.environ.get("MECHKIN_DASK_TIMEOUT", "")
+    if not raw.strip():
         return DASK_TIMEOUT_S
+    try:
+        t = float(raw)
+    except ValueError:
+        t = math.nan
+    if not 0 < t <= MAX_DASK_TIMEOUT_S:
+        raise ClusterError(f"MECHKIN_DASK_TIMEOUT: expected seconds in (0, "
+                           f"{MAX_DASK_TIMEOUT_S:g}], got {raw[:40]!r}")
+    return t
+
+
+def _port_open(address: str, timeout: float) -> OSError | None:
+    """Connect to ``tcp://host:port`` once (a refused port answers at once, where the Dask
+    comm retries until its timeout); the error, or None if something listens."""
+    import socket
+    from urllib.parse import urlsplit
+
+    try:
+        u = urlsplit(address)
+        host, port = u.hostname, u.port
+    except ValueError as exc:
+        return OSError(str(exc))
+    if not host or port is None:
+        return None  # let the comm report it
+    try:
+        with socket.create_connection((host, port), timeout=min(timeout, 5.0)):
+            return None
+    except OSError as exc:
+        return exc
+
+
+def _run_with_timeout(fn: Callable[[], R], timeout: float) -> tuple[bool, R | None]:
+    """(True, fn()) if ``fn`` returns within ``timeout`` s, else (False, None); ``fn`` runs in
+    a daemon thread (a stopped worker never answers a broadcast)."""
+    import threading
+
+    box: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            box["value"] = fn()
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller
+            box["error"] = exc
+
+    th = threading.Thread(target=target, daemon=True, name="mechkin-dask-probe")
+    th.start()
+    th.join(timeout)
+    if th.is_alive():
+        return False, None
+    if "error" in box:
+        raise box["error"]
+    return True, box.get("value")
 
 
 def _probe_scheduler(address: str, shown: str, timeout: float) -> None:
@@ -134,6 +234,13 @@ def _probe_scheduler(address: str, shown: str, timeout: float) -> None:
     from distributed.core import rpc
 
     from mechkin.errors import ClusterError
+
+    if address.startswith("tcp://"):
+        err = _port_open(address, timeout)
+        if err is not None:
+            raise ClusterError(f"--scheduler {shown}: no Dask scheduler answered "
+                               f"({type(err).__name__}: {err.strerror or err}); is it running "
+                               "at that address?")
 
     async def ask() -> Any:
         r = rpc(address, timeout=timeout)
@@ -188,7 +295,11 @@ def connect_cluster(address: str) -> Any:
         except (TimeoutError, OSError):
             raise ClusterError(f"--scheduler {shown}: the scheduler has no workers (none "
                                f"joined within {timeout:g} s)") from None
-        versions = client.run(eval, _PROBE, on_error="return")
+        answered, versions = _run_with_timeout(
+            lambda: client.run(eval, _PROBE, on_error="return"), timeout)
+        if not answered or not isinstance(versions, dict):
+            raise ClusterError(f"--scheduler {shown}: the workers did not answer within "
+                               f"{timeout:g} s (a stopped or overloaded worker?)")
         bad = {w: v for w, v in versions.items() if v != __version__}
         if bad:
             w, v = next(iter(bad.items()))
