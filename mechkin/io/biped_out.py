@@ -14,6 +14,7 @@ import numpy as np
 
 from mechkin.io.foxglove_layout import layout, state_path
 from mechkin.io.mcap_out import Box, Label, Lines, MotionLog, Scene, Spheres, write_mcap
+from mechkin.io.motion_out import robot_text
 from mechkin.io.output_dir import OutputDir
 from mechkin.records import Report
 from mechkin.records.biped import BipedRecord
@@ -125,4 +126,4 @@ def biped_log(rec: BipedRecord) -> MotionLog:
         frame_parents=all_parents, T_parent_child=T_all, joint_names=list(rec.joint_names),
         q=rec.q, qd=rec.qd if rec.qd.shape == rec.q.shape else None, scene=scene,
         state=rec.state, state_schema=rec.state_schema,
-        metadata=rec.metadata)
+        metadata=rec.metadata, robot_description=robot_text(rec.robot))

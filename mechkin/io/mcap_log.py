@@ -186,6 +186,10 @@ class MotionLog:
         Log time of ``t = 0`` [ns].
     metadata : mapping of str to str
         Written as the MCAP metadata record ``"mechkin"`` (scenario name, version ...).
+    robot_description : str, optional
+        The URDF of the mechanism (its spanning tree, with visuals): written once, at the first
+        step, on ``/robot_description`` (``{"data": urdf}``, schema ``std_msgs/msg/String``,
+        which Foxglove's URDF layer reads) and as the attachment ``robot.urdf``.
 
     Raises
     ------
@@ -209,6 +213,7 @@ class MotionLog:
     state_schema: Mapping[str, Any] | None = None
     epoch_ns: int = 0
     metadata: Mapping[str, str] = field(default_factory=dict)
+    robot_description: str | None = None
 
     def __post_init__(self) -> None:
         t = _as_float_array(self.times, "times")
@@ -254,6 +259,10 @@ class MotionLog:
             raise OutputError(f"epoch_ns: expected an integer, got {self.epoch_ns!r}")
         if self.epoch_ns < 0:
             raise OutputError(f"epoch_ns: expected >= 0, got {self.epoch_ns}")
+        if self.robot_description is not None and not (
+                isinstance(self.robot_description, str) and self.robot_description.strip()):
+            raise OutputError("robot_description: expected URDF text, got "
+                              f"{self.robot_description!r:.40}")
 
     @property
     def log_times_ns(self) -> np.ndarray:

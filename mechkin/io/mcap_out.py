@@ -10,6 +10,8 @@ topic               schema (encoding)          content, one message per time ste
                                                boxes, text labels
 ``/joint_states``   foxglove.JointStates       name, position, velocity, acceleration, effort
 ``/mechkin/state``  JSON (JSON schema)         ``{"timestamp": {"sec", "nsec"}, **state[i]}``
+``/robot_descr...`` std_msgs/msg/String (JSON) ``{"data": urdf}``, once at the first step, and the
+                                               same URDF as the attachment ``robot.urdf``
 ==================  =========================  ====================================================
 
 Times are simulated time: ``log_time = publish_time = round(t * 1e9) + epoch_ns`` and every
@@ -49,12 +51,13 @@ from mechkin.io.mcap_log import (
     poses_in_root,
     skeleton_scene,
 )
-from mechkin.io.topics import TOPIC_JOINTS, TOPIC_SCENE, TOPIC_STATE, TOPIC_TF
+from mechkin.io.topics import TOPIC_JOINTS, TOPIC_ROBOT, TOPIC_SCENE, TOPIC_STATE, TOPIC_TF
 
 __all__ = [
     "NS_PER_S",
     "RGBA",
     "TOPIC_JOINTS",
+    "TOPIC_ROBOT",
     "TOPIC_SCENE",
     "TOPIC_STATE",
     "TOPIC_TF",
@@ -72,6 +75,13 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 CHUNK_SIZE = 1 << 20
+#: Schema of ``/robot_description``: the ROS message Foxglove's URDF layer subscribes to
+#: (``URDF_TOPIC_SCHEMAS`` in Lichtblick's ``renderables/Urdfs.ts``), JSON-encoded.
+ROBOT_SCHEMA_NAME = "std_msgs/msg/String"
+ROBOT_SCHEMA = {"type": "object", "title": ROBOT_SCHEMA_NAME,
+                "properties": {"data": {"type": "string", "description": "URDF XML"}},
+                "required": ["data"]}
+ROBOT_ATTACHMENT = "robot.urdf"
 
 # ---------------------------------------------------------------------------------------------
 # The writer.
@@ -142,8 +152,20 @@ def write_mcap(path: str | os.PathLike[str], lg: MotionLog, *, fsync: bool = Tru
             else:
                 sid = register_schema(writer, type(ch.msg))
                 ids.append(writer.register_channel(topic, "protobuf", sid))
+        robot_id = None
+        if lg.robot_description is not None:
+            sid = writer.register_schema(name=ROBOT_SCHEMA_NAME, encoding="jsonschema",
+                                         data=json.dumps(ROBOT_SCHEMA).encode("utf-8"))
+            robot_id = writer.register_channel(TOPIC_ROBOT, "json", sid)
         if lg.metadata:
             writer.add_metadata("mechkin", {str(k): str(v) for k, v in lg.metadata.items()})
+        if robot_id is not None:
+            urdf = lg.robot_description or ""
+            writer.add_message(robot_id, log_time=log_ns[0], publish_time=log_ns[0], sequence=0,
+                               data=json.dumps({"data": urdf}).encode("utf-8"))
+            writer.add_attachment(create_time=log_ns[0], log_time=log_ns[0],
+                                  name=ROBOT_ATTACHMENT, media_type="application/xml",
+                                  data=urdf.encode("utf-8"))
         for i, ns in enumerate(log_ns):
             for cid, (_, ch) in zip(ids, channels, strict=False):
                 writer.add_message(cid, log_time=ns, data=ch.step(i, ns), publish_time=ns,

@@ -94,6 +94,15 @@ def frame_tree_of(rec: MotionRecord) -> tuple[str | None, list[str], list[str], 
             [rec.world_frame, *rec.frame_parents], T_pc)
 
 
+def robot_text(robot: Any) -> str | None:
+    """The URDF of a record's robot model (None without one)."""
+    if robot is None:
+        return None
+    from mechkin.io.urdf_out import robot_urdf
+
+    return robot_urdf(robot)
+
+
 def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog:
     from mechkin.io.mcap_out import MotionLog
 
@@ -105,7 +114,7 @@ def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog
         T_parent_child=T_pc, joint_names=list(rec.joint_names), q=rec.q, qd=rec.qd,
         effort=effort, scene=motion_scene(rec), state=rec.state,
         state_schema=state_schema(rec.task) if rec.task in STATE_FIELDS else None,
-        metadata=rec.metadata,
+        metadata=rec.metadata, robot_description=robot_text(rec.robot),
     )
 
 

@@ -162,6 +162,7 @@ def _belt_stripes(t: np.ndarray, v: np.ndarray, R: np.ndarray, centre: np.ndarra
 
 def _write_mcap(od: OutputDir, rec: TrackRecord) -> None:
     from mechkin.io.mcap_out import Box, Lines, MotionLog, Scene, Spheres, write_mcap
+    from mechkin.io.motion_out import robot_text
 
     traj = rec.trajectory
     seg = rec.segments
@@ -210,7 +211,7 @@ def _write_mcap(od: OutputDir, rec: TrackRecord) -> None:
         scene=Scene(lines=tuple(lines), spheres=(Spheres(rec.axis_points, radius=0.015 * size),),
                     boxes=tuple(boxes), entity_id="track"),
         state=state, state_schema=state_schema(rec),
-        metadata=dict(rec.metadata),
+        metadata=dict(rec.metadata), robot_description=robot_text(rec.robot),
     )
     write_mcap(od.path_for("track.mcap"), log)
 

@@ -60,6 +60,8 @@ class MotionRecord:
     table : str
         Format of the ``<task>`` table: ``csv`` (``<task>.csv``), ``npz`` or ``parquet``
         (``outputs.table``; :mod:`mechkin.io.table_out`).
+    robot : RobotDescription, optional
+        The robot model for the MCAP's URDF (:mod:`mechkin.records.robot`); None without MCAP.
     """
 
     task: str
@@ -89,3 +91,4 @@ class MotionRecord:
     world_frame: str | None = None
     T_world_base: np.ndarray | None = None
     table: str = "csv"
+    robot: Any = None

@@ -24,7 +24,7 @@ import numpy as np
 
 from mechkin.records.robot import RobotDescription, Visual
 
-__all__ = ["link_visuals", "robot_description"]
+__all__ = ["link_visuals", "rate_limits", "robot_description"]
 
 MATERIALS = {
     "link": (0.55, 0.6, 0.68, 1.0),
@@ -145,6 +145,26 @@ def _plate_vertices(mech: Any, kin: Any, refs: tuple, T_f: np.ndarray) -> np.nda
     for kind, i in refs:
         pts.append(T_f[i, :3, 3] if kind == "frame" else jo[i])
     return np.asarray(pts)
+
+
+def rate_limits(mech: Any, limits: dict[str, tuple[np.ndarray, np.ndarray]]
+                ) -> dict[str, tuple[float, float]]:
+    """joint -> (velocity, effort) from a track run's per-joint limits ``{"velocity": (lo, hi),
+    "torque": (lo, hi)}``: the smaller magnitude of each pair (URDF limits are symmetric), 0
+    where the run has none."""
+    def sym(key: str, k: int) -> float:
+        if key not in limits:
+            return 0.0
+        lo, hi = (float(np.asarray(a, dtype=float)[k]) for a in limits[key])
+        v = min(abs(lo), abs(hi))
+        return v if np.isfinite(v) else 0.0
+
+    out = {}
+    for k, name in enumerate(mech.joint_names):
+        vel, eff = sym("velocity", k), sym("torque", k)
+        if vel or eff:
+            out[name] = (vel, eff)
+    return out
 
 
 def robot_description(mech: Any, rate_limits: dict[str, tuple[float, float]] | None = None
