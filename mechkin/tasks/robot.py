@@ -149,19 +149,21 @@ def _plate_vertices(mech: Any, kin: Any, refs: tuple, T_f: np.ndarray) -> np.nda
 
 def rate_limits(mech: Any, limits: dict[str, tuple[np.ndarray, np.ndarray]]
                 ) -> dict[str, tuple[float, float]]:
-    """joint -> (velocity, effort) from a track run's per-joint limits ``{"velocity": (lo, hi),
-    "torque": (lo, hi)}``: the smaller magnitude of each pair (URDF limits are symmetric), 0
-    where the run has none."""
+    """joint -> (velocity, effort) from a track run's per-joint limits ``{"qd": (lo, hi),
+    "torque": (lo, hi)}`` (:func:`mechkin.config.track_spec.limits_si`): the smaller magnitude
+    of each pair (URDF limits are symmetric), 0 where the run has none."""
     def sym(key: str, k: int) -> float:
         if key not in limits:
             return 0.0
-        lo, hi = (float(np.asarray(a, dtype=float)[k]) for a in limits[key])
-        v = min(abs(lo), abs(hi))
+        lo_a, hi_a = (np.atleast_1d(np.asarray(a, dtype=float)) for a in limits[key])
+        if lo_a.shape != (mech.n,) or hi_a.shape != (mech.n,):
+            return 0.0
+        v = min(abs(float(lo_a[k])), abs(float(hi_a[k])))
         return v if np.isfinite(v) else 0.0
 
     out = {}
     for k, name in enumerate(mech.joint_names):
-        vel, eff = sym("velocity", k), sym("torque", k)
+        vel, eff = sym("qd", k), sym("torque", k)
         if vel or eff:
             out[name] = (vel, eff)
     return out
