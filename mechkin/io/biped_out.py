@@ -47,7 +47,8 @@ def biped_layout(rec: BipedRecord) -> dict:
 
     return layout("world", list(rec.joint_names),
                   [("legs: FK position error [m]", series("position_error_{s}_m", "error")),
-                   ("legs: foot angle beta [deg]", series("beta_{s}_deg", "beta"))])
+                   ("legs: foot angle beta [deg]", series("beta_{s}_deg", "beta"))],
+                  robot=rec.robot is not None, title="biped")
 
 
 def plot_biped(path, rec: BipedRecord) -> None:

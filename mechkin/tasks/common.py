@@ -217,6 +217,7 @@ def motion_record(
         rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child = frame_tree(
             mech, kin)
         rec.robot = robot_description(mech)
+        rec.motors = [mech.joint_names[i] for i in mech.independent]
         state = []
         for k in range(m):
             st: dict[str, Any] = {"status": step_status[k],

@@ -374,4 +374,5 @@ def _record(scenario: Scenario, mech: Mechanism, res: TrackResult, others: list[
         from mechkin.tasks.robot import rate_limits, robot_description
 
         rec.robot = robot_description(mech, rate_limits(mech, rec.limits))
+        rec.motors = [mech.joint_names[i] for i in mech.independent]
     return rec
