@@ -152,7 +152,6 @@ def urdf_fk_errors(data: dict[str, Any]) -> tuple[float, int, int]:
     robot = yourdfpy.URDF.load(io.StringIO(urdf), build_scene_graph=False, load_meshes=False,
                                build_collision_scene_graph=False, load_collision_meshes=False)
     states = data["msgs"]["/joint_states"]
-    tfs = dict(data["msgs"]["/tf"])
     names = [j.name for j in states[0][1].joints]
     q = np.array([[j.position for j in msg.joints] for _, msg in states])
     col = {n: i for i, n in enumerate(names)}
@@ -176,31 +175,42 @@ def urdf_fk_errors(data: dict[str, Any]) -> tuple[float, int, int]:
             T_w[link] = pose(j.parent) @ origin @ _axis_motion(j.type, np.asarray(j.axis), qj)
         return T_w[link]
 
+    worlds = dict(zip([t for t, _ in data["msgs"]["/tf"]], tf_world_poses(data), strict=True))
     worst, links = 0.0, 0
     for i, (t, _) in enumerate(states):
-        msg = tfs[t]
-        local = {tr.child_frame_id: (tr.parent_frame_id, tr) for tr in msg.transforms}
-        world: dict[str, np.ndarray] = {}
-
-        def tf_pose(f: str, local: dict = local, world: dict = world) -> np.ndarray:
-            if f not in local:
-                return np.eye(4)
-            if f not in world:
-                p, tr = local[f]
-                T = np.eye(4)
-                T[:3, :3] = _quat_matrix(tr.rotation.x, tr.rotation.y, tr.rotation.z,
-                                         tr.rotation.w)
-                T[:3, 3] = (tr.translation.x, tr.translation.y, tr.translation.z)
-                world[f] = tf_pose(p) @ T
-            return world[f]
-
-        T_root = tf_pose(root)  # the URDF root's pose in the /tf root (a moving base)
+        world = worlds[t]
+        T_root = world.get(root, np.eye(4))  # the URDF root's pose in the /tf root (moving base)
         links = 0
         for link in robot.link_map:
             if link == root:
                 continue
-            assert link in local, f"URDF link {link} not in /tf"
-            err = np.abs(T_root @ pose(link)[i] - tf_pose(link)).max()
+            assert link in world, f"URDF link {link} not in /tf"
+            err = np.abs(T_root @ pose(link)[i] - world[link]).max()
             worst = max(worst, float(err))
             links += 1
     return worst, len(states), links
+
+
+def tf_world_poses(data: dict[str, Any]) -> list[dict[str, np.ndarray]]:
+    """Per /tf message: frame -> pose (4, 4) in the /tf root, chained parent to child."""
+    out = []
+    for _, msg in data["msgs"]["/tf"]:
+        local = {tr.child_frame_id: tr for tr in msg.transforms}
+        world: dict[str, np.ndarray] = {}
+
+        def chain(f: str, local: dict = local, world: dict = world) -> np.ndarray:
+            if f not in local:
+                return np.eye(4)
+            if f not in world:
+                tr = local[f]
+                T = np.eye(4)
+                T[:3, :3] = _quat_matrix(tr.rotation.x, tr.rotation.y, tr.rotation.z,
+                                         tr.rotation.w)
+                T[:3, 3] = (tr.translation.x, tr.translation.y, tr.translation.z)
+                world[f] = chain(tr.parent_frame_id) @ T
+            return world[f]
+
+        for f in local:
+            chain(f)
+        out.append(world)
+    return out

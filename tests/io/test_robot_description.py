@@ -1,0 +1,83 @@
+"""The robot in every MCAP (issue 27): bundled scenarios of every task, open and closed chains,
+run in-process with plots off; each MCAP passes the strict check, its ``/robot_description``
+parses as URDF (yourdfpy) and the URDF's forward kinematics at every logged ``/joint_states``
+message equals the logged ``/tf`` (chained to the root) to 1e-9 for every URDF link: the
+picture Foxglove's URDF layer draws equals the numbers mechkin computed.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.io.mcap_checks import strict_check, tf_world_poses, urdf_fk_errors
+
+ROOT = Path(__file__).resolve().parents[2]
+ATOL_POSE = 1e-9
+# every fk scenario (cheap), and ik, track and biped scenarios with open and closed chains
+SCENARIOS = {
+    "kim1995_direct_drive_fk": "fk",
+    "kim1995_direct_drive_moving_base_fk": "fk",
+    "kim1995_stewart_fk": "fk",            # closed: Stewart platform
+    "delta_fk": "fk",                      # closed
+    "five_bar_fk": "fk",                   # closed, planar
+    "planar_3rrr_fk": "fk",                # closed
+    "puma560_wave_fk": "fk",               # D-H links (<link>_dh in the URDF)
+    "ur5_fk": "fk",
+    "ur5_ik": "ik",
+    "kim1995_table6_stewart_ik": "ik",     # closed
+    "planar_3rrr_ik": "ik",                # closed
+    "planar3r_track_line": "track",
+    "kim1995_stewart_track": "track",      # closed
+    "hwang2023_walk_to_skate": "biped",
+}
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory) -> dict[str, tuple[Any, Path]]:
+    from mechkin.api import run
+
+    out = {}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("MECHKIN_JIT", "0")
+        if "NUMBA_CACHE_DIR" not in os.environ:
+            mp.setenv("NUMBA_CACHE_DIR", str(tmp_path_factory.mktemp("numba")))
+        for name, task in SCENARIOS.items():
+            report = run(ROOT / "scenarios" / f"{name}.yaml")
+            folder = tmp_path_factory.mktemp(name)
+            report.write(folder, plots=False)
+            out[name] = (report, folder / f"{task}.mcap")
+    return out
+
+
+@pytest.mark.parametrize("name", list(SCENARIOS))
+def test_urdf_forward_kinematics_equals_tf_at_every_joint_state(written, name):
+    report, path = written[name]
+    data = strict_check(path)
+    err, n_msgs, n_links = urdf_fk_errors(data)
+    assert n_msgs == len(data["msgs"]["/tf"]) and n_links >= 3
+    assert err <= ATOL_POSE, f"{name}: URDF FK differs from /tf by {err:.3g}"
+
+
+@pytest.mark.parametrize("name", ["kim1995_stewart_fk", "five_bar_fk", "kim1995_stewart_track"])
+def test_closed_chains_are_drawn_closed(written, name):
+    """Every joint (passive ones too) is in /joint_states, so the URDF's two branches of each
+    loop end at the same place at every step: the cut frames coincide in the picture."""
+    from mechkin.api import load_mechanism, load_scenario
+
+    report, path = written[name]
+    data = strict_check(path)
+    mech = load_mechanism(load_scenario(ROOT / "scenarios" / f"{name}.yaml").mechanism_path)
+    names = [j.name for j in data["msgs"]["/joint_states"][0][1].joints]
+    assert names == list(mech.joint_names)  # every joint, passive and coupled included
+    # the cut frames' positions, chained from /tf, coincide at every step
+    worst = 0.0
+    for c in mech.cuts:
+        a, b = mech.frame_names[c.a], mech.frame_names[c.b]
+        for world in tf_world_poses(data):
+            worst = max(worst, float(np.abs(world[a][:3, 3] - world[b][:3, 3]).max()))
+    assert worst <= 1e-6, f"{name}: a loop opens by {worst:.3g} m"
