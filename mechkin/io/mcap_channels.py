@@ -24,12 +24,15 @@ import numpy as np
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
+from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
+from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
 from mechkin.errors import OutputError
 from mechkin.io.mcap_log import (
     NS_PER_S,
     MotionLog,
+    Points,
     Scene,
     _as_float_array,
     _check_rotations,
@@ -270,3 +273,21 @@ class StateChannel:
         sec, nsec = divmod(ns, NS_PER_S)
         doc = {"timestamp": {"sec": sec, "nsec": nsec}, **self.values[i]}
         return json.dumps(doc, separators=(",", ":"), allow_nan=False).encode("utf-8")
+
+
+def point_cloud_message(pc: Points, ns: int) -> bytes:
+    """``foxglove.PointCloud`` of ``pc``: float32 x, y, z and each field, packed per point."""
+    pts = np.asarray(pc.points, dtype=np.float64)
+    cols = [pts[:, 0], pts[:, 1], pts[:, 2]] + [np.asarray(v, dtype=np.float64)
+                                                for v in pc.fields.values()]
+    names = ["x", "y", "z", *pc.fields]
+    msg = PointCloud()
+    _set_stamp(msg.timestamp, ns)
+    msg.frame_id = pc.frame_id
+    msg.pose.orientation.w = 1.0
+    msg.point_stride = 4 * len(names)
+    for i, name in enumerate(names):
+        f = msg.fields.add()
+        f.name, f.offset, f.type = name, 4 * i, PackedElementField.FLOAT32
+    msg.data = np.ascontiguousarray(np.stack(cols, axis=1).astype("<f4")).tobytes()
+    return msg.SerializeToString()

@@ -110,6 +110,26 @@ class Label:
 
 
 @dataclass(frozen=True, eq=False)
+class Points:
+    """A static point cloud (``foxglove.PointCloud``, written once at the first step): e.g. the
+    reachable positions of a workspace map with their isotropy index.
+
+    Parameters
+    ----------
+    frame_id : str
+        Frame of the points (a frame of the log's tree).
+    points : array, shape (p, 3)
+        Positions [m].
+    fields : mapping of str to array (p,)
+        Scalar fields per point (``isotropy`` ...), written as float32 beside x, y, z.
+    """
+
+    frame_id: str
+    points: np.ndarray
+    fields: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
 class Scene:
     """What ``/scene`` draws at every step: one SceneEntity ``entity_id`` in the root frame."""
 
@@ -190,6 +210,8 @@ class MotionLog:
         The URDF of the mechanism (its spanning tree, with visuals): written once, at the first
         step, on ``/robot_description`` (``{"data": urdf}``, schema ``std_msgs/msg/String``,
         which Foxglove's URDF layer reads) and as the attachment ``robot.urdf``.
+    point_clouds : mapping of topic to Points
+        Static point clouds, each written once at the first step on its topic.
 
     Raises
     ------
@@ -214,6 +236,7 @@ class MotionLog:
     epoch_ns: int = 0
     metadata: Mapping[str, str] = field(default_factory=dict)
     robot_description: str | None = None
+    point_clouds: Mapping[str, Points] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         t = _as_float_array(self.times, "times")
@@ -259,6 +282,16 @@ class MotionLog:
             raise OutputError(f"epoch_ns: expected an integer, got {self.epoch_ns!r}")
         if self.epoch_ns < 0:
             raise OutputError(f"epoch_ns: expected >= 0, got {self.epoch_ns}")
+        known = {self.root_frame, *names}
+        for topic, pc in self.point_clouds.items():
+            p = _as_float_array(pc.points, f"point_clouds[{topic!r}].points")
+            _check_shape(p, (None, 3), f"point_clouds[{topic!r}].points")
+            if pc.frame_id not in known:
+                raise OutputError(f"point_clouds[{topic!r}].frame_id: expected a frame of the "
+                                  f"log, got {pc.frame_id!r}")
+            for k, v in pc.fields.items():
+                a = _as_float_array(v, f"point_clouds[{topic!r}].fields[{k!r}]")
+                _check_shape(a, (p.shape[0],), f"point_clouds[{topic!r}].fields[{k!r}]")
         if self.robot_description is not None and not (
                 isinstance(self.robot_description, str) and self.robot_description.strip()):
             raise OutputError("robot_description: expected URDF text, got "

@@ -12,6 +12,7 @@ topic               schema (encoding)          content, one message per time ste
 ``/mechkin/state``  JSON (JSON schema)         ``{"timestamp": {"sec", "nsec"}, **state[i]}``
 ``/robot_descr...`` std_msgs/msg/String (JSON) ``{"data": urdf}``, once at the first step, and the
                                                same URDF as the attachment ``robot.urdf``
+point-cloud topics  foxglove.PointCloud        ``MotionLog.point_clouds``, once at the first step
 ==================  =========================  ====================================================
 
 Times are simulated time: ``log_time = publish_time = round(t * 1e9) + epoch_ns`` and every
@@ -33,12 +34,19 @@ import os
 from pathlib import Path
 from typing import Any
 
+from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
 from mcap.writer import CompressionType, IndexType, Writer
 from mcap_protobuf.schema import register_schema
 
 from mechkin import __version__
 from mechkin.io.atomic import atomic_path
-from mechkin.io.mcap_channels import JointChannel, SceneChannel, StateChannel, TfChannel
+from mechkin.io.mcap_channels import (
+    JointChannel,
+    SceneChannel,
+    StateChannel,
+    TfChannel,
+    point_cloud_message,
+)
 from mechkin.io.mcap_log import (
     NS_PER_S,
     RGBA,
@@ -46,6 +54,7 @@ from mechkin.io.mcap_log import (
     Label,
     Lines,
     MotionLog,
+    Points,
     Scene,
     Spheres,
     poses_in_root,
@@ -65,6 +74,7 @@ __all__ = [
     "Label",
     "Lines",
     "MotionLog",
+    "Points",
     "Scene",
     "Spheres",
     "poses_in_root",
@@ -157,6 +167,10 @@ def write_mcap(path: str | os.PathLike[str], lg: MotionLog, *, fsync: bool = Tru
             sid = writer.register_schema(name=ROBOT_SCHEMA_NAME, encoding="jsonschema",
                                          data=json.dumps(ROBOT_SCHEMA).encode("utf-8"))
             robot_id = writer.register_channel(TOPIC_ROBOT, "json", sid)
+        cloud_ids = {}
+        if lg.point_clouds:
+            sid = register_schema(writer, PointCloud)
+            cloud_ids = {t: writer.register_channel(t, "protobuf", sid) for t in lg.point_clouds}
         if lg.metadata:
             writer.add_metadata("mechkin", {str(k): str(v) for k, v in lg.metadata.items()})
         if robot_id is not None:
@@ -166,6 +180,9 @@ def write_mcap(path: str | os.PathLike[str], lg: MotionLog, *, fsync: bool = Tru
             writer.add_attachment(create_time=log_ns[0], log_time=log_ns[0],
                                   name=ROBOT_ATTACHMENT, media_type="application/xml",
                                   data=urdf.encode("utf-8"))
+        for topic, cid in cloud_ids.items():
+            writer.add_message(cid, log_time=log_ns[0], publish_time=log_ns[0], sequence=0,
+                               data=point_cloud_message(lg.point_clouds[topic], log_ns[0]))
         for i, ns in enumerate(log_ns):
             for cid, (_, ch) in zip(ids, channels, strict=False):
                 writer.add_message(cid, log_time=ns, data=ch.step(i, ns), publish_time=ns,

@@ -15,7 +15,7 @@ import numpy as np
 
 RGBA = tuple[float, float, float, float]
 
-__all__ = ["RGBA", "RobotDescription", "Visual"]
+__all__ = ["RGBA", "RobotDescription", "RobotSnapshot", "Visual"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,3 +68,30 @@ class RobotDescription:
     visuals: tuple[Visual, ...] = ()
     materials: dict[str, RGBA] = field(default_factory=dict)
     rate_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class RobotSnapshot:
+    """The robot at a few configurations, for logs of tasks that are not motions (a workspace
+    map shows the mechanism at home beside its point cloud).
+
+    Attributes
+    ----------
+    description : RobotDescription
+    root : str
+        The base frame.
+    frame_names, frame_parents : list of str
+        The URDF's frame tree (:func:`mechkin.model.urdf_tree.urdf_frame_tree`).
+    T_parent_child : array (m, k, 4, 4)
+    joint_names : list of str
+    q : array (m, n)
+        Every joint [rad | m].
+    """
+
+    description: RobotDescription
+    root: str
+    frame_names: list[str]
+    frame_parents: list[str]
+    T_parent_child: np.ndarray
+    joint_names: list[str]
+    q: np.ndarray

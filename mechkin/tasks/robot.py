@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from mechkin.records.robot import RobotDescription, Visual
+from mechkin.records.robot import RobotDescription, RobotSnapshot, Visual
 
-__all__ = ["link_visuals", "rate_limits", "robot_description"]
+__all__ = ["link_visuals", "rate_limits", "robot_description", "robot_snapshot"]
 
 MATERIALS = {
     "link": (0.55, 0.6, 0.68, 1.0),
@@ -175,3 +175,15 @@ def robot_description(mech: Any, rate_limits: dict[str, tuple[float, float]] | N
     where the run knows them)."""
     return RobotDescription(mechanism=mech, visuals=link_visuals(mech),
                             materials=dict(MATERIALS), rate_limits=dict(rate_limits or {}))
+
+
+def robot_snapshot(mech: Any) -> RobotSnapshot:
+    """The robot at home (the closure solved at home for closed chains: the mechanism's home
+    values), with its URDF frame tree."""
+    from mechkin.model.kinematics import forward_kinematics
+    from mechkin.model.urdf_tree import urdf_frame_tree
+
+    q0 = np.where(np.isfinite(mech.home), mech.home, 0.0)[None]
+    root, names, parents, T = urdf_frame_tree(mech, forward_kinematics(mech, q0))
+    return RobotSnapshot(robot_description(mech), root, names, parents, T,
+                         list(mech.joint_names), q0)
