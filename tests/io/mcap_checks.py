@@ -120,6 +120,9 @@ def strict_check(path: Path) -> dict[str, Any]:
         for _, msg in data["msgs"].get("/scene", ()):
             for e in msg.entities:
                 assert e.frame_id in frames, e.frame_id
+    for _, msg in (m for t, ms in data["msgs"].items() for m in ms
+                   if data["schemas"][t].name == "foxglove.PointCloud"):
+        point_cloud_arrays(msg)  # stride and offsets consistent, every field decodes
     for name, a in data["attachments"].items():
         assert name and a.media_type and a.data, name
     if "/robot_description" in data["msgs"]:
@@ -213,4 +216,17 @@ def tf_world_poses(data: dict[str, Any]) -> list[dict[str, np.ndarray]]:
         for f in local:
             chain(f)
         out.append(world)
+    return out
+
+
+def point_cloud_arrays(msg: Any) -> dict[str, np.ndarray]:
+    """Field name -> values of a ``foxglove.PointCloud`` of float32 / float64 fields."""
+    n = len(msg.data) // msg.point_stride
+    assert n * msg.point_stride == len(msg.data)
+    raw = np.frombuffer(msg.data, dtype=np.uint8).reshape(n, msg.point_stride)
+    out = {}
+    for f in msg.fields:
+        width, dtype = {7: (4, "<f4"), 8: (8, "<f8")}[f.type]
+        assert f.offset + width <= msg.point_stride
+        out[f.name] = raw[:, f.offset:f.offset + width].copy().view(dtype)[:, 0].astype(float)
     return out

@@ -34,6 +34,8 @@ SCENARIOS = {
     "planar3r_track_line": "track",
     "kim1995_stewart_track": "track",      # closed
     "hwang2023_walk_to_skate": "biped",
+    "ur5_workspace": "workspace",
+    "planar_3rrr_workspace": "workspace",  # closed
 }
 
 
@@ -81,3 +83,32 @@ def test_closed_chains_are_drawn_closed(written, name):
         for world in tf_world_poses(data):
             worst = max(worst, float(np.abs(world[a][:3, 3] - world[b][:3, 3]).max()))
     assert worst <= 1e-6, f"{name}: a loop opens by {worst:.3g} m"
+
+
+@pytest.mark.parametrize("name", ["ur5_workspace", "planar_3rrr_workspace"])
+def test_workspace_log_is_the_map_as_a_point_cloud_with_isotropy(written, name):
+    import json
+
+    from tests.io.mcap_checks import point_cloud_arrays
+    from tests.io.test_layouts_and_plots import _check_panel_keys
+
+    report, path = written[name]
+    data = strict_check(path)
+    rec = report.data.record
+    (_, msg), = data["msgs"]["/mechkin/workspace"]
+    assert data["schemas"]["/mechkin/workspace"].name == "foxglove.PointCloud"
+    cols = point_cloud_arrays(msg)
+    reach = np.asarray(rec.reachable, bool)
+    assert len(cols["x"]) == reach.sum() > 0
+    want = rec.position[reach] if hasattr(rec, "position") else rec.T_P[reach, :3, 3]
+    xyz = np.stack([cols["x"], cols["y"], cols["z"]], axis=1)
+    np.testing.assert_allclose(xyz, want, atol=1e-6 * max(1.0, np.abs(want).max()))  # float32
+    iso = rec.isotropy_normalized if rec.isotropy_normalized is not None else rec.isotropy
+    np.testing.assert_allclose(cols["isotropy"], iso[reach], atol=1e-6)
+    assert msg.frame_id == data["msgs"]["/tf"][0][1].transforms[0].parent_frame_id
+    lay = json.loads((path.parent / "workspace.layout.json").read_text())
+    _check_panel_keys(lay)
+    three_d = lay["configById"]["3D!mechkin"]
+    cloud = three_d["topics"]["/mechkin/workspace"]
+    assert cloud["colorMode"] == "colormap" and cloud["colorField"] == "isotropy"
+    assert (cloud["minValue"], cloud["maxValue"]) == (0.0, 1.0)
