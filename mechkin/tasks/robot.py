@@ -6,7 +6,8 @@ Geometry, every piece fixed in the link it belongs to (so a URDF viewer moves it
 * links: a cylinder from the link's hub (the point of the joint that carries it) to each point
   it carries (the joints placed on it at q = 0, its named frames), like the stick drawing;
 * joints: a short, wider cylinder along each joint axis at its point, on the child link
-  (revolute and prismatic in two colours);
+  (revolute and prismatic in two colours); a prismatic joint also as a telescope: a sleeve on
+  its parent out to the lower stroke limit and a rod of the stroke's length on its child;
 * plates (declared, or the drawing's convex hulls): the polygon's rim as cylinders, and the
   points on the plate are not spoked from the hub;
 * the end effector: an x/y/z triad (red, green, blue) on its frame.
@@ -118,6 +119,9 @@ def link_visuals(mech: Any) -> tuple[Visual, ...]:
                 out.append(v)
 
     for k in range(mech.n):
+        if mech.s[k] and int(mech.joint_child_link[k]) not in virtual:
+            out += _prismatic_visuals(mech, k, r_link, tol)
+    for k in range(mech.n):
         C = int(mech.joint_child_link[k])
         if C in virtual:
             continue
@@ -136,6 +140,31 @@ def link_visuals(mech: Any) -> tuple[Visual, ...]:
             out.append(Visual(ee, "cylinder", _frame_along(e, 0.5 * length * e),
                               (TRIAD_RADIUS * size, length), f"axis_{axis}"))
     return tuple(out)
+
+
+def _prismatic_visuals(mech: Any, k: int, r_link: float, tol: float) -> list[Visual]:
+    """A prismatic joint as a sleeve on its parent (from the joint's point at q = 0 out to the
+    lower stroke limit) and a rod on its child (from the joint's point back along the axis by
+    the stroke), so a leg reads as a telescope at every length; without finite limits both
+    are half the home extension long."""
+    from mechkin.spatial.transforms import invert
+
+    lo, hi, home = float(mech.lower[k]), float(mech.upper[k]), float(mech.home[k])
+    finite = np.isfinite(lo) and np.isfinite(hi)
+    h = abs(home) if np.isfinite(home) else 0.0
+    sleeve = lo if finite and lo > 0 else 0.5 * h
+    rod = hi - lo if finite else 0.5 * h
+    A, Binv = mech.A[k], invert(mech.B[k])
+    P, C = mech.link_names[int(mech.joint_parent_link[k])], mech.link_names[
+        int(mech.joint_child_link[k])]
+    out = []
+    v = _rod(P, A[:3, 3], A[:3, 3] + sleeve * A[:3, 2], 1.6 * r_link, "prismatic", tol)
+    if v is not None:
+        out.append(v)
+    v = _rod(C, Binv[:3, 3] - rod * Binv[:3, 2], Binv[:3, 3], r_link, "link", tol)
+    if v is not None:
+        out.append(v)
+    return out
 
 
 def _plate_vertices(mech: Any, kin: Any, refs: tuple, T_f: np.ndarray) -> np.ndarray:

@@ -112,3 +112,22 @@ def test_workspace_log_is_the_map_as_a_point_cloud_with_isotropy(written, name):
     cloud = three_d["topics"]["/mechkin/workspace"]
     assert cloud["colorMode"] == "colormap" and cloud["colorField"] == "isotropy"
     assert (cloud["minValue"], cloud["maxValue"]) == (0.0, 1.0)
+
+
+def test_ik_targets_are_tf_frames_and_scene_axes(written):
+    """Each step's target is the /tf frame ``target`` (the CSV's target position) and its axes
+    in /scene; the end effector the URDF draws sits on it (the targets were reached)."""
+    report, path = written["ur5_ik"]
+    data = strict_check(path)
+    cols = report.data.columns
+    worlds = tf_world_poses(data)
+    ee = "tool"  # ur5.yaml end_effector
+    for k, world in enumerate(worlds):
+        p = world["target"][:3, 3]
+        np.testing.assert_allclose(p, [cols["target_x_m"][k], cols["target_y_m"][k],
+                                       cols["target_z_m"][k]], atol=1e-12)
+        assert np.abs(world[ee] - world["target"]).max() < 1e-8  # reached, pose and all
+        ent = data["msgs"]["/scene"][k][1].entities[0]
+        axes = [ln for ln in ent.lines if len(ln.points) == 2
+                and np.allclose([ln.points[0].x, ln.points[0].y, ln.points[0].z], p)]
+        assert len(axes) == 3  # x, y, z from the target's origin
