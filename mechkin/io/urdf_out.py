@@ -19,7 +19,8 @@ revolute joints ``<name>_1..3`` with their inner links ``<name>_link1..2``:
   they are the run's rate limits where it has them (a track scenario's ``limits:``) and
   otherwise ``0``, which the ``<!-- -->`` comment at the top says means "not given";
 - with ``visuals`` (:func:`robot_urdf`, :mod:`mechkin.tasks.robot`) every link carries the
-  generated ``<visual>`` elements (cylinders, spheres, boxes, meshes by URI) and the robot the
+  generated ``<visual>`` elements (cylinders, spheres, boxes, meshes by URI, plates as
+  COLLADA meshes in ``data:`` URIs: :mod:`mechkin.io.collada`) and the robot the
   ``<material>`` colours they name (``mechkin_<name>``).
 
 Cuts (and the independent joints, end effector, home values) do not exist in URDF: they are
@@ -36,6 +37,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from mechkin.io.collada import prism_data_uri
 from mechkin.spatial.rotations import rpy_of
 
 if TYPE_CHECKING:
@@ -70,6 +72,9 @@ def _visual_xml(visuals: Sequence[Any]) -> str:
             geo = f'<sphere radius="{_num(size[0])}"/>'
         elif v.shape == "box":
             geo = f'<box size="{_vec(size)}"/>'
+        elif v.shape == "prism":  # a plate: an extruded polygon as an embedded mesh
+            uri = prism_data_uri(np.asarray(v.polygon, dtype=float), size[0])
+            geo = f"<mesh filename={quoteattr(uri)}/>"
         else:
             geo = f"<mesh filename={quoteattr(v.uri)} scale=\"{_vec(size)}\"/>"
         out.append(f"<visual>{_origin(np.asarray(v.T, dtype=float))}<geometry>{geo}</geometry>"

@@ -26,16 +26,20 @@ class Visual:
     ----------
     link : str
         The URDF link (a mechkin link or named frame) it is fixed on.
-    shape : {"cylinder", "sphere", "box", "mesh"}
-        URDF geometry; a cylinder's axis is the z axis of ``T``.
+    shape : {"cylinder", "sphere", "box", "mesh", "prism"}
+        URDF geometry; a cylinder's axis is the z axis of ``T``; a prism is ``polygon``
+        extruded along z (a plate; written as a mesh, :mod:`mechkin.io.collada`).
     T : array (4, 4)
         Pose of the geometry in the link frame.
     size : tuple of float
-        cylinder (radius, length), sphere (radius,), box (x, y, z), mesh (sx, sy, sz) scale [m].
+        cylinder (radius, length), sphere (radius,), box (x, y, z), mesh (sx, sy, sz) scale,
+        prism (thickness,) [m].
     material : str
         Name of a colour in :attr:`RobotDescription.materials`.
     uri : str
         Mesh file URI (``package://``, ``file://``, ``http(s)://``) for ``mesh``.
+    polygon : array (p, 2), optional
+        A prism's outline in the xy plane of ``T`` [m].
     """
 
     link: str
@@ -44,6 +48,7 @@ class Visual:
     size: tuple[float, ...]
     material: str
     uri: str = ""
+    polygon: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)

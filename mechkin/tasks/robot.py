@@ -8,8 +8,9 @@ Geometry, every piece fixed in the link it belongs to (so a URDF viewer moves it
 * joints: a short, wider cylinder along each joint axis at its point, on the child link
   (revolute and prismatic in two colours); a prismatic joint also as a telescope: a sleeve on
   its parent out to the lower stroke limit and a rod of the stroke's length on its child;
-* plates (declared, or the drawing's convex hulls): the polygon's rim as cylinders, and the
-  points on the plate are not spoked from the hub;
+* plates (declared, or the drawing's convex hulls): the polygon extruded (a prism one link
+  radius thick, written as a mesh) and its rim as cylinders; the points on the plate are not
+  spoked from the hub;
 * the end effector: an x/y/z triad (red, green, blue) on its frame.
 
 Sizes scale with the mechanism (the largest extent of its joint points and frames at home).
@@ -101,6 +102,10 @@ def link_visuals(mech: Any) -> tuple[Visual, ...]:
     for L in range(mech.n_links):
         if L in virtual:
             continue
+        for poly in plates.get(L, []):
+            v = _plate_prism(names[L], poly, r_link)
+            if v is not None:
+                out.append(v)
         on_plate = [v for poly in plates.get(L, []) for v in poly]
         for poly in plates.get(L, []):
             for i in range(len(poly)):
@@ -140,6 +145,18 @@ def link_visuals(mech: Any) -> tuple[Visual, ...]:
             out.append(Visual(ee, "cylinder", _frame_along(e, 0.5 * length * e),
                               (TRIAD_RADIUS * size, length), f"axis_{axis}"))
     return tuple(out)
+
+
+def _plate_prism(link: str, poly: np.ndarray, r_link: float) -> Visual | None:
+    """A plate's polygon (p, 3) in its link frame as a prism (its best-fit plane, thickness
+    one link radius); None for a degenerate polygon."""
+    c = poly.mean(axis=0)
+    _, sv, vt = np.linalg.svd(poly - c)
+    if len(sv) < 2 or sv[1] <= 1e-9 * max(float(sv[0]), 1e-300):
+        return None
+    T = _frame_along(vt[2], c)
+    uv = (poly - c) @ T[:3, :2]
+    return Visual(link, "prism", T, (r_link,), "plate", polygon=uv)
 
 
 def _prismatic_visuals(mech: Any, k: int, r_link: float, tol: float) -> list[Visual]:
