@@ -43,6 +43,7 @@ def test_fk_puma_outputs_and_mcap(tmp_path):
         assert "/mechkin/state" in topics
         counts = {summ.channels[cid].topic: n
                   for cid, n in summ.statistics.channel_message_counts.items()}
+        assert counts.pop("/robot_description") == 1  # the URDF, once
         assert all(n == 201 for n in counts.values()), counts
         assert summ.statistics.message_start_time == 0
         assert summ.statistics.message_end_time == 4_000_000_000
