@@ -49,7 +49,9 @@ def test_fk_puma_outputs_and_mcap(tmp_path):
         assert summ.statistics.message_end_time == 4_000_000_000
         n_tf = 0
         for _schema, _channel, _message, decoded in reader.iter_decoded_messages(topics=["/tf"]):
-            assert len(decoded.transforms) == 7  # 6 links + the tool frame
+            # 6 links + the tool frame + link2_dh, link3_dh: the URDF's tree (standard D-H
+            # joints with a != 0 move an intermediate link)
+            assert len(decoded.transforms) == 9
             n_tf += 1
             last = decoded
         assert n_tf == 201
