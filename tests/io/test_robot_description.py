@@ -131,3 +131,52 @@ def test_ik_targets_are_tf_frames_and_scene_axes(written):
         axes = [ln for ln in ent.lines if len(ln.points) == 2
                 and np.allclose([ln.points[0].x, ln.points[0].y, ln.points[0].z], p)]
         assert len(axes) == 3  # x, y, z from the target's origin
+
+
+def _urdf_joints(urdf: str) -> dict[str, Any]:
+    import io as _io
+
+    import yourdfpy
+
+    robot = yourdfpy.URDF.load(_io.StringIO(urdf), build_scene_graph=False, load_meshes=False,
+                               build_collision_scene_graph=False, load_collision_meshes=False)
+    return robot.robot
+
+
+def test_export_writes_visuals_and_the_yaml_limits():
+    """``mechkin export``'s URDF: every link that carries a joint point has visuals, the end
+    effector its x/y/z triad, the position limits are the YAML's (puma560.yaml, degrees ->
+    rad) and effort / velocity are the URDF-required 0 ("not given")."""
+    from mechkin.api import load_mechanism
+    from mechkin.io.urdf_out import robot_urdf
+    from mechkin.tasks.robot import robot_description
+
+    mech = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
+    robot = _urdf_joints(robot_urdf(robot_description(mech)))
+    links = {lk.name: lk for lk in robot.links}
+    for name in mech.link_names[1:]:
+        assert links[name].visuals, name
+    assert len(links["tool"].visuals) == 3  # puma560.yaml end_effector: tool
+    # puma560.yaml limits [deg]: q1 [-160, 160], q2 [-110, 110], q3 [-135, 135], q4 [-266, 266]
+    want = {"q1": 160, "q2": 110, "q3": 135, "q4": 266}
+    for j in robot.joints:
+        if j.name in want:
+            np.testing.assert_allclose([j.limit.lower, j.limit.upper],
+                                       np.deg2rad([-want[j.name], want[j.name]]), rtol=1e-12)
+            assert (j.limit.effort, j.limit.velocity) == (0.0, 0.0)
+
+
+def test_track_urdf_carries_the_scenarios_rate_limits(written):
+    """planar3r_track_line.yaml limits: {torque: [30, 8, 2], qd: [0.5, 0.3, 0.5]} -> the URDF in
+    track.mcap; kim1995_stewart_track: every leg 4000 N, 1 m/s, passive joints none (0)."""
+    _, path = written["planar3r_track_line"]
+    robot = _urdf_joints(strict_check(path)["msgs"]["/robot_description"][0][1]["data"])
+    got = {j.name: (j.limit.effort, j.limit.velocity) for j in robot.joints if j.limit}
+    assert [got[n] for n in ("q1", "q2", "q3")] == [(30.0, 0.5), (8.0, 0.3), (2.0, 0.5)]
+    report, path = written["kim1995_stewart_track"]
+    robot = _urdf_joints(strict_check(path)["msgs"]["/robot_description"][0][1]["data"])
+    got = {j.name: (j.limit.effort, j.limit.velocity) for j in robot.joints if j.limit}
+    motors = set(report.data.motors)
+    assert len(motors) == 6
+    for name, lim in got.items():
+        assert lim == ((4000.0, 1.0) if name in motors else (0.0, 0.0)), name
