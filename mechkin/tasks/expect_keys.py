@@ -179,6 +179,8 @@ def deep_key_problem(sc: Any, mech: Any | None, parts: list[str],
     tpl = template(sc)
     if tpl is None:
         return None
+    if parts[0] not in tpl:
+        return None  # the top-level keys are validate.summary_top_keys' to judge
     node: Any = tpl
     for k, part in enumerate(parts):
         here = ".".join(parts[:k]) or "the summary"
