@@ -264,6 +264,14 @@ def use_compiled_dp(pairs: int) -> bool:
     return False
 
 
+def _slackened(limits: dict[str, tuple[np.ndarray, np.ndarray]]
+               ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each limit family's bounds with their round-off slack, ``lo - _slack(lo)`` and
+    ``hi + _slack(hi)`` per joint (the numpy stage's expressions, element for element)."""
+    return {fam: (np.asarray(lo) - _slack(np.asarray(lo)), np.asarray(hi) + _slack(np.asarray(hi)))
+            for fam, (lo, hi) in limits.items()}
+
+
 def _dp_stage_compiled(
     i: int,
     pc: PhaseCoefficients,
@@ -291,29 +299,25 @@ def _dp_stage_compiled(
     tq_lo = np.zeros((J, n))
     tq_hi = np.zeros((J, n))
     tq_on = np.zeros(n, dtype=np.bool_)
-    qd_j = np.empty((J, n))
+    sl = _slackened(limits)
     z = np.zeros(n)
-    bounds = {"qdd": (z, z), "jerk": (z, z)}
-    for fam in ("qdd", "jerk"):
-        if fam in limits:
-            lo, hi = limits[fam]
-            bounds[fam] = (lo - _slack(lo), hi + _slack(hi))
-    for k in range(n):
-        if "torque" in limits:
-            lo, hi = limits["torque"][0][k], limits["torque"][1][k]
-            c = pc.b[i, k] * x2**2 + pc.g[i, k]  # park Eq. (12) without the r'' term
-            a = pc.a[i, k]
-            if a == 0.0:
-                row_ok &= (c >= lo - _slack(lo)) & (c <= hi + _slack(hi))
-            else:
-                b1 = (lo - _slack(lo) - c) / a
-                b2 = (hi + _slack(hi) - c) / a
-                tq_lo[:, k], tq_hi[:, k] = np.minimum(b1, b2), np.maximum(b1, b2)
-                tq_on[k] = True
-        qd_j[:, k] = pc.dq[i, k] * x2  # park Eq. (10), (4)'
-        if "qd" in limits:
-            lo, hi = limits["qd"][0][k], limits["qd"][1][k]
-            row_ok &= (qd_j[:, k] >= lo - _slack(lo)) & (qd_j[:, k] <= hi + _slack(hi))
+    qd_j = pc.dq[i][None, :] * x2[:, None]  # park Eq. (10), (4)'
+    if "torque" in limits:
+        lo, hi = sl["torque"]
+        c = pc.b[i][None, :] * (x2**2)[:, None] + pc.g[i][None, :]  # Eq. (12) without r''
+        a = pc.a[i]
+        on = a != 0.0
+        if np.any(~on):
+            row_ok &= np.all((c[:, ~on] >= lo[~on]) & (c[:, ~on] <= hi[~on]), axis=1)
+        if np.any(on):
+            b1 = (lo[on] - c[:, on]) / a[on]
+            b2 = (hi[on] - c[:, on]) / a[on]
+            tq_lo[:, on], tq_hi[:, on] = np.minimum(b1, b2), np.maximum(b1, b2)
+            tq_on[:] = on
+    if "qd" in limits:
+        lo, hi = sl["qd"]
+        row_ok &= np.all((qd_j >= lo) & (qd_j <= hi), axis=1)
+    bounds = {fam: sl.get(fam, (z, z)) for fam in ("qdd", "jerk")}
     if reference is None:
         mode, r0, rd_ref = dp_jit.MODE_TIME, 0.0, 0.0
     else:
