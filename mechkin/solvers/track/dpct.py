@@ -86,7 +86,11 @@ stated model can reproduce, see PAPER_NOTES):
     bisection, then the point inside it. The hand waits at rest for the difference.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
-stages only. :func:`limit_curve` gives the phase plane's limit curve (the largest ``r'`` the
+stages only. With numba installed, stages ``i >= 1`` run compiled
+(:mod:`mechkin.solvers.track.dp_jit`, rent or buy: :func:`use_compiled_dp`), the same tables
+bit for bit. ``objective="time"`` then refines r' in a band around the optimal curve
+(:func:`_refine_time`, ``refine=False`` turns it off); the tracking and intercept objectives of
+park §5 never do. :func:`limit_curve` gives the phase plane's limit curve (the largest ``r'`` the
 torque and velocity limits admit at each ``r``) that the realised trajectory carries for the
 plots.
 
