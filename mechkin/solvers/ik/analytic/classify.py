@@ -1,0 +1,232 @@
+r"""Which subproblem decomposition a mechanism admits, read from its joint axes at q = 0.
+
+The serial path to {E} is put in product-of-exponentials form (Murray, Li & Sastry Eq. (3.3)):
+joint i's axis ``h_i`` (unit) through ``p_i``, both in the base frame at q = 0, and the end
+pose ``M``; for the model's joints ``T_parent_child(q_i) = A_i Z(q_i) B_i`` the joint frame
+at q = 0 is ``F_0 = A_0``, ``F_{i+1} = F_i B_i A_{i+1}``, so ``h_i`` is the third column of
+``F_i`` and ``p_i`` its origin (:class:`mechkin.model.serial.SerialChain`).
+
+Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
+``T^{-1} = M^{-1} e^{-xi_6 q_6} ... e^{-xi_1 q_1}``, whose axes are ``-R_M^T h_{7-i}`` through
+``M^{-1} p_{7-i}`` and whose end pose is ``M^{-1}``):
+
+* ``spherical wrist`` (axes 4, 5, 6 meet in a point) with h2 || h3 (``POS_PAR23``) or with
+  h1, h2 meeting (``POS_INT12``): PUMA 560, ABB IRB, KUKA KR, Fanuc, Staubli...; reversed:
+  a spherical joint at the base;
+* ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting): the UR family; reversed: h3 || h4 ||
+  h5 with h1, h2 meeting.
+
+Anything else (an offset wrist such as the Kinova Jaco's, prismatic joints, fewer or more than
+6 joints, a closed chain) raises :class:`NotDecomposable` naming the axes that break it.
+
+Design
+------
+Part of :mod:`mechkin.solvers.ik.analytic`; imports numpy, :mod:`mechkin.model`; no numba.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mechkin.errors import ModelError
+from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.analytic.solve6r import (
+    KIND_PAR234,
+    KIND_SPHERICAL,
+    POS_INT12,
+    POS_PAR23,
+)
+
+PAR_TOL = 1e-9  # |h_i x h_j| below which two axes are parallel
+MEET_TOL = 1e-9  # [m] (relative to the arm's size, at least 1 m) distance of meeting lines
+
+
+class NotDecomposable(ModelError):
+    """The mechanism does not decompose into the recognised subproblems (the message names
+    the joints and axes that break it)."""
+
+
+@dataclass(frozen=True, eq=False)
+class AnalyticChain:
+    """A 6R serial chain in the form its subproblem solver takes.
+
+    Attributes
+    ----------
+    kind, pos_kind : int
+        Solver (``KIND_SPHERICAL``, ``KIND_PAR234``) and position sub-case.
+    reversed : bool
+        Solved as the reversed chain (targets inverted, joint order reversed).
+    H, P : (6, 3)
+        Axes and points of the (possibly reversed) chain at q = 0; M (4, 4) its end pose.
+    Hf, Pf, Mf : (6, 3), (6, 3), (4, 4)
+        The forward chain (equal to H, P, M unless reversed): FK for verification.
+    point, point2 : (3,)
+        Wrist centre (spherical) or o56 (three parallel); o12 (``POS_INT12``).
+    joints : (6,) int
+        Model joint index of each chain joint (base first, forward order).
+    order : (6,) int
+        Column of q_v holding each chain joint (``q_v[order] = q_chain``).
+    description : str
+    """
+
+    kind: int
+    pos_kind: int
+    reversed: bool
+    H: np.ndarray
+    P: np.ndarray
+    M: np.ndarray
+    Hf: np.ndarray
+    Pf: np.ndarray
+    Mf: np.ndarray
+    point: np.ndarray
+    point2: np.ndarray
+    joints: np.ndarray
+    order: np.ndarray
+    description: str
+
+
+def zero_config(mech: Mechanism, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                       np.ndarray]:
+    """(joints (k,), H (k, 3), P (k, 3), M (4, 4)) of the serial path to ``frame`` at q = 0."""
+    from mechkin.model.serial import SerialChain
+
+    ch = SerialChain(mech, frame)
+    k = ch.k
+    F = ch.A0.copy()
+    H = np.empty((k, 3))
+    P = np.empty((k, 3))
+    for i in range(k):
+        H[i] = F[:3, 2] / np.linalg.norm(F[:3, 2])
+        P[i] = F[:3, 3]
+        F = F @ ch.C[i]
+    return ch.joints, H, P, F
+
+
+def _parallel(a: np.ndarray, b: np.ndarray) -> bool:
+    return bool(np.linalg.norm(np.cross(a, b)) < PAR_TOL)
+
+
+def _meet(h1: np.ndarray, p1: np.ndarray, h2: np.ndarray, p2: np.ndarray, tol: float
+          ) -> np.ndarray | None:
+    """The point where two non-parallel lines meet (midpoint of the closest points), or None
+    when they miss by more than tol (or are parallel)."""
+    n = np.cross(h1, h2)
+    nn = float(n @ n)
+    if nn < PAR_TOL**2:
+        return None
+    d = p2 - p1
+    if abs(float(d @ n)) / np.sqrt(nn) > tol:
+        return None
+    t1 = float(np.cross(d, h2) @ n) / nn
+    t2 = float(np.cross(d, h1) @ n) / nn
+    return 0.5 * ((p1 + t1 * h1) + (p2 + t2 * h2))
+
+
+def _miss(h1: np.ndarray, p1: np.ndarray, h2: np.ndarray, p2: np.ndarray) -> float:
+    n = np.cross(h1, h2)
+    if np.linalg.norm(n) < PAR_TOL:
+        return float(np.linalg.norm(np.cross(p2 - p1, h1)))
+    return abs(float((p2 - p1) @ n)) / float(np.linalg.norm(n))
+
+
+def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray, np.ndarray,
+                                                            str] | None:
+    """The decomposition of the chain (H, P), or None."""
+    c45 = _meet(H[3], P[3], H[4], P[4], tol)
+    if c45 is not None and _meet(H[4], P[4], H[5], P[5], tol) is not None and \
+            np.linalg.norm(np.cross(H[5], c45 - P[5])) < tol and not _parallel(H[3], H[4]) \
+            and not _parallel(H[4], H[5]):
+        if _parallel(H[1], H[2]) and not _parallel(H[0], H[1]):
+            return KIND_SPHERICAL, POS_PAR23, c45, c45, "spherical wrist, h2 || h3"
+        o12 = _meet(H[0], P[0], H[1], P[1], tol)
+        if o12 is not None:
+            return KIND_SPHERICAL, POS_INT12, c45, o12, "spherical wrist, h1 meets h2"
+    if _parallel(H[1], H[2]) and _parallel(H[2], H[3]) and not _parallel(H[0], H[1]) \
+            and not _parallel(H[4], H[1]):
+        o56 = _meet(H[4], P[4], H[5], P[5], tol)
+        if o56 is not None:
+            return KIND_PAR234, 0, o56, o56, "three parallel axes h2 || h3 || h4, h5 meets h6"
+    return None
+
+
+def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
+    """One line naming what keeps the chain from decomposing."""
+    j = names
+    w = max(_miss(H[3], P[3], H[4], P[4]), _miss(H[4], P[4], H[5], P[5]),
+            _miss(H[3], P[3], H[5], P[5]))
+    b = max(_miss(H[0], P[0], H[1], P[1]), _miss(H[1], P[1], H[2], P[2]),
+            _miss(H[0], P[0], H[2], P[2]))
+    return (f"no subproblem decomposition: the axes of {j[3]}, {j[4]}, {j[5]} miss a common "
+            f"point by {w:.4g} m (no spherical wrist), those of {j[0]}, {j[1]}, {j[2]} by "
+            f"{b:.4g} m (none at the base), and neither {j[1]}, {j[2]}, {j[3]} nor "
+            f"{j[2]}, {j[3]}, {j[4]} are three parallel axes with the other two meeting")
+
+
+def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
+    """The subproblem decomposition of ``mech``'s serial path to ``frame`` (default {E}).
+
+    Raises
+    ------
+    NotDecomposable
+        Closed chains, independent joints other than the 6 revolute joints of the path, or
+        axes that fit none of the recognised structures (the message says which).
+    """
+    frame = mech.end_effector if frame is None else frame
+    if frame is None:
+        raise NotDecomposable(f"mechanism {mech.name} has no end_effector frame")
+    if mech.cuts:
+        raise NotDecomposable(f"mechanism {mech.name} is a closed chain (cuts "
+                              f"{', '.join(c.name for c in mech.cuts)}): no serial "
+                              "decomposition")
+    joints, H, P, M = zero_config(mech, frame)
+    names = [mech.joint_names[i] for i in joints]
+    iv = list(mech.independent)
+    if sorted(iv) != sorted(int(j) for j in joints):
+        raise NotDecomposable(f"the independent joints ({', '.join(mech.independent_names)}) "
+                              f"are not the serial path to {mech.frame_names[frame]} "
+                              f"({', '.join(names)})")
+    if len(joints) != 6:
+        raise NotDecomposable(f"{len(joints)} joints on the path to "
+                              f"{mech.frame_names[frame]} ({', '.join(names)}); the "
+                              "subproblem solvers take 6R chains")
+    pris = [n for n, j in zip(names, joints, strict=True) if mech.s[j] == 1]
+    if pris:
+        raise NotDecomposable(f"prismatic joint(s) {', '.join(pris)}: the subproblem solvers "
+                              "take 6R chains")
+    size = max(1.0, float(np.abs(P).max()), float(np.abs(M[:3, 3]).max()))
+    tol = MEET_TOL * size
+    order = np.array([iv.index(int(j)) for j in joints])
+    Hf, Pf, Mf = (np.ascontiguousarray(a) for a in (H, P, M))
+    found = _try(H, P, tol)
+    rev = False
+    if found is None:
+        Mi = np.linalg.inv(M)
+        Hr = -(M[:3, :3].T @ H[::-1].T).T
+        Pr = (Mi[:3, :3] @ P[::-1].T).T + Mi[:3, 3]
+        found = _try(Hr, Pr, tol)
+        if found is not None:
+            rev, H, P, M = True, Hr, Pr, Mi
+    if found is None:
+        raise NotDecomposable(_why(names, Hf, Pf))
+    kind, pos, pt, pt2, desc = found
+    return AnalyticChain(kind=kind, pos_kind=pos, reversed=rev,
+                         H=np.ascontiguousarray(H), P=np.ascontiguousarray(P),
+                         M=np.ascontiguousarray(M), Hf=Hf, Pf=Pf, Mf=Mf, point=np.asarray(pt, float),
+                         point2=np.asarray(pt2, float), joints=np.asarray(joints),
+                         order=order,
+                         description=desc + (" (reversed chain: at the base)" if rev else ""))
+
+
+def analytic_chain(mech: Mechanism) -> AnalyticChain | None:
+    """:func:`classify` of {E}'s path, cached on the Mechanism; None when it does not
+    decompose."""
+    cache = mech.__dict__.get("_analytic_chain", ())
+    if cache == ():
+        try:
+            cache = classify(mech)
+        except NotDecomposable:
+            cache = None
+        object.__setattr__(mech, "_analytic_chain", cache)
+    return cache
