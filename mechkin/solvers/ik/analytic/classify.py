@@ -213,7 +213,8 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
     kind, pos, pt, pt2, desc = found
     return AnalyticChain(kind=kind, pos_kind=pos, reversed=rev,
                          H=np.ascontiguousarray(H), P=np.ascontiguousarray(P),
-                         M=np.ascontiguousarray(M), Hf=Hf, Pf=Pf, Mf=Mf, point=np.asarray(pt, float),
+                         M=np.ascontiguousarray(M), Hf=Hf, Pf=Pf, Mf=Mf,
+                         point=np.asarray(pt, float),
                          point2=np.asarray(pt2, float), joints=np.asarray(joints),
                          order=order,
                          description=desc + (" (reversed chain: at the base)" if rev else ""))

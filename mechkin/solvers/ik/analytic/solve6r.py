@@ -42,7 +42,28 @@ import math
 import numpy as np
 
 from mechkin.solvers.ik.analytic.jit import jit
-from mechkin.solvers.ik.analytic.subproblems import cross, dot, rot, rotmat, sp1, sp2, sp3, sp4
+from mechkin.solvers.ik.analytic.subproblems import (
+    Mat,
+    Vec,
+    add,
+    cross,
+    dot,
+    mat,
+    mm,
+    mtm,
+    mtv,
+    mv,
+    norm,
+    rot,
+    rotmat,
+    scale,
+    sp1,
+    sp2,
+    sp3,
+    sp4,
+    sub,
+    vec,
+)
 
 KIND_SPHERICAL = 0
 KIND_PAR234 = 1
@@ -52,248 +73,170 @@ MAX_BRANCHES = 8
 
 
 @jit
-def _perp(h: np.ndarray) -> np.ndarray:
+def _perp(h: Vec) -> Vec:
     """A unit vector perpendicular to the unit vector h."""
-    a = np.zeros(3)
-    i = 0
-    if abs(h[1]) < abs(h[i]):
-        i = 1
-    if abs(h[2]) < abs(h[i]):
-        i = 2
-    a[i] = 1.0
+    ax, ay, az = abs(h[0]), abs(h[1]), abs(h[2])
+    if ax <= ay and ax <= az:
+        a = (1.0, 0.0, 0.0)
+    elif ay <= az:
+        a = (0.0, 1.0, 0.0)
+    else:
+        a = (0.0, 0.0, 1.0)
     v = cross(h, a)
-    n = math.sqrt(dot(v, v))
-    for j in range(3):
-        v[j] /= n
-    return v
+    return scale(1.0 / norm(v), v)
 
 
 @jit
-def _move(h: np.ndarray, p: np.ndarray, theta: float, x: np.ndarray) -> np.ndarray:
+def _move(h: Vec, p: Vec, theta: float, x: Vec) -> Vec:
     """e^{xi theta} x: rotation of the point x by theta about the axis (h, p)."""
-    d = np.empty(3)
-    for i in range(3):
-        d[i] = x[i] - p[i]
-    r = rot(h, theta, d)
-    for i in range(3):
-        r[i] += p[i]
-    return r
+    return add(rot(h, theta, sub(x, p)), p)
 
 
 @jit
-def _sub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = a[i] - b[i]
-    return out
-
-
-@jit
-def _norm(a: np.ndarray) -> float:
-    return math.sqrt(dot(a, a))
-
-
-@jit
-def _mat_vec(R: np.ndarray, v: np.ndarray) -> np.ndarray:
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = R[i, 0] * v[0] + R[i, 1] * v[1] + R[i, 2] * v[2]
-    return out
-
-
-@jit
-def _matT_vec(R: np.ndarray, v: np.ndarray) -> np.ndarray:
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = R[0, i] * v[0] + R[1, i] * v[1] + R[2, i] * v[2]
-    return out
-
-
-@jit
-def _mat_mul(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    C = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            C[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return C
-
-
-@jit
-def _matT_mul(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """A^T B."""
-    C = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            C[i, j] = A[0, i] * B[0, j] + A[1, i] * B[1, j] + A[2, i] * B[2, j]
-    return C
-
-
-@jit
-def _target_G(M: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """G = T M^{-1}: rotation (3, 3) and translation (3,)."""
-    RG = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            RG[i, j] = T[i, 0] * M[j, 0] + T[i, 1] * M[j, 1] + T[i, 2] * M[j, 2]
-    pG = np.empty(3)
-    for i in range(3):
-        pG[i] = T[i, 3] - (RG[i, 0] * M[0, 3] + RG[i, 1] * M[1, 3] + RG[i, 2] * M[2, 3])
+def _target_G(M: np.ndarray, T: np.ndarray) -> tuple[Mat, Vec]:
+    """G = T M^{-1}: rotation (rows) and translation."""
+    RT = mat(T)
+    RG = mm(RT, ((M[0, 0], M[1, 0], M[2, 0]), (M[0, 1], M[1, 1], M[2, 1]),
+                 (M[0, 2], M[1, 2], M[2, 2])))
+    pG = sub((T[0, 3], T[1, 3], T[2, 3]), mv(RG, (M[0, 3], M[1, 3], M[2, 3])))
     return RG, pG
 
 
 @jit
-def _wrist(H: np.ndarray, R03: np.ndarray, RG: np.ndarray, g: np.ndarray, q1: float,
+def _store(out: np.ndarray, n: int, q1: float, q2: float, q3: float, q4: float, q5: float,
+           q6: float) -> int:
+    out[n, 0], out[n, 1], out[n, 2] = q1, q2, q3
+    out[n, 3], out[n, 4], out[n, 5] = q4, q5, q6
+    return n + 1
+
+
+@jit
+def _wrist(h4: Vec, h5: Vec, h6: Vec, R03: Mat, RG: Mat, g: np.ndarray, q1: float,
            q2: float, q3: float, out: np.ndarray, n: int) -> int:
-    """Append the (up to 2) wrist branches q4, q5 (SP2 on h6), q6 (SP1) to out; new count."""
-    R456 = _matT_mul(R03, RG)
-    h4, h5, h6 = H[3], H[4], H[5]
-    t = _mat_vec(R456, h6)
-    m, a4, a5, b4, b5 = sp2(h4, h5, h6, t, g[3], g[4])
+    """Append the (up to 2) wrist branches to out (q4, q5 by SP2 on h6, q6 by SP1);
+    returns the new count."""
+    R456 = mtm(R03, RG)
+    m, a4, a5, b4, b5 = sp2(h4, h5, h6, mv(R456, h6), g[3], g[4])
     v = _perp(h6)
-    Rv = _mat_vec(R456, v)
+    Rv = mv(R456, v)
     for k in range(m):
         q4 = a4 if k == 0 else b4
         q5 = a5 if k == 0 else b5
-        w = rot(h4, -q4, Rv)
-        w = rot(h5, -q5, w)
-        q6 = sp1(h6, v, w, g[5])
-        out[n, 0], out[n, 1], out[n, 2] = q1, q2, q3
-        out[n, 3], out[n, 4], out[n, 5] = q4, q5, q6
-        n += 1
+        q6 = sp1(h6, v, rot(h5, -q5, rot(h4, -q4, Rv)), g[5])
+        n = _store(out, n, q1, q2, q3, q4, q5, q6)
     return n
 
 
 @jit
 def solve_spherical(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
-                    c: np.ndarray, o: np.ndarray, T: np.ndarray, g: np.ndarray,
+                    c_: np.ndarray, o_: np.ndarray, T: np.ndarray, g: np.ndarray,
                     out: np.ndarray) -> int:
     """Every branch of a 6R arm with a spherical wrist (wrist centre c; ``o`` the meeting
     point of h1 and h2 for POS_INT12) for the target T (4, 4); guess g (6,) for continua.
     Writes out[:n] (8, 6); returns n."""
     RG, pG = _target_G(M, T)
-    ct = _mat_vec(RG, c)
-    for i in range(3):
-        ct[i] += pG[i]
-    h1, h2, h3 = H[0], H[1], H[2]
-    p1, p2, p3 = P[0], P[1], P[2]
+    c = vec(c_)
+    ct = add(mv(RG, c), pG)
+    h1, h2, h3 = vec(H[0]), vec(H[1]), vec(H[2])
+    h4, h5, h6 = vec(H[3]), vec(H[4]), vec(H[5])
+    p1, p2, p3 = vec(P[0]), vec(P[1]), vec(P[2])
     n = 0
     if pos_kind == POS_PAR23:
-        m1, a, b = sp4(h2, h1, _sub(ct, p1), dot(h2, _sub(c, p1)), -g[0])
+        m1, a, b = sp4(h2, h1, sub(ct, p1), dot(h2, sub(c, p1)), -g[0])
         for i1 in range(m1):
             phi = a if i1 == 0 else b
             q1 = -phi
             y = _move(h1, p1, phi, ct)
-            m3, c3, d3 = sp3(h3, _sub(c, p3), _sub(p2, p3), _norm(_sub(y, p2)), g[2])
+            m3, c3, d3 = sp3(h3, sub(c, p3), sub(p2, p3), norm(sub(y, p2)), g[2])
             for i3 in range(m3):
                 q3 = c3 if i3 == 0 else d3
                 e3c = _move(h3, p3, q3, c)
-                q2 = sp1(h2, _sub(e3c, p2), _sub(y, p2), g[1])
-                R03 = _mat_mul(_mat_mul(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
-                n = _wrist(H, R03, RG, g, q1, q2, q3, out, n)
+                q2 = sp1(h2, sub(e3c, p2), sub(y, p2), g[1])
+                R03 = mm(mm(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
+                n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
     else:
-        w = _sub(ct, o)
-        m3, c3, d3 = sp3(h3, _sub(c, p3), _sub(o, p3), _norm(w), g[2])
+        o = vec(o_)
+        w = sub(ct, o)
+        m3, c3, d3 = sp3(h3, sub(c, p3), sub(o, p3), norm(w), g[2])
         for i3 in range(m3):
             q3 = c3 if i3 == 0 else d3
-            v = _sub(_move(h3, p3, q3, c), o)
+            v = sub(_move(h3, p3, q3, c), o)
             m12, a1, a2, b1, b2 = sp2(h1, h2, v, w, g[0], g[1])
             for i12 in range(m12):
                 q1 = a1 if i12 == 0 else b1
                 q2 = a2 if i12 == 0 else b2
-                R03 = _mat_mul(_mat_mul(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
-                n = _wrist(H, R03, RG, g, q1, q2, q3, out, n)
+                R03 = mm(mm(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
+                n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
     return n
 
 
 @jit
-def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, o56: np.ndarray,
+def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, o56_: np.ndarray,
                  T: np.ndarray, g: np.ndarray, out: np.ndarray) -> int:
     """Every branch of a 6R arm with h2 || h3 || h4 and h5, h6 meeting at o56 (UR family)
     for the target T (4, 4); guess g (6,) for continua. Writes out[:n] (8, 6); returns n."""
     RG, pG = _target_G(M, T)
-    h1, h2, h3, h4, h5, h6 = H[0], H[1], H[2], H[3], H[4], H[5]
-    p1, p2, p3, p4, p5, p6 = P[0], P[1], P[2], P[3], P[4], P[5]
+    h1, h2, h3 = vec(H[0]), vec(H[1]), vec(H[2])
+    h4, h5, h6 = vec(H[3]), vec(H[4]), vec(H[5])
+    p1, p2, p3 = vec(P[0]), vec(P[1]), vec(P[2])
+    p4, p5, p6 = vec(P[3]), vec(P[4]), vec(P[5])
+    o56 = vec(o56_)
     d = h2
     s3, s4 = dot(h3, d), dot(h4, d)
-    x = _mat_vec(RG, o56)
-    for i in range(3):
-        x[i] += pG[i]
+    x = add(mv(RG, o56), pG)
+    v = _perp(d)
     n = 0
-    m1, a, b = sp4(d, h1, _sub(x, p1), dot(d, _sub(o56, p1)), -g[0])
+    m1, a, b = sp4(d, h1, sub(x, p1), dot(d, sub(o56, p1)), -g[0])
     for i1 in range(m1):
-        phi1 = a if i1 == 0 else b
-        q1 = -phi1
-        Rr = _matT_mul(rotmat(h1, q1), RG)  # R_234 R_5 R_6
-        vd = _matT_vec(Rr, d)
+        q1 = -(a if i1 == 0 else b)
+        Rr = mtm(rotmat(h1, q1), RG)  # R_234 R_5 R_6
+        vd = mtv(Rr, d)
         m5, c5, d5 = sp4(h6, h5, d, dot(h6, vd), -g[4])
         for i5 in range(m5):
             q5 = -(c5 if i5 == 0 else d5)
-            u = rot(h5, -q5, d)
-            q6 = sp1(h6, vd, u, g[5])
-            v = _perp(d)
-            w = rot(h6, -q6, rot(h5, -q5, v))
-            w = _mat_vec(Rr, w)  # R_234 v
+            q6 = sp1(h6, vd, rot(h5, -q5, d), g[5])
+            w = mv(Rr, rot(h6, -q6, rot(h5, -q5, v)))  # R_234 v
             th = sp1(d, v, w, g[1] + s3 * g[2] + s4 * g[3])
-            z = _move(h5, p5, -q5, p4)
-            z = _move(h6, p6, -q6, z)
-            z = _mat_vec(RG, z)
-            for i in range(3):
-                z[i] += pG[i]
-            y = _move(h1, p1, -q1, z)
-            m3, c3, d3 = sp3(h3, _sub(p4, p3), _sub(p2, p3), _norm(_sub(y, p2)), g[2])
+            z = _move(h6, p6, -q6, _move(h5, p5, -q5, p4))
+            y = _move(h1, p1, -q1, add(mv(RG, z), pG))
+            m3, c3, d3 = sp3(h3, sub(p4, p3), sub(p2, p3), norm(sub(y, p2)), g[2])
             for i3 in range(m3):
                 q3 = c3 if i3 == 0 else d3
                 e3 = _move(h3, p3, q3, p4)
-                q2 = sp1(h2, _sub(e3, p2), _sub(y, p2), g[1])
-                q4 = s4 * (th - q2 - s3 * q3)
-                out[n, 0], out[n, 1], out[n, 2] = q1, q2, q3
-                out[n, 3], out[n, 4], out[n, 5] = q4, q5, q6
-                n += 1
+                q2 = sp1(h2, sub(e3, p2), sub(y, p2), g[1])
+                n = _store(out, n, q1, q2, q3, s4 * (th - q2 - s3 * q3), q5, q6)
     return n
 
 
 @jit
-def fk_poe(H: np.ndarray, P: np.ndarray, M: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """T(q) (4, 4) = prod e^{xi_i q_i} M (Murray, Li & Sastry Eq. (3.3))."""
-    R = np.eye(3)
-    t = np.zeros(3)
+def fk_error(H: np.ndarray, P: np.ndarray, M: np.ndarray, q: np.ndarray, T: np.ndarray
+             ) -> tuple[float, float]:
+    """Position [m] and rotation-angle [rad] error of T(q) = prod e^{xi_i q_i} M (Murray, Li &
+    Sastry Eq. (3.3)) from the target T (4, 4)."""
+    R = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    t = (0.0, 0.0, 0.0)
     for i in range(q.size):
-        Ri = rotmat(H[i], q[i])
-        ti = _sub(P[i], _mat_vec(Ri, P[i]))
-        t2 = _mat_vec(R, ti)
-        for j in range(3):
-            t[j] += t2[j]
-        R = _mat_mul(R, Ri)
-    T = np.eye(4)
-    RM = M[:3, :3].copy()
-    T[:3, :3] = _mat_mul(R, RM)
-    tm = _mat_vec(R, M[:3, 3].copy())
-    for j in range(3):
-        T[j, 3] = tm[j] + t[j]
-    return T
-
-
-@jit
-def pose_error(Ta: np.ndarray, Tb: np.ndarray) -> tuple[float, float]:
-    """Position [m] and rotation-angle [rad] error between two poses."""
-    dp = 0.0
-    for i in range(3):
-        e = Ta[i, 3] - Tb[i, 3]
-        dp += e * e
+        Ri = rotmat(vec(H[i]), q[i])
+        p = vec(P[i])
+        t = add(t, mv(R, sub(p, mv(Ri, p))))
+        R = mm(R, Ri)
+    RE = mm(R, mat(M))
+    pE = add(mv(R, (M[0, 3], M[1, 3], M[2, 3])), t)
+    e = sub(pE, (T[0, 3], T[1, 3], T[2, 3]))
+    fro = 0.0
     tr = 0.0
     for i in range(3):
         for j in range(3):
-            tr += Ta[j, i] * Tb[j, i]
-    c = min(1.0, max(-1.0, 0.5 * (tr - 1.0)))
-    # acos loses precision near 0: use the Frobenius distance ||Ra - Rb|| = 2 sqrt(2) sin(a/2)
-    fro = 0.0
-    for i in range(3):
-        for j in range(3):
-            e = Ta[i, j] - Tb[i, j]
-            fro += e * e
-    s = math.sqrt(fro) / (2.0 * math.sqrt(2.0))
-    ang = 2.0 * math.asin(min(1.0, s)) if c > 0.0 else math.acos(c)
-    return math.sqrt(dp), ang
+            dd = RE[i][j] - T[i, j]
+            fro += dd * dd
+            tr += RE[i][j] * T[i, j]
+    c = 0.5 * (tr - 1.0)
+    # acos loses precision near 0: the Frobenius distance is 2 sqrt(2) sin(angle / 2)
+    if c > 0.0:
+        ang = 2.0 * math.asin(min(1.0, math.sqrt(fro) / (2.0 * math.sqrt(2.0))))
+    else:
+        ang = math.acos(max(-1.0, c))
+    return norm(e), ang
 
 
 @jit
@@ -329,7 +272,7 @@ def solve_batch(kind: int, pos_kind: int, reverse: bool, H: np.ndarray, P: np.nd
             for i in range(6):
                 g[i] = G[r, 5 - i]
         else:
-            Tc = T.copy()
+            Tc = T
             for i in range(6):
                 g[i] = G[r, i]
         if kind == KIND_SPHERICAL:
@@ -340,6 +283,6 @@ def solve_batch(kind: int, pos_kind: int, reverse: bool, H: np.ndarray, P: np.nd
         for k in range(n):
             for i in range(6):
                 out[r, k, i] = tmp[k, 5 - i] if reverse else tmp[k, i]
-            pe, oe = pose_error(fk_poe(Hf, Pf, Mf, out[r, k]), T)
+            pe, oe = fk_error(Hf, Pf, Mf, out[r, k], T)
             err[r, k, 0] = pe
             err[r, k, 1] = oe

@@ -1,7 +1,8 @@
 r"""Canonical geometric subproblems of inverse kinematics (Paden-Kahan 1-3, IK-Geo 4).
 
-Every function solves one subproblem for one set of 3-vectors (numpy arrays of shape (3,),
-float64; unit axes ``k``) and is written as plain scalar code so that numba compiles it into
+Every function solves one subproblem for one set of 3-vectors (tuples ``(x, y, z)`` of
+floats, so that compiled code keeps them on the stack; unit axes ``k``; 3x3 matrices are
+tuples of three rows) and is written as plain scalar code so that numba compiles it into
 the chain solvers (:mod:`mechkin.solvers.ik.analytic.solve6r`); without numba the same code runs
 as Python. ``R(k, theta)`` is the rotation by ``theta`` about the unit axis ``k`` (Rodrigues):
 
@@ -34,56 +35,113 @@ from mechkin.solvers.ik.analytic.jit import jit
 FEAS_TOL = 1e-9  # relative excess of a cosine (or squared length) clamped as round-off
 DEGEN_TOL = 1e-12  # [m or 1] length below which a projection is a point (continuum)
 
-
-@jit
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b (3,)."""
-    out = np.empty(3)
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
-    return out
+Vec = tuple[float, float, float]
+Mat = tuple[Vec, Vec, Vec]
 
 
 @jit
-def dot(a: np.ndarray, b: np.ndarray) -> float:
+def vec(a: np.ndarray) -> Vec:
+    """The 3-vector a[0:3] as a tuple."""
+    return (a[0], a[1], a[2])
+
+
+@jit
+def add(a: Vec, b: Vec) -> Vec:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@jit
+def sub(a: Vec, b: Vec) -> Vec:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@jit
+def scale(s: float, a: Vec) -> Vec:
+    return (s * a[0], s * a[1], s * a[2])
+
+
+@jit
+def cross(a: Vec, b: Vec) -> Vec:
+    """a x b."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@jit
+def dot(a: Vec, b: Vec) -> float:
     """a . b."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 @jit
-def rot(k: np.ndarray, theta: float, p: np.ndarray) -> np.ndarray:
+def norm(a: Vec) -> float:
+    return math.sqrt(dot(a, a))
+
+
+@jit
+def rot(k: Vec, theta: float, p: Vec) -> Vec:
     """R(k, theta) p by Rodrigues' formula (Murray, Li & Sastry Eq. (2.14))."""
     c, s = math.cos(theta), math.sin(theta)
     kp = dot(k, p) * (1.0 - c)
     kx = cross(k, p)
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = p[i] * c + kx[i] * s + k[i] * kp
-    return out
+    return (p[0] * c + kx[0] * s + k[0] * kp, p[1] * c + kx[1] * s + k[1] * kp,
+            p[2] * c + kx[2] * s + k[2] * kp)
 
 
 @jit
-def rotmat(k: np.ndarray, theta: float) -> np.ndarray:
-    """R(k, theta) (3, 3) (Murray, Li & Sastry Eq. (2.14))."""
+def rotmat(k: Vec, theta: float) -> Mat:
+    """R(k, theta) (3 rows) (Murray, Li & Sastry Eq. (2.14))."""
     c, s = math.cos(theta), math.sin(theta)
     v = 1.0 - c
     x, y, z = k[0], k[1], k[2]
-    R = np.empty((3, 3))
-    R[0, 0] = c + x * x * v
-    R[0, 1] = x * y * v - z * s
-    R[0, 2] = x * z * v + y * s
-    R[1, 0] = y * x * v + z * s
-    R[1, 1] = c + y * y * v
-    R[1, 2] = y * z * v - x * s
-    R[2, 0] = z * x * v - y * s
-    R[2, 1] = z * y * v + x * s
-    R[2, 2] = c + z * z * v
-    return R
+    return ((c + x * x * v, x * y * v - z * s, x * z * v + y * s),
+            (y * x * v + z * s, c + y * y * v, y * z * v - x * s),
+            (z * x * v - y * s, z * y * v + x * s, c + z * z * v))
 
 
 @jit
-def sp1(k: np.ndarray, p1: np.ndarray, p2: np.ndarray, default: float) -> float:
+def mat(a: np.ndarray) -> Mat:
+    """The upper-left 3x3 of a as rows."""
+    return ((a[0, 0], a[0, 1], a[0, 2]), (a[1, 0], a[1, 1], a[1, 2]),
+            (a[2, 0], a[2, 1], a[2, 2]))
+
+
+@jit
+def mv(R: Mat, v: Vec) -> Vec:
+    """R v."""
+    return (dot(R[0], v), dot(R[1], v), dot(R[2], v))
+
+
+@jit
+def mtv(R: Mat, v: Vec) -> Vec:
+    """R^T v."""
+    return (R[0][0] * v[0] + R[1][0] * v[1] + R[2][0] * v[2],
+            R[0][1] * v[0] + R[1][1] * v[1] + R[2][1] * v[2],
+            R[0][2] * v[0] + R[1][2] * v[1] + R[2][2] * v[2])
+
+
+@jit
+def transpose(A: Mat) -> Mat:
+    return ((A[0][0], A[1][0], A[2][0]), (A[0][1], A[1][1], A[2][1]),
+            (A[0][2], A[1][2], A[2][2]))
+
+
+@jit
+def mm(A: Mat, B: Mat) -> Mat:
+    """A B."""
+    Bt = transpose(B)
+    return ((dot(A[0], Bt[0]), dot(A[0], Bt[1]), dot(A[0], Bt[2])),
+            (dot(A[1], Bt[0]), dot(A[1], Bt[1]), dot(A[1], Bt[2])),
+            (dot(A[2], Bt[0]), dot(A[2], Bt[1]), dot(A[2], Bt[2])))
+
+
+@jit
+def mtm(A: Mat, B: Mat) -> Mat:
+    """A^T B."""
+    return mm(transpose(A), B)
+
+
+@jit
+def sp1(k: Vec, p1: Vec, p2: Vec, default: float) -> float:
     r"""Subproblem 1: theta with R(k, theta) p1 = p2.
 
     .. math:: \theta = \operatorname{atan2}\big(k\cdot(p_1'\times p_2'),\ p_1'\cdot p_2'\big),
@@ -92,21 +150,15 @@ def sp1(k: np.ndarray, p1: np.ndarray, p2: np.ndarray, default: float) -> float:
     (Paden-Kahan 1, Murray-Li-Sastry Eq. (3.37); IK-Geo §III-A, the least-squares solution when
     the lengths differ). ``default`` when p1' or p2' is a point (every theta fits).
     """
-    a1 = dot(k, p1)
-    a2 = dot(k, p2)
-    u = np.empty(3)
-    v = np.empty(3)
-    for i in range(3):
-        u[i] = p1[i] - k[i] * a1
-        v[i] = p2[i] - k[i] * a2
+    u = sub(p1, scale(dot(k, p1), k))
+    v = sub(p2, scale(dot(k, p2), k))
     if dot(u, u) < DEGEN_TOL * DEGEN_TOL or dot(v, v) < DEGEN_TOL * DEGEN_TOL:
         return default
     return math.atan2(dot(k, cross(u, v)), dot(u, v))
 
 
 @jit
-def sp4(h: np.ndarray, k: np.ndarray, p: np.ndarray, d: float, default: float
-        ) -> tuple[int, float, float]:
+def sp4(h: Vec, k: Vec, p: Vec, d: float, default: float) -> tuple[int, float, float]:
     r"""Subproblem 4: theta with h^T R(k, theta) p = d.
 
     With A = h.(p - k(k.p)), B = h.(k x p), C = d - (h.k)(k.p):
@@ -118,14 +170,14 @@ def sp4(h: np.ndarray, k: np.ndarray, p: np.ndarray, d: float, default: float
     round-off, else no solution.
     """
     kp = dot(k, p)
-    kxp = cross(k, p)
-    A = dot(h, p) - dot(h, k) * kp
-    B = dot(h, kxp)
-    C = d - dot(h, k) * kp
+    hk = dot(h, k)
+    A = dot(h, p) - hk * kp
+    B = dot(h, cross(k, p))
+    C = d - hk * kp
     rho = math.sqrt(A * A + B * B)
-    scale = max(rho, abs(d), abs(dot(h, k) * kp), 1.0)
-    if rho < DEGEN_TOL * scale:
-        if abs(C) < FEAS_TOL * scale:
+    size = max(rho, abs(d), abs(hk * kp), 1.0)
+    if rho < DEGEN_TOL * size:
+        if abs(C) < FEAS_TOL * size:
             return 1, default, default
         return 0, default, default
     c = C / rho
@@ -141,8 +193,7 @@ def sp4(h: np.ndarray, k: np.ndarray, p: np.ndarray, d: float, default: float
 
 
 @jit
-def sp3(k: np.ndarray, p1: np.ndarray, p2: np.ndarray, delta: float, default: float
-        ) -> tuple[int, float, float]:
+def sp3(k: Vec, p1: Vec, p2: Vec, delta: float, default: float) -> tuple[int, float, float]:
     r"""Subproblem 3: theta with ||R(k, theta) p1 - p2|| = delta.
 
     Squaring gives Subproblem 4 (IK-Geo §III-C):
@@ -156,8 +207,8 @@ def sp3(k: np.ndarray, p1: np.ndarray, p2: np.ndarray, delta: float, default: fl
 
 
 @jit
-def sp2(k1: np.ndarray, k2: np.ndarray, p: np.ndarray, q: np.ndarray, default1: float,
-        default2: float) -> tuple[int, float, float, float, float]:
+def sp2(k1: Vec, k2: Vec, p: Vec, q: Vec, default1: float, default2: float
+        ) -> tuple[int, float, float, float, float]:
     r"""Subproblem 2: theta1, theta2 with R(k1, theta1) R(k2, theta2) p = q (k1 not parallel
     to k2), returning ``(n, theta1_a, theta2_a, theta1_b, theta2_b)``.
 
@@ -189,13 +240,11 @@ def sp2(k1: np.ndarray, k2: np.ndarray, p: np.ndarray, q: np.ndarray, default1: 
         g2 = 0.0
         n = 1
     gamma = math.sqrt(g2)
-    c = np.empty(3)
-    for i in range(3):
-        c[i] = alpha * k1[i] + beta * k2[i] + gamma * kx[i]
+    base = add(scale(alpha, k1), scale(beta, k2))
+    c = add(base, scale(gamma, kx))
     t2a = sp1(k2, p, c, default2)
     t1a = sp1(k1, c, q, default1)
-    for i in range(3):
-        c[i] = alpha * k1[i] + beta * k2[i] - gamma * kx[i]
+    c = sub(base, scale(gamma, kx))
     t2b = sp1(k2, p, c, default2)
     t1b = sp1(k1, c, q, default1)
     return n, t1a, t2a, t1b, t2b

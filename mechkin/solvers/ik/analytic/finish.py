@@ -1,0 +1,124 @@
+r"""From raw branches to solutions: limits, verification, order and merging (compiled).
+
+For each target (rows of ``q (m, 8, n_v)``, ``count (m,)`` branches, FK errors ``err (m, 8,
+2)``), in one compiled loop:
+
+1. each revolute joint goes to the representative ``q + 2 pi k`` nearest the reference
+   ``ref`` (the guess) that lies within its limits; a branch with a joint that has none is
+   dropped;
+2. a branch counts when its FK errors are within ``tol_pos`` [m] and ``tol_ori`` [rad];
+3. branches are ordered by their joint distance from the reference (revolute joints modulo
+   2 pi; ties broken lexicographically by q, both rounded to 1e-9);
+4. a branch within ``same_tol`` (max-abs difference, revolute joints modulo 2 pi) of an
+   earlier kept one is the same solution (tangent and singular poses).
+
+Design
+------
+Part of :mod:`mechkin.solvers.ik.analytic`; imports numpy, math and the package's jit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mechkin.solvers.ik.analytic.jit import jit
+
+TWO_PI = 2.0 * math.pi
+
+
+@jit
+def _wrap(d: float) -> float:
+    """d wrapped into [-pi, pi)."""
+    return (d + math.pi) % TWO_PI - math.pi
+
+
+@jit
+def _before(da: float, qa: np.ndarray, db: float, qb: np.ndarray) -> bool:
+    """Whether (distance da, joints qa) orders before (db, qb)."""
+    ra, rb = round(da * 1e9), round(db * 1e9)
+    if ra != rb:
+        return ra < rb
+    for j in range(qa.size):
+        a, b = round(qa[j] * 1e9), round(qb[j] * 1e9)
+        if a != b:
+            return a < b
+    return False
+
+
+@jit
+def finish_batch(q: np.ndarray, count: np.ndarray, err: np.ndarray, ref: np.ndarray,
+                 lo: np.ndarray, hi: np.ndarray, rev: np.ndarray, tol_pos: float,
+                 tol_ori: float, same_tol: float, q_out: np.ndarray, pe_out: np.ndarray,
+                 oe_out: np.ndarray, dist_out: np.ndarray, n_out: np.ndarray) -> None:
+    """Solutions of each target (module docstring): q_out (m, 8, n_v), pe_out, oe_out,
+    dist_out (m, 8), n_out (m,); rows past n_out[i] are left as they were."""
+    m, nb, nv = q.shape
+    cand = np.empty((nb, nv))
+    cpe = np.empty(nb)
+    coe = np.empty(nb)
+    cd = np.empty(nb)
+    idx = np.empty(nb, dtype=np.int64)
+    for r in range(m):
+        k = 0
+        for b in range(count[r]):
+            if err[r, b, 0] > tol_pos or err[r, b, 1] > tol_ori:
+                continue
+            inside = True
+            d2 = 0.0
+            for j in range(nv):
+                x = q[r, b, j]
+                if rev[j]:
+                    x = ref[r, j] + _wrap(x - ref[r, j])
+                    if x < lo[j] - 1e-12 or x > hi[j] + 1e-12:
+                        x += TWO_PI
+                        if x < lo[j] - 1e-12 or x > hi[j] + 1e-12:
+                            x -= 2.0 * TWO_PI
+                    dj = _wrap(x - ref[r, j])
+                else:
+                    dj = x - ref[r, j]
+                if x < lo[j] - 1e-12 or x > hi[j] + 1e-12:
+                    inside = False
+                    break
+                cand[k, j] = min(max(x, lo[j]), hi[j])
+                d2 += dj * dj
+            if not inside:
+                continue
+            cpe[k] = err[r, b, 0]
+            coe[k] = err[r, b, 1]
+            cd[k] = math.sqrt(d2)
+            k += 1
+        # insertion sort of 0..k-1 by (distance, q)
+        for i in range(k):
+            idx[i] = i
+        for i in range(1, k):
+            t = idx[i]
+            j = i - 1
+            while j >= 0 and _before(cd[t], cand[t], cd[idx[j]], cand[idx[j]]):
+                idx[j + 1] = idx[j]
+                j -= 1
+            idx[j + 1] = t
+        n = 0
+        for i in range(k):
+            a = idx[i]
+            dup = False
+            for s in range(n):
+                big = 0.0
+                for j in range(nv):
+                    dj = cand[a, j] - q_out[r, s, j]
+                    if rev[j]:
+                        dj = _wrap(dj)
+                    big = max(big, abs(dj))
+                if big < same_tol:
+                    dup = True
+                    break
+            if dup:
+                continue
+            for j in range(nv):
+                q_out[r, n, j] = cand[a, j]
+            pe_out[r, n] = cpe[a]
+            oe_out[r, n] = coe[a]
+            dist_out[r, n] = cd[a]
+            n += 1
+        n_out[r] = n
