@@ -19,6 +19,7 @@ mechkin`` stays cheap).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -112,7 +113,7 @@ def ik(
     targets: Any,
     *,
     weights: Any = None,
-    method: str = "lm",
+    method: str = "auto",
     q_v0: Any = None,
     q_w0: Any = None,
     restarts: int | None = None,
@@ -128,14 +129,18 @@ def ik(
         Poses of {E} in the base frame [m].
     weights : array_like, shape (6,), optional
         Diagonal of W (position, orientation); default ones.
-    method : {"lm", "cg-golden"}
+    method : {"auto", "analytic", "lm", "cg-golden"}
+        ``auto`` (default): every branch by subproblem decomposition where the mechanism's
+        axes allow it (:mod:`mechkin.solvers.ik.analytic`), the one nearest the guess; else
+        ``lm``. ``analytic`` refuses a mechanism that does not decompose.
     q_v0, q_w0 : array_like, optional
         First guess; targets are then solved in order, each warm-started from the previous
         answer (kim1995 §5.2 Step 2).
     restarts : int, optional
         Extra seeded starts on failure (default: the scenario default of ``mechkin ik``).
     batch : bool
-        Solve all targets at once, vectorised (lm only).
+        Solve all targets at once: one compiled call of the analytic solver (``auto`` on a
+        decomposable arm: each target's solution nearest ``q_v0``), else vectorised lm.
 
     Returns
     -------
@@ -144,7 +149,6 @@ def ik(
     """
     import numpy as np
 
-    from mechkin.config.ik_spec import IkSpec
     from mechkin.errors import ConfigError
     from mechkin.solvers.ik import IkOptions, solve_ik, solve_ik_batch
 
@@ -152,15 +156,24 @@ def ik(
     T = T[None] if T.ndim == 2 else T
     if T.ndim != 3 or T.shape[1:] != (4, 4):
         raise ConfigError(f"targets: expected (k, 4, 4) poses, got shape {T.shape}")
-    if method not in ("lm", "cg-golden"):
-        raise ConfigError(f"method: expected 'lm' or 'cg-golden', got {method!r}")
+    if method not in ("auto", "analytic", "lm", "cg-golden"):
+        raise ConfigError(f"method: expected 'auto', 'analytic', 'lm' or 'cg-golden', got "
+                          f"{method!r}")
     if mech.end_effector is None:
         raise ConfigError(f"mechanism {mech.name} has no end_effector frame")
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=float)
-    n_rs = IkSpec.model_fields["restarts"].default if restarts is None else int(restarts)
-    opts = IkOptions(method=method, restarts=n_rs, seed=seed)  # type: ignore[arg-type]
+    n_rs = _default_restarts() if restarts is None else int(restarts)
+    num = method if method in ("lm", "cg-golden") else "lm"
+    opts = IkOptions(method=num, restarts=n_rs, seed=seed)  # type: ignore[arg-type]
     qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
     qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
+    if method in ("auto", "analytic"):
+        from mechkin.solvers.ik.analytic.api_ik import ik_analytic
+
+        out_a = ik_analytic(mech, T, method=method, weights=w, q_v0=qv, q_w0=qw,
+                            options=opts, batch=batch)
+        if out_a is not None:
+            return out_a
     if batch:
         from mechkin.tasks.ik import batch_results
 
@@ -174,6 +187,14 @@ def ik(
         if np.all(np.isfinite(r.q)):
             qv, qw = r.q_v, r.q_w
     return out
+
+
+@lru_cache(maxsize=1)
+def _default_restarts() -> int:
+    """The ``restarts`` default of the ik scenario section (read once)."""
+    from mechkin.config.ik_spec import IkSpec
+
+    return int(IkSpec.model_fields["restarts"].default)
 
 
 def run(scenario: str | Path | Scenario, **options: Any) -> Report:

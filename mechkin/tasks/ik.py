@@ -45,6 +45,7 @@ from mechkin.solvers.ik.all_solutions import (
     multistart_all,
     wrapped,
 )
+from mechkin.solvers.ik.analytic.dispatch import ANALYTIC_METHODS, solve_ik_method
 from mechkin.tasks.common import (
     check_motion_budget,
     expect_messages,
@@ -55,6 +56,14 @@ from mechkin.tasks.common import (
 )
 from mechkin.tasks.distributed import Execution, map_jobs
 from mechkin.tasks.distributed import resolve as resolve_execution
+from mechkin.tasks.ik_analytic import (
+    analytic_all,
+    analytic_problem,
+    analytic_rows,
+    methods_used,
+    solutions_summary_extra,
+    solve_batch_analytic,
+)
 
 
 def _closed_form_kind(scenario: Scenario, mech: Mechanism) -> str:
@@ -242,6 +251,9 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
         else:
             if method == "closed-form":
                 r = _closed_form(mech, T, qw, kind)
+            elif method in ANALYTIC_METHODS:
+                r = solve_ik_method(mech, T, method=method, q_v0=qv, q_w0=qw, weights=w,
+                                    options=opts)
             else:
                 r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
             results.append(r)
@@ -364,6 +376,10 @@ def _all_solutions(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray
     from mechkin.solvers.closed_form.recognise import ClosedFormMismatch, recognise_closed_form
 
     spec: IkSpec = sc.section
+    exact = analytic_rows(mech, spec.method, W) & ~far
+    if exact.any():
+        refs = np.array([g[0] for g in guesses])
+        found = iter(analytic_all(mech, T_P[exact], refs[exact]))
     try:
         kind = recognise_closed_form(mech)
     except ClosedFormMismatch:
@@ -377,7 +393,9 @@ def _all_solutions(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray
             out.append(IkSolutions(q=np.zeros((0, n)), q_v=np.zeros((0, len(mech.independent))),
                                    position_error=np.zeros(0), orientation_error=np.zeros(0),
                                    distance=np.zeros(0), source="reach bound", starts=0,
-                                   time_s=0.0))
+                                   time_s=0.0, complete=True))
+        elif exact[i]:
+            out.append(next(found))
         elif kind is not None:
             out.append(closed_form_all(mech, T, kind, q_w0=qw, ref=qv, extra=extra,
                                        weights=w))
@@ -473,6 +491,10 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: mechanism {mech.name} has no "
                           "end_effector frame")
     kind = _closed_form_kind(scenario, mech) if spec.method == "closed-form" else None
+    if spec.method == "analytic":
+        why = analytic_problem(scenario, mech)
+        if why:
+            raise ConfigError(why)
     T_P, W, labels = _targets(scenario, mech)
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
@@ -482,7 +504,11 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     t0 = time.perf_counter()
     ex = resolve_execution(progress=progress)
     execution_info: dict[str, Any] | None = None
-    if spec.batch and not far.any():
+    exact_batch = (solve_batch_analytic(mech, spec.method, T_P, W, qv0, qw0, opts)
+                   if spec.batch and not far.any() else None)
+    if exact_batch is not None:
+        results, guesses = exact_batch, [(qv0, qw0)] * len(T_P)
+    elif spec.batch and not far.any():
         results, execution_info = _solve_batch(scenario, T_P, W, qv0, qw0, opts, ex)
         guesses = [(qv0, qw0)] * len(T_P)
     elif ex.split:
@@ -544,6 +570,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         "task": "ik",
         "mechanism": mech.name,
         "method": spec.method,
+        "methods_used": methods_used(results),
         "status": overall,
         "n_targets": len(results),
         "counts": counts,
@@ -567,6 +594,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
             # more independent joints than weighted pose components: the solutions form a
             # continuum and the list is a sample of it
             "continuum": bool(len(mech.independent) > int((W > 0).sum(axis=1).min())),
+            **solutions_summary_extra(all_sols),
         }
     checks = with_expect(summary, scenario)
     if all_sols is not None:

@@ -69,6 +69,11 @@ class AnalyticChain:
     order : (6,) int
         Column of q_v holding each chain joint (``q_v[order] = q_chain``).
     description : str
+    packed : (131,)
+        Every constant above with the limits in chain order, packed for the compiled
+        :func:`mechkin.solvers.ik.analytic.finish.solve_finish`.
+    identity : bool
+        ``order`` is 0..5 (q_v is in chain order).
     """
 
     kind: int
@@ -85,6 +90,8 @@ class AnalyticChain:
     joints: np.ndarray
     order: np.ndarray
     description: str
+    packed: np.ndarray
+    identity: bool
 
 
 def zero_config(mech: Mechanism, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
@@ -211,12 +218,17 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
     if found is None:
         raise NotDecomposable(_why(names, Hf, Pf))
     kind, pos, pt, pt2, desc = found
+    jj = np.asarray(joints)
+    packed = np.concatenate([[kind, pos, float(rev)], np.ravel(H), np.ravel(P), np.ravel(M),
+                             pt, pt2, np.ravel(Hf), np.ravel(Pf), np.ravel(Mf), mech.lower[jj],
+                             mech.upper[jj], (mech.s[jj] == 0).astype(float)]).astype(float)
     return AnalyticChain(kind=kind, pos_kind=pos, reversed=rev,
                          H=np.ascontiguousarray(H), P=np.ascontiguousarray(P),
                          M=np.ascontiguousarray(M), Hf=Hf, Pf=Pf, Mf=Mf,
                          point=np.asarray(pt, float),
                          point2=np.asarray(pt2, float), joints=np.asarray(joints),
-                         order=order,
+                         order=order, packed=np.ascontiguousarray(packed),
+                         identity=bool(np.array_equal(order, np.arange(6))),
                          description=desc + (" (reversed chain: at the base)" if rev else ""))
 
 

@@ -24,6 +24,7 @@ import math
 import numpy as np
 
 from mechkin.solvers.ik.analytic.jit import jit
+from mechkin.solvers.ik.analytic.solve6r import MAX_BRANCHES, solve_batch
 
 TWO_PI = 2.0 * math.pi
 
@@ -53,7 +54,7 @@ def finish_batch(q: np.ndarray, count: np.ndarray, err: np.ndarray, ref: np.ndar
                  tol_ori: float, same_tol: float, q_out: np.ndarray, pe_out: np.ndarray,
                  oe_out: np.ndarray, dist_out: np.ndarray, n_out: np.ndarray) -> None:
     """Solutions of each target (module docstring): q_out (m, 8, n_v), pe_out, oe_out,
-    dist_out (m, 8), n_out (m,); rows past n_out[i] are left as they were."""
+    dist_out (m, 8), n_out (m,); rows past n_out[i] are NaN (joints) and inf."""
     m, nb, nv = q.shape
     cand = np.empty((nb, nv))
     cpe = np.empty(nb)
@@ -122,3 +123,35 @@ def finish_batch(q: np.ndarray, count: np.ndarray, err: np.ndarray, ref: np.ndar
             dist_out[r, n] = cd[a]
             n += 1
         n_out[r] = n
+        for i in range(n, nb):
+            for j in range(nv):
+                q_out[r, i, j] = np.nan
+            pe_out[r, i] = np.inf
+            oe_out[r, i] = np.inf
+            dist_out[r, i] = np.inf
+
+
+# Layout of the packed constants of a chain (one float64 vector, so that a compiled call takes
+# few arguments): kind, pos_kind, reversed, H, P, M, point, point2, Hf, Pf, Mf, lower, upper,
+# revolute (joints in chain order).
+C_H, C_P, C_M, C_PT, C_PT2, C_HF, C_PF, C_MF = 3, 21, 39, 55, 58, 61, 79, 97
+C_LO, C_HI, C_REV, C_SIZE = 113, 119, 125, 131
+
+
+@jit
+def solve_finish(c: np.ndarray, Ts: np.ndarray, ref: np.ndarray, tol: np.ndarray,
+                 q_out: np.ndarray, pe: np.ndarray, oe: np.ndarray, dist: np.ndarray,
+                 n_out: np.ndarray) -> None:
+    """Every solution of each target Ts (m, 4, 4) of the chain with packed constants c,
+    reference ref (m, 6) (chain order), tol = (tol_pos, tol_ori, same_tol): the branches of
+    :func:`mechkin.solvers.ik.analytic.solve6r.solve_batch` through :func:`finish_batch`."""
+    m = Ts.shape[0]
+    q = np.empty((m, MAX_BRANCHES, 6))
+    count = np.zeros(m, dtype=np.int64)
+    err = np.empty((m, MAX_BRANCHES, 2))
+    solve_batch(int(c[0]), int(c[1]), c[2] != 0.0, c[C_H:C_P].reshape(6, 3),
+                c[C_P:C_M].reshape(6, 3), c[C_M:C_PT].reshape(4, 4), c[C_PT:C_PT2],
+                c[C_PT2:C_HF], c[C_HF:C_PF].reshape(6, 3), c[C_PF:C_MF].reshape(6, 3),
+                c[C_MF:C_LO].reshape(4, 4), Ts, ref, q, count, err)
+    finish_batch(q, count, err, ref, c[C_LO:C_HI], c[C_HI:C_REV], c[C_REV:C_SIZE] != 0.0,
+                 tol[0], tol[1], tol[2], q_out, pe, oe, dist, n_out)

@@ -26,7 +26,7 @@ import numpy as np
 
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.analytic.classify import AnalyticChain
-from mechkin.solvers.ik.analytic.finish import finish_batch
+from mechkin.solvers.ik.analytic.finish import solve_finish
 from mechkin.solvers.ik.analytic.solve6r import MAX_BRANCHES, solve_batch
 
 TOL_POS = 1e-8  # [m] a branch is a solution when FK puts {E} this close to the target ...
@@ -41,7 +41,7 @@ class AnalyticBatch:
     q_v : (m, 8, n_v) independent joints (in ``mech.independent`` order), the solutions of
     target i in rows ``[:count[i]]``, nearest the reference first; position_error,
     orientation_error : (m, 8) [m], [rad] by FK; distance : (m, 8) joint distance from the
-    reference; count : (m,); branches : (m,) branches before the limits and merging.
+    reference; count : (m,).
     Rows past ``count`` hold NaN (joints) and inf (errors, distance).
     """
 
@@ -50,7 +50,6 @@ class AnalyticBatch:
     orientation_error: np.ndarray
     distance: np.ndarray
     count: np.ndarray
-    branches: np.ndarray
 
 
 def chain_branches(chain: AnalyticChain, Ts: np.ndarray, guess: np.ndarray
@@ -73,23 +72,24 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
                    tol_ori: float = TOL_ORI) -> AnalyticBatch:
     """Every solution within the limits of each target Ts (m, 4, 4), ordered from the
     reference ref ((m, n_v) or (n_v,), independent joints; also the guess of free joints at
-    singular poses). See the module docstring for the rules."""
-    Ts = np.asarray(Ts, dtype=np.float64).reshape(-1, 4, 4)
+    singular poses). See the module docstring for the rules. ``mech`` is the mechanism
+    ``chain`` was classified from."""
+    Ts = np.ascontiguousarray(Ts, dtype=np.float64).reshape(-1, 4, 4)
     m = Ts.shape[0]
-    nv = len(mech.independent)
-    ref = np.ascontiguousarray(np.broadcast_to(np.asarray(ref, dtype=np.float64), (m, nv)))
-    order = chain.order
-    q_ch, count, err = chain_branches(chain, Ts, ref[:, order])
-    q = np.empty((m, MAX_BRANCHES, nv))
-    q[:, :, order] = q_ch
-    iv = mech.independent
-    q_out = np.full((m, MAX_BRANCHES, nv), np.nan)
-    pe = np.full((m, MAX_BRANCHES), np.inf)
-    oe = np.full((m, MAX_BRANCHES), np.inf)
-    dist = np.full((m, MAX_BRANCHES), np.inf)
-    n = np.zeros(m, dtype=np.int64)
-    finish_batch(q, count, err, ref, mech.lower[iv].astype(np.float64),
-                 mech.upper[iv].astype(np.float64), mech.s[iv] == 0, float(tol_pos),
-                 float(tol_ori), float(same_tol), q_out, pe, oe, dist, n)
-    return AnalyticBatch(q_v=q_out, position_error=pe, orientation_error=oe, distance=dist,
-                         count=n, branches=count)
+    ref = np.asarray(ref, dtype=np.float64)
+    if not chain.identity:
+        ref = ref[..., chain.order]
+    ref = np.ascontiguousarray(np.broadcast_to(ref, (m, 6)))
+    q = np.empty((m, MAX_BRANCHES, 6))
+    pe = np.empty((m, MAX_BRANCHES))
+    oe = np.empty((m, MAX_BRANCHES))
+    dist = np.empty((m, MAX_BRANCHES))
+    n = np.empty(m, dtype=np.int64)
+    solve_finish(chain.packed, Ts, ref, np.array((tol_pos, tol_ori, same_tol)), q, pe, oe,
+                 dist, n)
+    if not chain.identity:
+        qv = np.empty_like(q)
+        qv[..., chain.order] = q
+        q = qv
+    return AnalyticBatch(q_v=q, position_error=pe, orientation_error=oe, distance=dist,
+                         count=n)

@@ -1,0 +1,76 @@
+r"""The analytic route of :func:`mechkin.ik` (``method: auto | analytic``), single or batched.
+
+Sequences (``batch=False``): each target's answer is the solution nearest the previous answer
+(the first: nearest ``q_v0``), so the sequence stays on its branch; ``batch=True``: every
+target at once (one compiled call, :func:`mechkin.solvers.ik.analytic.solutions.
+analytic_batch`), each nearest ``q_v0``. ``auto`` re-solves targets without an analytic
+solution by lm (and returns None when the mechanism does not decompose: the caller runs lm).
+
+Design
+------
+Part of :mod:`mechkin.solvers.ik.analytic`; never ``io/``, ``tasks/`` or ``cli/``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from mechkin.errors import ConfigError
+from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.analytic.classify import NotDecomposable
+from mechkin.solvers.ik.analytic.dispatch import analytic_ik, chain_for
+from mechkin.solvers.ik.analytic.solutions import analytic_batch
+from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
+
+
+def ik_analytic(mech: Mechanism, T: np.ndarray, *, method: str, weights: np.ndarray,
+                q_v0: np.ndarray, q_w0: np.ndarray, options: IkOptions, batch: bool
+                ) -> list[IkResult] | None:
+    """IkResults of targets T (k, 4, 4) by the analytic route, or None (``auto`` on a
+    mechanism that does not decompose, or with a zero weight). ``analytic`` there raises
+    ConfigError naming the axes or the weights."""
+    from mechkin.solvers.ik.solve import solve_ik
+
+    try:
+        chain = chain_for(mech, method, weights)
+    except NotDecomposable as exc:
+        raise ConfigError(f"method: analytic: {exc}") from None
+    if chain is None:
+        return None
+    lm = options if options.method == "lm" else replace(options, method="lm")
+    out: list[IkResult] = []
+    if batch:
+        t0 = time.perf_counter()
+        b = analytic_batch(mech, chain, T, q_v0)
+        per = (time.perf_counter() - t0) / max(len(T), 1)
+        for i in range(len(T)):
+            if b.count[i] == 0 or b.position_error[i, 0] > options.tol_pos or \
+                    b.orientation_error[i, 0] > options.tol_ori:
+                if method == "auto":
+                    r = solve_ik(mech, T[i], q_v0=q_v0, q_w0=q_w0, weights=weights,
+                                 options=lm)
+                else:
+                    r = analytic_ik(mech, chain, T[i], q_v0, weights, options)
+                out.append(r)
+                continue
+            q = mech.home.astype(np.float64).copy()
+            q[mech.independent] = b.q_v[i, 0]
+            pe, oe = float(b.position_error[i, 0]), float(b.orientation_error[i, 0])
+            f = 0.5 * (float(weights[:3].sum()) * pe * pe + float(weights[3:].sum()) * oe * oe) / 3
+            out.append(IkResult(q_v=b.q_v[i, 0].copy(), q_w=q[mech.dependent], q=q,
+                                status=IkStatus.OK, position_error=pe, orientation_error=oe,
+                                f=f, grad_norm=0.0, iterations=0, evaluations=1, time_s=per,
+                                f_history=np.array([f]), method="analytic"))
+        return out
+    qv = np.asarray(q_v0, dtype=np.float64)
+    for Tk in T:
+        r = analytic_ik(mech, chain, Tk, qv, weights, options)
+        if not r.ok and method == "auto":
+            r = solve_ik(mech, Tk, q_v0=qv, q_w0=q_w0, weights=weights, options=lm)
+        out.append(r)
+        if np.all(np.isfinite(r.q)):
+            qv = r.q_v
+    return out

@@ -1,0 +1,112 @@
+r"""``method: auto | analytic`` for one precision point: the analytic branch nearest the guess.
+
+* ``analytic``: the mechanism must decompose (:func:`mechkin.solvers.ik.analytic.classify.
+  classify`) and the pose be weighted in full (all six weights positive: the subproblems
+  solve the whole pose); otherwise :class:`NotDecomposable` says which axes, or the weights,
+  break it. The answer is the solution within the limits nearest the guess ``q_v0`` (joint
+  distance, revolute joints modulo 2 pi, each at the representative nearest the guess), so a
+  warm-started sequence stays on its branch; none: status ``unreachable`` (the pose has no
+  solution within the limits; the list is complete) at the guess.
+* ``auto``: ``analytic`` where it applies, else (and where it finds no solution within the
+  tolerances) :func:`mechkin.solvers.ik.solve_ik` with lm, its seeds and restarts.
+
+Design
+------
+Part of :mod:`mechkin.solvers.ik.analytic`; imports the IK family's records and
+:func:`mechkin.solvers.ik.solve.solve_ik`; never ``io/``, ``tasks/`` or ``cli/``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.analytic.classify import (
+    AnalyticChain,
+    NotDecomposable,
+    analytic_chain,
+    classify,
+)
+from mechkin.solvers.ik.analytic.solutions import analytic_batch
+from mechkin.solvers.ik.analytic.solve6r import fk_error
+from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
+
+ANALYTIC_METHODS = ("auto", "analytic")
+_DEFAULT = IkOptions()
+
+
+def chain_for(mech: Mechanism, method: str, weights: np.ndarray | None = None
+              ) -> AnalyticChain | None:
+    """The analytic chain ``method`` uses for ``mech`` (None: lm). ``analytic`` on a chain that
+    does not decompose, or with a zero weight, raises NotDecomposable naming why."""
+    full = weights is None or min(np.asarray(weights).tolist()) > 0
+    if method == "analytic":
+        if not full:
+            raise NotDecomposable("method analytic solves the whole pose: give all six "
+                                  "weights positive (or use method auto / lm)")
+        return classify(mech) if analytic_chain(mech) is None else analytic_chain(mech)
+    if method == "auto" and full:
+        return analytic_chain(mech)
+    return None
+
+
+def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np.ndarray,
+                weights: np.ndarray | None = None, options: IkOptions | None = None
+                ) -> IkResult:
+    """The solution of T_P (4, 4) nearest the guess q_v0 (n_v,) (module docstring)."""
+    t0 = time.perf_counter()
+    opts = options or _DEFAULT
+    b = analytic_batch(mech, chain, T_P, q_v0)
+    q = mech.home.copy()
+    if b.count[0] > 0:
+        qv = b.q_v[0, 0]
+        pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
+        ok = pe <= opts.tol_pos and oe <= opts.tol_ori
+    else:
+        qv = np.array(q_v0, dtype=np.float64)
+        pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf, np.ascontiguousarray(qv[chain.order]),
+                          np.ascontiguousarray(T_P, dtype=np.float64))
+        ok = False
+    iv = mech.independent
+    q[iv] = qv
+    near = (np.abs(qv - mech.lower[iv]) < 1e-9) | (np.abs(qv - mech.upper[iv]) < 1e-9)
+    at = tuple(mech.joint_names[iv[j]] for j in np.flatnonzero(near)) if near.any() else ()
+    if weights is None:
+        f = 0.5 * (pe * pe + oe * oe)
+    else:
+        w = weights.tolist()
+        f = 0.5 * ((w[0] + w[1] + w[2]) * pe * pe + (w[3] + w[4] + w[5]) * oe * oe) / 3.0
+    return IkResult(q_v=qv, q_w=q[mech.dependent], q=q,
+                    status=IkStatus.OK if ok else IkStatus.UNREACHABLE,
+                    position_error=pe, orientation_error=oe, f=f, grad_norm=0.0,
+                    iterations=0, evaluations=1, time_s=time.perf_counter() - t0,
+                    f_history=np.array([f]), at_limit=at, method="analytic")
+
+
+def solve_ik_method(mech: Mechanism, T_P: np.ndarray, *, method: str,
+                    q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
+                    weights: np.ndarray | None = None, options: IkOptions | None = None
+                    ) -> IkResult:
+    """One precision point by ``method`` (``auto``, ``analytic``, ``lm``, ``cg-golden``)."""
+    from mechkin.solvers.ik.solve import solve_ik
+
+    opts = options or IkOptions()
+    if method in ANALYTIC_METHODS:
+        chain = chain_for(mech, method, weights)
+        if chain is not None:
+            guess = mech.home[mech.independent] if q_v0 is None else q_v0
+            r = analytic_ik(mech, chain, T_P, np.asarray(guess, dtype=np.float64), weights,
+                            opts)
+            if r.ok or method == "analytic":
+                return r
+        opts = replace(opts, method="lm")
+    else:
+        opts = replace(opts, method=method)  # type: ignore[arg-type]
+    return solve_ik(mech, T_P, q_v0=q_v0, q_w0=q_w0, weights=weights, options=opts)
+
+
+__all__ = ["ANALYTIC_METHODS", "NotDecomposable", "analytic_ik", "chain_for",
+           "solve_ik_method"]

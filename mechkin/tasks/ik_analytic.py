@@ -1,0 +1,98 @@
+"""The ik task's analytic route (``method: auto | analytic``): the check that ``analytic``
+applies, the batched solve and the complete ``solutions: all``.
+
+Imports: config, model, solvers, tasks.common (a part of :mod:`mechkin.tasks.ik`).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from mechkin.config.scenario import Scenario
+from mechkin.model import Mechanism
+from mechkin.solvers.ik import IkOptions, IkResult
+from mechkin.solvers.ik.all_solutions import IkSolutions
+from mechkin.solvers.ik.analytic.classify import NotDecomposable
+from mechkin.solvers.ik.analytic.dispatch import ANALYTIC_METHODS, chain_for
+from mechkin.solvers.ik.analytic.solutions import analytic_batch
+
+
+def analytic_problem(sc: Scenario, mech: Mechanism) -> str | None:
+    """Why ``method: analytic`` cannot solve this scenario (one line naming the file, the key
+    and the axes or weights that break it), or None."""
+    spec = sc.section
+    ws = [t.weights for t in spec.targets if t.weights is not None]
+    if spec.random_targets is not None or any(t.weights is None for t in spec.targets):
+        ws.append(spec.weights)
+    try:
+        for w in ws or [None]:
+            chain_for(mech, "analytic", None if w is None else np.asarray(w, float))
+    except NotDecomposable as exc:
+        return f"{sc.doc.where(('ik', 'method'))}: analytic: {exc}"
+    return None
+
+
+def analytic_rows(mech: Mechanism, method: str, W: np.ndarray) -> np.ndarray:
+    """Which targets (k,) the analytic route solves: ``auto`` / ``analytic`` on a mechanism
+    that decomposes, targets with all six weights positive."""
+    if method not in ANALYTIC_METHODS:
+        return np.zeros(len(W), dtype=bool)
+    try:
+        chain = chain_for(mech, "auto", None)
+    except NotDecomposable:
+        chain = None
+    if chain is None:
+        return np.zeros(len(W), dtype=bool)
+    return np.all(W > 0, axis=1)
+
+
+def solve_batch_analytic(mech: Mechanism, method: str, T_P: np.ndarray, W: np.ndarray,
+                         qv0: np.ndarray, qw0: np.ndarray, opts: IkOptions
+                         ) -> list[IkResult] | None:
+    """``batch: true`` by the analytic route (one compiled call for every target, each
+    answer nearest the initial guess; ``auto`` re-solves the targets without a solution by
+    lm), or None when the route does not apply to every target."""
+    from mechkin.solvers.ik.analytic.api_ik import ik_analytic
+
+    rows = analytic_rows(mech, method, W)
+    if not rows.all() or not np.allclose(W, W[:1]):
+        return None
+    return ik_analytic(mech, T_P, method=method, weights=W[0], q_v0=qv0, q_w0=qw0,
+                       options=opts, batch=True)
+
+
+def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray) -> list[IkSolutions]:
+    """Every solution within the limits of each target T_P (k, 4, 4), ordered from its guess
+    refs (k, n_v): the analytic branches, complete (``complete: true``)."""
+    from mechkin.solvers.ik.analytic.classify import analytic_chain
+
+    chain = analytic_chain(mech)
+    assert chain is not None
+    t0 = time.perf_counter()
+    b = analytic_batch(mech, chain, T_P, refs)
+    per = (time.perf_counter() - t0) / max(len(T_P), 1)
+    out = []
+    iv = mech.independent
+    for i in range(len(T_P)):
+        n = int(b.count[i])
+        q = np.repeat(np.where(np.isfinite(mech.home), mech.home, 0.0)[None], n, axis=0)
+        q[:, iv] = b.q_v[i, :n]
+        out.append(IkSolutions(q=q, q_v=b.q_v[i, :n].copy(),
+                               position_error=b.position_error[i, :n].copy(),
+                               orientation_error=b.orientation_error[i, :n].copy(),
+                               distance=b.distance[i, :n].copy(), source="analytic", starts=8,
+                               time_s=per, complete=True))
+    return out
+
+
+def methods_used(results: list[IkResult]) -> list[str]:
+    """The methods that produced the answers (``auto`` resolves to analytic or lm)."""
+    return sorted({r.method for r in results})
+
+
+def solutions_summary_extra(all_sols: list[IkSolutions]) -> dict[str, Any]:
+    """``complete``: every target's list is every solution within the limits."""
+    return {"complete": bool(all(a.complete for a in all_sols))}
