@@ -147,6 +147,12 @@ def ik(
     list of IkResult
         One per target, with status and the verified position/orientation errors.
     """
+    from mechkin.solvers.ik.analytic.api_ik import ik_one_fast
+
+    fast = ik_one_fast(mech, targets, method, weights, q_v0, batch)
+    if fast is not None:  # one pose, analytic, verified: no further checks needed
+        return fast
+
     import numpy as np
 
     from mechkin.errors import ConfigError
@@ -164,7 +170,7 @@ def ik(
     w = np.ones(6) if weights is None else np.asarray(weights, dtype=float)
     n_rs = _default_restarts() if restarts is None else int(restarts)
     num = method if method in ("lm", "cg-golden") else "lm"
-    opts = IkOptions(method=num, restarts=n_rs, seed=seed)  # type: ignore[arg-type]
+    opts = _options(IkOptions, num, n_rs, seed)
     qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
     qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
     if method in ("auto", "analytic"):
@@ -187,6 +193,12 @@ def ik(
         if np.all(np.isfinite(r.q)):
             qv, qw = r.q_v, r.q_w
     return out
+
+
+@lru_cache(maxsize=64)
+def _options(cls: Any, method: str, restarts: int, seed: int) -> Any:
+    """IkOptions(method, restarts, seed) (frozen: one per combination)."""
+    return cls(method=method, restarts=restarts, seed=seed)
 
 
 @lru_cache(maxsize=1)

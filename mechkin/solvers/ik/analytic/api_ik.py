@@ -74,3 +74,24 @@ def ik_analytic(mech: Mechanism, T: np.ndarray, *, method: str, weights: np.ndar
         if np.all(np.isfinite(r.q)):
             qv = r.q_v
     return out
+
+
+def ik_one_fast(mech: Mechanism, target: object, method: str, weights: object,
+                q_v0: object, batch: bool) -> list[IkResult] | None:
+    """The shortest route of :func:`mechkin.ik` for one (4, 4) ndarray target with default
+    weights on a mechanism that decomposes (``auto`` / ``analytic``): the analytic answer
+    nearest the guess when it is verified (status ok); else None (the general route decides,
+    e.g. ``auto`` goes on to lm)."""
+    if batch or weights is not None or method not in ("auto", "analytic") or \
+            type(target) is not np.ndarray or target.shape != (4, 4):
+        return None
+    chain = mech.__dict__.get("_analytic_chain", ())
+    if chain == ():
+        from mechkin.solvers.ik.analytic.classify import analytic_chain
+
+        chain = analytic_chain(mech)
+    if chain is None:
+        return None
+    guess = mech.home[mech.independent] if q_v0 is None else q_v0
+    r = analytic_ik(mech, chain, target, guess)
+    return [r] if r.ok else None

@@ -74,6 +74,8 @@ class AnalyticChain:
         :func:`mechkin.solvers.ik.analytic.finish.solve_finish`.
     identity : bool
         ``order`` is 0..5 (q_v is in chain order).
+    limits : ((6,), (6,))
+        Lower and upper limits of the independent joints (q_v order).
     """
 
     kind: int
@@ -92,6 +94,8 @@ class AnalyticChain:
     description: str
     packed: np.ndarray
     identity: bool
+    limits: tuple[np.ndarray, np.ndarray]
+    limits_list: tuple[list[float], list[float]]
 
 
 def zero_config(mech: Mechanism, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
@@ -229,6 +233,8 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
                          point2=np.asarray(pt2, float), joints=np.asarray(joints),
                          order=order, packed=np.ascontiguousarray(packed),
                          identity=bool(np.array_equal(order, np.arange(6))),
+                         limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
+                         limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()),
                          description=desc + (" (reversed chain: at the base)" if rev else ""))
 
 

@@ -30,7 +30,7 @@ from mechkin.solvers.ik.analytic.classify import (
     analytic_chain,
     classify,
 )
-from mechkin.solvers.ik.analytic.solutions import analytic_batch
+from mechkin.solvers.ik.analytic.finish import solve_one
 from mechkin.solvers.ik.analytic.solve6r import fk_error
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
@@ -56,24 +56,29 @@ def chain_for(mech: Mechanism, method: str, weights: np.ndarray | None = None
 def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np.ndarray,
                 weights: np.ndarray | None = None, options: IkOptions | None = None
                 ) -> IkResult:
-    """The solution of T_P (4, 4) nearest the guess q_v0 (n_v,) (module docstring)."""
+    """The solution of T_P (4, 4) nearest the guess q_v0 (n_v,) (module docstring), verified
+    to :data:`~mechkin.solvers.ik.analytic.solutions.TOL_POS` / ``TOL_ORI`` by the solver's
+    FK; status ok when also within ``options.tol_pos`` / ``tol_ori``."""
     t0 = time.perf_counter()
     opts = options or _DEFAULT
-    b = analytic_batch(mech, chain, T_P, q_v0)
-    q = mech.home.copy()
-    if b.count[0] > 0:
-        qv = b.q_v[0, 0]
-        pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
+    T = np.ascontiguousarray(T_P, dtype=np.float64)
+    ref = np.asarray(q_v0, dtype=np.float64)
+    n, qc, e = solve_one(chain.packed, T, ref if chain.identity else ref[chain.order])
+    if n > 0:
+        qv = qc[0] if chain.identity else qc[0][np.argsort(chain.order)]
+        pe, oe = float(e[0, 0]), float(e[0, 1])
         ok = pe <= opts.tol_pos and oe <= opts.tol_ori
     else:
-        qv = np.array(q_v0, dtype=np.float64)
+        qv = ref.copy()
         pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf, np.ascontiguousarray(qv[chain.order]),
-                          np.ascontiguousarray(T_P, dtype=np.float64))
+                          T)
         ok = False
     iv = mech.independent
+    q = mech.home.copy()
     q[iv] = qv
-    near = (np.abs(qv - mech.lower[iv]) < 1e-9) | (np.abs(qv - mech.upper[iv]) < 1e-9)
-    at = tuple(mech.joint_names[iv[j]] for j in np.flatnonzero(near)) if near.any() else ()
+    lo, hi = chain.limits_list
+    at = tuple(mech.joint_names[iv[j]] for j, x in enumerate(qv.tolist())
+               if abs(x - lo[j]) < 1e-9 or abs(x - hi[j]) < 1e-9)
     if weights is None:
         f = 0.5 * (pe * pe + oe * oe)
     else:

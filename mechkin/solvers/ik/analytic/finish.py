@@ -27,6 +27,9 @@ from mechkin.solvers.ik.analytic.jit import jit
 from mechkin.solvers.ik.analytic.solve6r import MAX_BRANCHES, solve_batch
 
 TWO_PI = 2.0 * math.pi
+TOL_POS = 1e-8  # [m] a branch is a solution when FK puts {E} this close to the target ...
+TOL_ORI = 1e-8  # [rad] ... in position and orientation (exact branches: ~1e-15)
+SAME_TOL = 1e-3  # [rad | m] two branches closer than this (max-abs, mod 2 pi) are one
 
 
 @jit
@@ -155,3 +158,27 @@ def solve_finish(c: np.ndarray, Ts: np.ndarray, ref: np.ndarray, tol: np.ndarray
                 c[C_MF:C_LO].reshape(4, 4), Ts, ref, q, count, err)
     finish_batch(q, count, err, ref, c[C_LO:C_HI], c[C_HI:C_REV], c[C_REV:C_SIZE] != 0.0,
                  tol[0], tol[1], tol[2], q_out, pe, oe, dist, n_out)
+
+
+@jit
+def solve_one(c: np.ndarray, T: np.ndarray, ref: np.ndarray) -> tuple[int, np.ndarray,
+                                                                     np.ndarray]:
+    """:func:`solve_finish` of one target T (4, 4) from ref (6,) (chain order) with the
+    default tolerances (:data:`TOL_POS`, :data:`TOL_ORI`, :data:`SAME_TOL`): (n, q (8, 6),
+    e (8, 3)) with e = (position error, orientation error, distance) per solution."""
+    Ts = np.empty((1, 4, 4))
+    Ts[0] = T
+    refs = np.empty((1, 6))
+    refs[0] = ref
+    tol = np.empty(3)
+    tol[0], tol[1], tol[2] = TOL_POS, TOL_ORI, SAME_TOL
+    q = np.empty((1, MAX_BRANCHES, 6))
+    pe = np.empty((1, MAX_BRANCHES))
+    oe = np.empty((1, MAX_BRANCHES))
+    dist = np.empty((1, MAX_BRANCHES))
+    n = np.empty(1, dtype=np.int64)
+    solve_finish(c, Ts, refs, tol, q, pe, oe, dist, n)
+    e = np.empty((MAX_BRANCHES, 3))
+    for i in range(MAX_BRANCHES):
+        e[i, 0], e[i, 1], e[i, 2] = pe[0, i], oe[0, i], dist[0, i]
+    return n[0], q[0], e

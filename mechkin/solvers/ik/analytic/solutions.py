@@ -26,12 +26,8 @@ import numpy as np
 
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.analytic.classify import AnalyticChain
-from mechkin.solvers.ik.analytic.finish import solve_finish
+from mechkin.solvers.ik.analytic.finish import SAME_TOL, TOL_ORI, TOL_POS, solve_finish
 from mechkin.solvers.ik.analytic.solve6r import MAX_BRANCHES, solve_batch
-
-TOL_POS = 1e-8  # [m] a branch is a solution when FK puts {E} this close to the target ...
-TOL_ORI = 1e-8  # [rad] ... in position and orientation (exact branches: ~1e-15)
-SAME_TOL = 1e-3  # [rad | m] two branches closer than this (max-abs, mod 2 pi) are one
 
 
 @dataclass(frozen=True)
