@@ -26,7 +26,13 @@ import numpy as np
 
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.analytic.classify import AnalyticChain
-from mechkin.solvers.ik.analytic.finish import SAME_TOL, TOL_ORI, TOL_POS, solve_finish
+from mechkin.solvers.ik.analytic.finish import (
+    SAME_TOL,
+    TOL_ORI,
+    TOL_POS,
+    solve_finish,
+    solve_one,
+)
 from mechkin.solvers.ik.analytic.solve6r import MAX_BRANCHES, solve_batch
 
 
@@ -75,6 +81,14 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
     ref = np.asarray(ref, dtype=np.float64)
     if not chain.identity:
         ref = ref[..., chain.order]
+    if m == 1 and ref.ndim == 1 and (tol_pos, tol_ori, same_tol) == (TOL_POS, TOL_ORI,
+                                                                      SAME_TOL):
+        n1, q1, e = solve_one(chain.packed, Ts[0], ref)  # one pose: the shortest call
+        if not chain.identity:
+            q1 = q1[:, np.argsort(chain.order)]
+        return AnalyticBatch(q_v=q1[None], position_error=e[None, :, 0],
+                             orientation_error=e[None, :, 1], distance=e[None, :, 2],
+                             count=np.array([n1]))
     ref = np.ascontiguousarray(np.broadcast_to(ref, (m, 6)))
     q = np.empty((m, MAX_BRANCHES, 6))
     pe = np.empty((m, MAX_BRANCHES))
