@@ -321,3 +321,56 @@ def test_vectorised_merge_is_the_greedy_rule(arms):
     assert first_of_clusters(mech, iv, qv, 1e-3).tolist() == keep
     assert len(keep) == 6
     assert math.isfinite(float(qv.sum()))
+
+
+SCARA = """name: scara
+description: SCARA (Epson LS6-like reach 0.325 + 0.275 m, 0.2 m stroke), R-R-P-R
+units: {length: m, angle: deg}
+links: [{name: base}, {name: l1}, {name: l2}, {name: l3},
+        {name: l4, frames: [{name: tool, xyz: [0, 0, -0.05]}]}]
+joints:
+  - {name: q1, type: revolute, parent: base, child: l1, origin: {xyz: [0, 0, 0.4]},
+     axis: [0, 0, 1], limits: [-170, 170]}
+  - {name: q2, type: revolute, parent: l1, child: l2, origin: {xyz: [0.325, 0, 0]},
+     axis: [0, 0, 1], limits: [-145, 145]}
+  - {name: d3, type: prismatic, parent: l2, child: l3, origin: {xyz: [0.275, 0, 0]},
+     axis: [0, 0, -1], limits: [0, 0.2]}
+  - {name: q4, type: revolute, parent: l3, child: l4, axis: [0, 0, 1], limits: [-360, 360]}
+independent: [q1, q2, d3, q4]
+end_effector: tool
+"""
+
+
+def test_scara_both_elbows_exact(tmp_path):
+    """A 4-DOF SCARA: both elbow branches of random reachable poses, exact by the model's
+    FK; the generating joints are one of them; lm from the guess lands on one of them."""
+    (tmp_path / "scara.yaml").write_text(SCARA)
+    mech = load_mechanism(tmp_path / "scara.yaml")
+    chain = classify(mech)
+    assert "SCARA" in chain.description
+    rng = np.random.default_rng(6)
+    iv = mech.independent
+    m = 1000
+    q = rng.uniform(mech.lower[iv], np.minimum(mech.upper[iv], np.pi), size=(m, 4))
+    T = frame_poses(mech, q, [mech.end_effector])[:, 0]
+    b = analytic_batch(mech, chain, T, mech.home[iv])
+    assert np.all(b.count >= 1) and np.all(b.count <= 2)
+    ok = np.arange(2)[None] < b.count[:, None]
+    T_E = frame_poses(mech, b.q_v[:, :2][ok], [mech.end_effector])[:, 0]
+    assert np.abs(T_E - np.repeat(T[:, None], 2, axis=1)[ok]).max() < FK_TOL
+    d = np.abs(b.q_v[:, :2] - q[:, None])
+    d[..., [0, 1, 3]] = (d[..., [0, 1, 3]] + np.pi) % (2 * np.pi) - np.pi
+    assert np.all(np.nanmin(np.abs(d).max(axis=-1), axis=1) < 1e-9)
+    # both elbows where both are within the limits: the mirror branch has q2 -> -q2
+    both = b.count == 2
+    assert both.mean() > 0.3
+    assert np.allclose(b.q_v[both, 0, 1], -b.q_v[both, 1, 1], atol=1e-9)
+    lm = mechkin.ik(mech, T[:5], q_v0=q[0], method="lm")
+    for i, r in enumerate(lm):
+        if r.ok:
+            assert any(np.abs(wrapped(mech, iv, r.q_v - x)).max() < 1e-5
+                       for x in b.q_v[i, :b.count[i]])
+    tilted = T[0].copy()
+    tilted[:3, :3] = tilted[:3, :3] @ np.array([[1, 0, 0], [0, 0.8, -0.6], [0, 0.6, 0.8]])
+    r = mechkin.ik(mech, tilted, method="analytic")[0]
+    assert r.status.value == "unreachable" and np.all(np.isfinite(r.q_v))

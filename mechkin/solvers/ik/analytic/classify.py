@@ -14,10 +14,12 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
   h1, h2 meeting (``POS_INT12``): PUMA 560, ABB IRB, KUKA KR, Fanuc, Staubli...; reversed:
   a spherical joint at the base;
 * ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting): the UR family; reversed: h3 || h4 ||
-  h5 with h1, h2 meeting.
+  h5 with h1, h2 meeting;
+* ``SCARA`` (4 joints: three revolute and one prismatic, every axis parallel;
+  :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place).
 
-Anything else (an offset wrist such as the Kinova Jaco's, prismatic joints, fewer or more than
-6 joints, a closed chain) raises :class:`NotDecomposable` naming the axes that break it.
+Anything else (an offset wrist such as the Kinova Jaco's, prismatic joints in a 6-joint chain,
+other joint counts, a closed chain) raises :class:`NotDecomposable` naming the axes that break it.
 
 Design
 ------
@@ -34,6 +36,7 @@ from mechkin.errors import ModelError
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.analytic.solve6r import (
     KIND_PAR234,
+    KIND_SCARA,
     KIND_SPHERICAL,
     POS_INT12,
     POS_PAR23,
@@ -198,11 +201,13 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
         raise NotDecomposable(f"the independent joints ({', '.join(mech.independent_names)}) "
                               f"are not the serial path to {mech.frame_names[frame]} "
                               f"({', '.join(names)})")
+    pris = [n for n, j in zip(names, joints, strict=True) if mech.s[j] == 1]
+    if len(joints) == 4:
+        return _scara(mech, joints, names, H, P, M, pris)
     if len(joints) != 6:
         raise NotDecomposable(f"{len(joints)} joints on the path to "
                               f"{mech.frame_names[frame]} ({', '.join(names)}); the "
-                              "subproblem solvers take 6R chains")
-    pris = [n for n, j in zip(names, joints, strict=True) if mech.s[j] == 1]
+                              "subproblem solvers take 6R chains and 4-DOF SCARA arms")
     if pris:
         raise NotDecomposable(f"prismatic joint(s) {', '.join(pris)}: the subproblem solvers "
                               "take 6R chains")
@@ -236,6 +241,29 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
                          limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
                          limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()),
                          description=desc + (" (reversed chain: at the base)" if rev else ""))
+
+
+def _scara(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
+           P: np.ndarray, M: np.ndarray, pris: list[str]) -> AnalyticChain:
+    """A 4-DOF SCARA: one prismatic joint, every axis parallel (else NotDecomposable)."""
+    if len(pris) != 1:
+        raise NotDecomposable(f"4 joints ({', '.join(names)}): a SCARA needs exactly one "
+                              f"prismatic joint, got {len(pris)}")
+    bad = [n for n, h in zip(names, H, strict=True) if not _parallel(h, H[0])]
+    if bad:
+        raise NotDecomposable(f"4 joints: the axes of {', '.join(bad)} are not parallel to "
+                              f"that of {names[0]} (a SCARA has all four parallel)")
+    iv = list(mech.independent)
+    order = np.array([iv.index(int(j)) for j in joints])
+    k = int(np.flatnonzero(mech.s[joints] == 1)[0])
+    H, P, M = (np.ascontiguousarray(a) for a in (H, P, M))
+    return AnalyticChain(kind=KIND_SCARA, pos_kind=k, reversed=False, H=H, P=P, M=M, Hf=H,
+                         Pf=P, Mf=M, point=np.zeros(3), point2=np.zeros(3),
+                         joints=np.asarray(joints), order=order,
+                         description="SCARA: parallel axes, one prismatic joint",
+                         packed=np.zeros(0), identity=bool(np.array_equal(order, np.arange(4))),
+                         limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
+                         limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()))
 
 
 def analytic_chain(mech: Mechanism) -> AnalyticChain | None:

@@ -31,7 +31,9 @@ from mechkin.solvers.ik.analytic.classify import (
     classify,
 )
 from mechkin.solvers.ik.analytic.finish import solve_one
-from mechkin.solvers.ik.analytic.solve6r import fk_error
+from mechkin.solvers.ik.analytic.scara import poe_fk
+from mechkin.solvers.ik.analytic.solutions import analytic_batch
+from mechkin.solvers.ik.analytic.solve6r import KIND_SCARA, fk_error
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
 ANALYTIC_METHODS = ("auto", "analytic")
@@ -63,16 +65,26 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
     opts = options or _DEFAULT
     T = np.ascontiguousarray(T_P, dtype=np.float64)
     ref = np.asarray(q_v0, dtype=np.float64)
-    n, qc, e = solve_one(chain.packed, T, ref if chain.identity else ref[chain.order])
-    if n > 0:
+    if chain.kind == KIND_SCARA:
+        b = analytic_batch(mech, chain, T[None], ref)
+        n, qv = int(b.count[0]), b.q_v[0, 0]
+        pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
+    else:
+        n, qc, e = solve_one(chain.packed, T, ref if chain.identity else ref[chain.order])
         qv = qc[0] if chain.identity else qc[0][np.argsort(chain.order)]
         pe, oe = float(e[0, 0]), float(e[0, 1])
+    if n > 0:
         ok = pe <= opts.tol_pos and oe <= opts.tol_ori
     else:
         qv = ref.copy()
-        pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf, np.ascontiguousarray(qv[chain.order]),
-                          T)
         ok = False
+        if chain.kind == KIND_SCARA:
+            Te = poe_fk(chain.H, chain.P, chain.M, chain.pos_kind, qv[chain.order][None])[0]
+            pe = float(np.linalg.norm(Te[:3, 3] - T[:3, 3]))
+            oe = float(np.linalg.norm(Te[:3, :3] - T[:3, :3]) / np.sqrt(2.0))
+        else:
+            pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf,
+                              np.ascontiguousarray(qv[chain.order]), T)
     iv = mech.independent
     q = mech.home.copy()
     q[iv] = qv

@@ -30,10 +30,12 @@ from mechkin.solvers.ik.analytic.finish import (
     SAME_TOL,
     TOL_ORI,
     TOL_POS,
+    finish_batch,
     solve_finish,
     solve_one,
 )
-from mechkin.solvers.ik.analytic.solve6r import MAX_BRANCHES, solve_batch
+from mechkin.solvers.ik.analytic.scara import scara_branches
+from mechkin.solvers.ik.analytic.solve6r import KIND_SCARA, MAX_BRANCHES, solve_batch
 
 
 @dataclass(frozen=True)
@@ -81,6 +83,8 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
     ref = np.asarray(ref, dtype=np.float64)
     if not chain.identity:
         ref = ref[..., chain.order]
+    if chain.kind == KIND_SCARA:
+        return _scara_batch(chain, Ts, ref, tol_pos, tol_ori, same_tol)
     if m == 1 and ref.ndim == 1 and (tol_pos, tol_ori, same_tol) == (TOL_POS, TOL_ORI,
                                                                       SAME_TOL):
         n1, q1, e = solve_one(chain.packed, Ts[0], ref)  # one pose: the shortest call
@@ -103,3 +107,24 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
         q = qv
     return AnalyticBatch(q_v=q, position_error=pe, orientation_error=oe, distance=dist,
                          count=n)
+
+
+def _scara_batch(chain: AnalyticChain, Ts: np.ndarray, ref: np.ndarray, tol_pos: float,
+                 tol_ori: float, same_tol: float) -> AnalyticBatch:
+    """:func:`analytic_batch` of a SCARA (ref in chain order)."""
+    m, nv = Ts.shape[0], len(chain.joints)
+    ref = np.ascontiguousarray(np.broadcast_to(ref, (m, nv)))
+    q_ch, count, err = scara_branches(chain.H, chain.P, chain.M, chain.pos_kind, Ts)
+    q = np.empty((m, 2, nv))
+    pe, oe, dist = (np.empty((m, 2)) for _ in range(3))
+    n = np.empty(m, dtype=np.int64)
+    lo = np.array([chain.limits[0][i] for i in chain.order], dtype=np.float64)
+    hi = np.array([chain.limits[1][i] for i in chain.order], dtype=np.float64)
+    rev = np.arange(nv) != chain.pos_kind
+    finish_batch(np.ascontiguousarray(q_ch), count, np.ascontiguousarray(err), ref, lo, hi,
+                 rev, tol_pos, tol_ori, same_tol, q, pe, oe, dist, n)
+    if not chain.identity:
+        qv = np.empty_like(q)
+        qv[..., chain.order] = q
+        q = qv
+    return AnalyticBatch(q_v=q, position_error=pe, orientation_error=oe, distance=dist, count=n)

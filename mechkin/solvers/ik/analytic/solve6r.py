@@ -67,6 +67,7 @@ from mechkin.solvers.ik.analytic.subproblems import (
 
 KIND_SPHERICAL = 0
 KIND_PAR234 = 1
+KIND_SCARA = 2  # mechkin.solvers.ik.analytic.scara (numpy)
 POS_PAR23 = 0
 POS_INT12 = 1
 MAX_BRANCHES = 8
