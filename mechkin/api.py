@@ -119,6 +119,7 @@ def ik(
     restarts: int | None = None,
     batch: bool = False,
     seed: int = 0,
+    fixed: dict[str, float] | None = None,
 ) -> list[IkResult]:
     """Inverse kinematics of precision points (kim1995 §3-5), each verified by FK.
 
@@ -138,6 +139,9 @@ def ik(
         answer (kim1995 §5.2 Step 2).
     restarts : int, optional
         Extra seeded starts on failure (default: the scenario default of ``mechkin ik``).
+    fixed : dict, optional
+        ``{joint name: value}`` [rad | m]: hold these independent joints (a 7R arm's redundant
+        joint) and solve the remaining 6R analytically (``auto`` / ``analytic`` only).
     batch : bool
         Solve all targets at once: one compiled call of the analytic solver (``auto`` on a
         decomposable arm: each target's solution nearest ``q_v0``), else vectorised lm.
@@ -149,7 +153,7 @@ def ik(
     """
     from mechkin.solvers.ik.analytic.api_ik import ik_one_fast
 
-    fast = ik_one_fast(mech, targets, method, weights, q_v0, batch)
+    fast = None if fixed else ik_one_fast(mech, targets, method, weights, q_v0, batch)
     if fast is not None:  # one pose, analytic, verified: no further checks needed
         return fast
 
@@ -173,11 +177,13 @@ def ik(
     opts = _options(IkOptions, num, n_rs, seed)
     qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
     qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
+    if fixed and method not in ("auto", "analytic"):
+        raise ConfigError(f"fixed: holds joints for method auto or analytic, not {method}")
     if method in ("auto", "analytic"):
         from mechkin.solvers.ik.analytic.api_ik import ik_analytic
 
         out_a = ik_analytic(mech, T, method=method, weights=w, q_v0=qv, q_w0=qw,
-                            options=opts, batch=batch)
+                            options=opts, batch=batch, fixed=fixed)
         if out_a is not None:
             return out_a
     if batch:

@@ -374,3 +374,48 @@ def test_scara_both_elbows_exact(tmp_path):
     tilted[:3, :3] = tilted[:3, :3] @ np.array([[1, 0, 0], [0, 0.8, -0.6], [0, 0.6, 0.8]])
     r = mechkin.ik(mech, tilted, method="analytic")[0]
     assert r.status.value == "unreachable" and np.all(np.isfinite(r.q_v))
+
+
+def test_panda_with_q7_held_equals_eaik():
+    """A 7R arm (Panda, Franka's modified D-H) with its last joint held: the remaining 6R has
+    a spherical joint at the base (q1, q2, q3 meet) and q5 meeting q6: every solution, equal to
+    EAIK's with the same axis held (H-P form, arXiv 2409.14815), exact by the model's FK."""
+    from eaik.IK_HP import HPRobot
+
+    from mechkin.solvers.ik.analytic.api_ik import all_solutions_sampled
+    from mechkin.solvers.ik.analytic.classify import held_chain, zero_config
+
+    mech = load_mechanism(ROOT / "mechanisms" / "panda.yaml")
+    iv = mech.independent
+    _, H, P, M = zero_config(mech, mech.end_effector)
+    offsets = np.vstack([P[0], np.diff(P, axis=0), M[:3, 3] - P[-1]])
+    rng = np.random.default_rng(7)
+    q = rng.uniform(mech.lower[iv], mech.upper[iv], size=(100, 7))
+    T = frame_poses(mech, q, [mech.end_effector])[:, 0]
+    for i in range(len(q)):
+        v = float(q[i, 6])
+        chain = held_chain(mech, {"q7": v})
+        b = analytic_batch(mech, chain, T[i][None], mech.home[iv])
+        mine = b.q_v[0, :b.count[0]]
+        assert np.all(mine[:, 6] == v)
+        T_E = frame_poses(mech, mine, [mech.end_effector])[:, 0]
+        assert np.abs(T_E - T[i]).max() < FK_TOL
+        assert any(same_mod_2pi(x, q[i], 1e-8) for x in mine)
+        bot = HPRobot(H, offsets, fixed_axes=[(6, v)])
+        Te = T[i].copy()
+        Te[:3, :3] = T[i][:3, :3] @ M[:3, :3].T
+        sol = bot.IK(Te)
+        theirs = [s for s, ls in zip(sol.Q, sol.is_LS, strict=True)
+                  if not ls and within_limits_rep(mech, s)]
+        for s in theirs:
+            assert any(same_mod_2pi(s, x, 1e-3) for x in mine), (i, s)
+        for x in mine:
+            assert any(same_mod_2pi(s, x, 1e-6) for s in sol.Q), (i, x)
+    r = mechkin.ik(mech, T[0], q_v0=q[0] + 0.01, fixed={"q7": float(q[0, 6])},
+                   method="analytic")[0]
+    assert r.ok and np.abs(r.q_v - q[0]).max() < 1e-9  # the branch nearest the guess
+    Q, idx = all_solutions_sampled(mech, T[1], "q7", np.linspace(-2.8, 2.8, 15))
+    assert len(Q) == len(idx) > 0
+    assert np.abs(frame_poses(mech, Q, [mech.end_effector])[:, 0] - T[1]).max() < FK_TOL
+    with pytest.raises(ConfigError, match=r"fixed: no subproblem decomposition.*\(q1 held\)"):
+        mechkin.ik(mech, T[0], fixed={"q1": 0.1})

@@ -20,24 +20,32 @@ import numpy as np
 
 from mechkin.errors import ConfigError
 from mechkin.model.mechanism import Mechanism
-from mechkin.solvers.ik.analytic.classify import NotDecomposable
+from mechkin.solvers.ik.analytic.classify import NotDecomposable, held_chain
 from mechkin.solvers.ik.analytic.dispatch import analytic_ik, chain_for
 from mechkin.solvers.ik.analytic.solutions import analytic_batch
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
 
 def ik_analytic(mech: Mechanism, T: np.ndarray, *, method: str, weights: np.ndarray,
-                q_v0: np.ndarray, q_w0: np.ndarray, options: IkOptions, batch: bool
-                ) -> list[IkResult] | None:
+                q_v0: np.ndarray, q_w0: np.ndarray, options: IkOptions, batch: bool,
+                fixed: dict[str, float] | None = None) -> list[IkResult] | None:
     """IkResults of targets T (k, 4, 4) by the analytic route, or None (``auto`` on a
     mechanism that does not decompose, or with a zero weight). ``analytic`` there raises
-    ConfigError naming the axes or the weights."""
+    ConfigError naming the axes or the weights. ``fixed`` {joint name: value}: those
+    independent joints are held (a 7R arm's redundant joint) and the remaining 6R solved;
+    a held set that does not decompose is a ConfigError for either method."""
     from mechkin.solvers.ik.solve import solve_ik
 
     try:
-        chain = chain_for(mech, method, weights)
+        if fixed:
+            if not bool((np.asarray(weights) > 0).all()):
+                raise NotDecomposable("the analytic route solves the whole pose: give all six "
+                                      "weights positive")
+            chain = held_chain(mech, fixed)
+        else:
+            chain = chain_for(mech, method, weights)
     except NotDecomposable as exc:
-        raise ConfigError(f"method: analytic: {exc}") from None
+        raise ConfigError(f"{'fixed' if fixed else 'method: analytic'}: {exc}") from None
     if chain is None:
         return None
     lm = options if options.method == "lm" else replace(options, method="lm")
@@ -49,7 +57,7 @@ def ik_analytic(mech: Mechanism, T: np.ndarray, *, method: str, weights: np.ndar
         for i in range(len(T)):
             if b.count[i] == 0 or b.position_error[i, 0] > options.tol_pos or \
                     b.orientation_error[i, 0] > options.tol_ori:
-                if method == "auto":
+                if method == "auto" and not fixed:
                     r = solve_ik(mech, T[i], q_v0=q_v0, q_w0=q_w0, weights=weights,
                                  options=lm)
                 else:
@@ -68,7 +76,7 @@ def ik_analytic(mech: Mechanism, T: np.ndarray, *, method: str, weights: np.ndar
     qv = np.asarray(q_v0, dtype=np.float64)
     for Tk in T:
         r = analytic_ik(mech, chain, Tk, qv, weights, options)
-        if not r.ok and method == "auto":
+        if not r.ok and method == "auto" and not fixed:
             r = solve_ik(mech, Tk, q_v0=qv, q_w0=q_w0, weights=weights, options=lm)
         out.append(r)
         if np.all(np.isfinite(r.q)):
@@ -95,3 +103,23 @@ def ik_one_fast(mech: Mechanism, target: object, method: str, weights: object,
     guess = mech.home[mech.independent] if q_v0 is None else q_v0
     r = analytic_ik(mech, chain, target, guess)
     return [r] if r.ok else None
+
+
+def all_solutions_sampled(mech: Mechanism, T: np.ndarray, joint: str, values: np.ndarray,
+                          ref: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Every solution of the pose T (4, 4) of a redundant arm with ``joint`` held at each of
+    ``values`` in turn (a sample of the self-motion): (q_v (k, n_v), value index (k,)), each
+    list ordered from ``ref`` (default home). The values that leave the rest non-decomposable
+    raise ConfigError."""
+    ref = mech.home[mech.independent] if ref is None else np.asarray(ref, float)
+    out, idx = [], []
+    for i, v in enumerate(np.asarray(values, dtype=float)):
+        try:
+            chain = held_chain(mech, {joint: float(v)})
+        except NotDecomposable as exc:
+            raise ConfigError(f"fixed: {exc}") from None
+        b = analytic_batch(mech, chain, np.asarray(T, float)[None], ref)
+        out.append(b.q_v[0, :b.count[0]])
+        idx += [i] * int(b.count[0])
+    nv = len(mech.independent)
+    return (np.vstack(out) if out else np.zeros((0, nv))), np.array(idx, dtype=int)

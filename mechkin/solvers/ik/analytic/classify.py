@@ -28,7 +28,7 @@ Part of :mod:`mechkin.solvers.ik.analytic`; imports numpy, :mod:`mechkin.model`;
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -77,8 +77,10 @@ class AnalyticChain:
         :func:`mechkin.solvers.ik.analytic.finish.solve_finish`.
     identity : bool
         ``order`` is 0..5 (q_v is in chain order).
-    limits : ((6,), (6,))
+    limits : ((n_v,), (n_v,))
         Lower and upper limits of the independent joints (q_v order).
+    fixed_cols, fixed_values : (k,)
+        Columns of q_v held (``fixed``) and their values.
     """
 
     kind: int
@@ -99,23 +101,34 @@ class AnalyticChain:
     identity: bool
     limits: tuple[np.ndarray, np.ndarray]
     limits_list: tuple[list[float], list[float]]
+    fixed_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    fixed_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
-def zero_config(mech: Mechanism, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                       np.ndarray]:
-    """(joints (k,), H (k, 3), P (k, 3), M (4, 4)) of the serial path to ``frame`` at q = 0."""
+def zero_config(mech: Mechanism, frame: int, fixed: dict[int, float] | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(joints (k,), H (k, 3), P (k, 3), M (4, 4)) of the serial path to ``frame`` at q = 0;
+    ``fixed`` {joint index: value} joints are held at their value and folded into the
+    constant transforms (they are not among the k joints)."""
+    from mechkin.model.kinematics import _ZC, _ZD, _ZK, _ZS
     from mechkin.model.serial import SerialChain
 
+    fixed = fixed or {}
     ch = SerialChain(mech, frame)
-    k = ch.k
     F = ch.A0.copy()
-    H = np.empty((k, 3))
-    P = np.empty((k, 3))
-    for i in range(k):
-        H[i] = F[:3, 2] / np.linalg.norm(F[:3, 2])
-        P[i] = F[:3, 3]
+    H, P, J = [], [], []
+    for i, j in enumerate(ch.joints):
+        if int(j) in fixed:
+            v = float(fixed[int(j)])
+            Z = (_ZC * np.cos(v) + _ZS * np.sin(v) + _ZK if mech.s[j] == 0
+                 else np.eye(4) + _ZD * v)
+            F = F @ Z @ ch.C[i]
+            continue
+        H.append(F[:3, 2] / np.linalg.norm(F[:3, 2]))
+        P.append(F[:3, 3].copy())
+        J.append(int(j))
         F = F @ ch.C[i]
-    return ch.joints, H, P, F
+    return np.array(J, dtype=int), np.array(H).reshape(-1, 3), np.array(P).reshape(-1, 3), F
 
 
 def _parallel(a: np.ndarray, b: np.ndarray) -> bool:
@@ -178,8 +191,11 @@ def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
             f"{j[2]}, {j[3]}, {j[4]} are three parallel axes with the other two meeting")
 
 
-def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
-    """The subproblem decomposition of ``mech``'s serial path to ``frame`` (default {E}).
+def classify(mech: Mechanism, frame: int | None = None,
+             fixed: dict[int, float] | None = None) -> AnalyticChain:
+    """The subproblem decomposition of ``mech``'s serial path to ``frame`` (default {E}),
+    with the ``fixed`` {joint index: value} joints held (e.g. a 7R arm's redundant joint: the
+    remaining 6R is solved; kim1995's q_v minus the fixed joints).
 
     Raises
     ------
@@ -194,10 +210,11 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
         raise NotDecomposable(f"mechanism {mech.name} is a closed chain (cuts "
                               f"{', '.join(c.name for c in mech.cuts)}): no serial "
                               "decomposition")
-    joints, H, P, M = zero_config(mech, frame)
+    fixed = fixed or {}
+    joints, H, P, M = zero_config(mech, frame, fixed)
     names = [mech.joint_names[i] for i in joints]
     iv = list(mech.independent)
-    if sorted(iv) != sorted(int(j) for j in joints):
+    if sorted(j for j in iv if j not in fixed) != sorted(int(j) for j in joints):
         raise NotDecomposable(f"the independent joints ({', '.join(mech.independent_names)}) "
                               f"are not the serial path to {mech.frame_names[frame]} "
                               f"({', '.join(names)})")
@@ -225,8 +242,12 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
         if found is not None:
             rev, H, P, M = True, Hr, Pr, Mi
     if found is None:
-        raise NotDecomposable(_why(names, Hf, Pf))
+        held = "".join(f" ({mech.joint_names[j]} held)" for j in fixed)
+        raise NotDecomposable(_why(names, Hf, Pf) + held)
     kind, pos, pt, pt2, desc = found
+    if fixed:
+        desc += ", " + ", ".join(f"{mech.joint_names[j]} held at {v:.6g}"
+                                 for j, v in fixed.items())
     jj = np.asarray(joints)
     packed = np.concatenate([[kind, pos, float(rev)], np.ravel(H), np.ravel(P), np.ravel(M),
                              pt, pt2, np.ravel(Hf), np.ravel(Pf), np.ravel(Mf), mech.lower[jj],
@@ -237,7 +258,9 @@ def classify(mech: Mechanism, frame: int | None = None) -> AnalyticChain:
                          point=np.asarray(pt, float),
                          point2=np.asarray(pt2, float), joints=np.asarray(joints),
                          order=order, packed=np.ascontiguousarray(packed),
-                         identity=bool(np.array_equal(order, np.arange(6))),
+                         identity=bool(np.array_equal(order, np.arange(len(iv)))),
+                         fixed_cols=np.array([iv.index(j) for j in fixed], dtype=int),
+                         fixed_values=np.array([fixed[j] for j in fixed], dtype=float),
                          limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
                          limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()),
                          description=desc + (" (reversed chain: at the base)" if rev else ""))
@@ -277,3 +300,26 @@ def analytic_chain(mech: Mechanism) -> AnalyticChain | None:
             cache = None
         object.__setattr__(mech, "_analytic_chain", cache)
     return cache
+
+
+def held_chain(mech: Mechanism, fixed: dict[str, float]) -> AnalyticChain:
+    """:func:`classify` with the joints named in ``fixed`` held at their values [rad | m]
+    (cached on the Mechanism per set of values). Raises NotDecomposable (also for a name that
+    is not an independent joint, or a value outside its limits)."""
+    idx = {}
+    for name, v in fixed.items():
+        if name not in mech.independent_names:
+            raise NotDecomposable(f"fixed: {name!r} is not an independent joint of {mech.name} "
+                                  f"({', '.join(mech.independent_names)})")
+        j = mech.joint_index(name)
+        if not mech.lower[j] - 1e-12 <= v <= mech.upper[j] + 1e-12:
+            raise NotDecomposable(f"fixed: {name} = {v:.6g} is outside its limits "
+                                  f"[{mech.lower[j]:.6g}, {mech.upper[j]:.6g}]")
+        idx[j] = float(v)
+    cache = mech.__dict__.setdefault("_held_chains", {})
+    key = tuple(sorted(idx.items()))
+    if key not in cache:
+        if len(cache) > 256:
+            cache.clear()
+        cache[key] = classify(mech, fixed=idx)
+    return cache[key]

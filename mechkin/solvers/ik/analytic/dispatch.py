@@ -32,7 +32,7 @@ from mechkin.solvers.ik.analytic.classify import (
 )
 from mechkin.solvers.ik.analytic.finish import solve_one
 from mechkin.solvers.ik.analytic.scara import poe_fk
-from mechkin.solvers.ik.analytic.solutions import analytic_batch
+from mechkin.solvers.ik.analytic.solutions import analytic_batch, full_qv
 from mechkin.solvers.ik.analytic.solve6r import KIND_SCARA, fk_error
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
@@ -63,6 +63,7 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
     FK; status ok when also within ``options.tol_pos`` / ``tol_ori``."""
     t0 = time.perf_counter()
     opts = options or _DEFAULT
+    iv = mech.independent
     T = np.ascontiguousarray(T_P, dtype=np.float64)
     ref = np.asarray(q_v0, dtype=np.float64)
     if chain.kind == KIND_SCARA:
@@ -71,12 +72,13 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
         pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
     else:
         n, qc, e = solve_one(chain.packed, T, ref if chain.identity else ref[chain.order])
-        qv = qc[0] if chain.identity else qc[0][np.argsort(chain.order)]
+        qv = qc[0] if chain.identity else full_qv(chain, qc[0], len(iv))
         pe, oe = float(e[0, 0]), float(e[0, 1])
     if n > 0:
         ok = pe <= opts.tol_pos and oe <= opts.tol_ori
     else:
         qv = ref.copy()
+        qv[chain.fixed_cols] = chain.fixed_values
         ok = False
         if chain.kind == KIND_SCARA:
             Te = poe_fk(chain.H, chain.P, chain.M, chain.pos_kind, qv[chain.order][None])[0]
@@ -85,7 +87,6 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
         else:
             pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf,
                               np.ascontiguousarray(qv[chain.order]), T)
-    iv = mech.independent
     q = mech.home.copy()
     q[iv] = qv
     lo, hi = chain.limits_list

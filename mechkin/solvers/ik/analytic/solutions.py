@@ -89,7 +89,7 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
                                                                       SAME_TOL):
         n1, q1, e = solve_one(chain.packed, Ts[0], ref)  # one pose: the shortest call
         if not chain.identity:
-            q1 = q1[:, np.argsort(chain.order)]
+            q1 = full_qv(chain, q1, len(mech.independent))
         return AnalyticBatch(q_v=q1[None], position_error=e[None, :, 0],
                              orientation_error=e[None, :, 1], distance=e[None, :, 2],
                              count=np.array([n1]))
@@ -102,11 +102,20 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
     solve_finish(chain.packed, Ts, ref, np.array((tol_pos, tol_ori, same_tol)), q, pe, oe,
                  dist, n)
     if not chain.identity:
-        qv = np.empty_like(q)
-        qv[..., chain.order] = q
-        q = qv
+        q = full_qv(chain, q, len(mech.independent))
     return AnalyticBatch(q_v=q, position_error=pe, orientation_error=oe, distance=dist,
                          count=n)
+
+
+def full_qv(chain: AnalyticChain, q: np.ndarray, nv: int) -> np.ndarray:
+    """Independent joints (..., n_v) from chain-order joints q (..., k): the chain's joints
+    in their columns, held joints (``fixed``) at their values (NaN where q is NaN)."""
+    out = np.empty(q.shape[:-1] + (nv,))
+    out[..., chain.order] = q
+    if chain.fixed_cols.size:
+        absent = np.isnan(q[..., :1])
+        out[..., chain.fixed_cols] = np.where(absent, np.nan, chain.fixed_values)
+    return out
 
 
 def _scara_batch(chain: AnalyticChain, Ts: np.ndarray, ref: np.ndarray, tol_pos: float,
@@ -124,7 +133,5 @@ def _scara_batch(chain: AnalyticChain, Ts: np.ndarray, ref: np.ndarray, tol_pos:
     finish_batch(np.ascontiguousarray(q_ch), count, np.ascontiguousarray(err), ref, lo, hi,
                  rev, tol_pos, tol_ori, same_tol, q, pe, oe, dist, n)
     if not chain.identity:
-        qv = np.empty_like(q)
-        qv[..., chain.order] = q
-        q = qv
+        q = full_qv(chain, q, len(chain.limits[0]))
     return AnalyticBatch(q_v=q, position_error=pe, orientation_error=oe, distance=dist, count=n)
