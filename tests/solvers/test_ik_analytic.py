@@ -419,3 +419,20 @@ def test_panda_with_q7_held_equals_eaik():
     assert np.abs(frame_poses(mech, Q, [mech.end_effector])[:, 0] - T[1]).max() < FK_TOL
     with pytest.raises(ConfigError, match=r"fixed: no subproblem decomposition.*\(q1 held\)"):
         mechkin.ik(mech, T[0], fixed={"q1": 0.1})
+
+
+def test_cli_analytic_on_a_non_decomposable_arm_is_one_line_exit_2(tmp_path):
+    from typer.testing import CliRunner
+
+    from mechkin.cli.app import app
+
+    path = write_arm(tmp_path, "jaco_offset_wrist")
+    sc = _scenario(tmp_path, path, "analytic")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["ik", str(sc), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in res.output
+    assert "sc_analytic.yaml:" in lines[0] and "ik.method: analytic: no subproblem " \
+        "decomposition: the axes of q4, q5, q6 miss a common point" in lines[0]
+    assert not out.exists()
