@@ -436,3 +436,34 @@ def test_cli_analytic_on_a_non_decomposable_arm_is_one_line_exit_2(tmp_path):
     assert "sc_analytic.yaml:" in lines[0] and "ik.method: analytic: no subproblem " \
         "decomposition: the axes of q4, q5, q6 miss a common point" in lines[0]
     assert not out.exists()
+
+
+def test_stewart_legs_equal_the_closed_form():
+    """Each U-P-S leg of kim1995's Stewart platform from the platform pose (solved like an arm:
+    two meeting axes, the stroke from a quadratic, the spherical joint by SP2 + SP1): the leg
+    lengths equal today's closed form (mechkin.solvers.closed_form.stewart) to 1e-12 and every
+    joint, passive ones included, equals the loop-closure FK that made the pose."""
+    from mechkin.model.closure import solve_closure
+    from mechkin.model.kinematics import closure_residual, forward_kinematics
+    from mechkin.solvers.closed_form.recognise import closed_form_ik
+    from mechkin.solvers.ik.analytic.legs import platform_legs, solve_legs
+
+    mech = load_mechanism(ROOT / "mechanisms" / "kim1995_stewart.yaml")
+    legs = platform_legs(mech)
+    assert len(legs) == 6 and all("U-P-S" in leg.chain.description for leg in legs)
+    iv = mech.independent
+    rng = np.random.default_rng(8)
+    qv = mech.home[iv] + rng.uniform(-1.5, 1.5, size=(30, 6))
+    res = solve_closure(mech, qv, np.broadcast_to(mech.home[mech.dependent], (30, 30)).copy())
+    T = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[:, 0]
+    cf, _ = closed_form_ik(mech, T, "stewart", tol=1e-4)
+    assert res.ok.sum() >= 20
+    for i in np.flatnonzero(res.ok):
+        q, ok = solve_legs(mech, legs, T[i], mech.home)
+        assert ok
+        assert np.abs(q[iv] - cf[i]).max() < 1e-12
+        assert np.abs(q - res.q[i]).max() < 1e-9
+        phi = closure_residual(mech, forward_kinematics(mech, q[None]))
+        assert np.abs(phi).max() < 1e-10
+    with pytest.raises(NotDecomposable, match="leg to"):
+        platform_legs(load_mechanism(ROOT / "mechanisms" / "delta.yaml"))

@@ -6,7 +6,11 @@
 ``solve6r``    every branch of a 6R chain with a spherical wrist or three parallel axes
 ``classify``   the decomposition a mechanism admits (or NotDecomposable naming the axes)
 ``solutions``  batched: every branch of many poses, wrapped into the limits, verified, merged
+``finish``     limits, verification, order, merging (compiled); the single-pose entry
+``scara``      4-DOF SCARA arms (numpy)
 ``dispatch``   ``method: auto | analytic`` for one pose (IkResult), nearest the guess
+``api_ik``     the route of mechkin.ik (single, batched, held joints, sampled self-motion)
+``legs``       legs of parallel mechanisms from the platform pose (U-P-S)
 ============== ====================================================================
 
 References

@@ -39,6 +39,7 @@ from mechkin.solvers.ik.analytic.solve6r import (
     KIND_SCARA,
     KIND_SPHERICAL,
     POS_INT12,
+    POS_INT12_P,
     POS_PAR23,
 )
 
@@ -178,6 +179,18 @@ def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray
     return None
 
 
+def _try_ups(H: np.ndarray, P: np.ndarray, tol: float
+             ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
+    """A U-P-S chain (h1 meets h2, joint 3 prismatic, axes 4-6 meet), or None."""
+    c45 = _meet(H[3], P[3], H[4], P[4], tol)
+    o12 = _meet(H[0], P[0], H[1], P[1], tol)
+    if c45 is None or o12 is None or _meet(H[4], P[4], H[5], P[5], tol) is None or \
+            np.linalg.norm(np.cross(H[5], c45 - P[5])) >= tol or _parallel(H[3], H[4]) or \
+            _parallel(H[4], H[5]):
+        return None
+    return KIND_SPHERICAL, POS_INT12_P, c45, o12, "U-P-S: h1 meets h2, prismatic, spherical"
+
+
 def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
     """One line naming what keeps the chain from decomposing."""
     j = names
@@ -192,7 +205,8 @@ def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
 
 
 def classify(mech: Mechanism, frame: int | None = None,
-             fixed: dict[int, float] | None = None) -> AnalyticChain:
+             fixed: dict[int, float] | None = None, check_independent: bool = True
+             ) -> AnalyticChain:
     """The subproblem decomposition of ``mech``'s serial path to ``frame`` (default {E}),
     with the ``fixed`` {joint index: value} joints held (e.g. a 7R arm's redundant joint: the
     remaining 6R is solved; kim1995's q_v minus the fixed joints).
@@ -206,14 +220,14 @@ def classify(mech: Mechanism, frame: int | None = None,
     frame = mech.end_effector if frame is None else frame
     if frame is None:
         raise NotDecomposable(f"mechanism {mech.name} has no end_effector frame")
-    if mech.cuts:
+    if mech.cuts and check_independent:
         raise NotDecomposable(f"mechanism {mech.name} is a closed chain (cuts "
                               f"{', '.join(c.name for c in mech.cuts)}): no serial "
                               "decomposition")
     fixed = fixed or {}
     joints, H, P, M = zero_config(mech, frame, fixed)
     names = [mech.joint_names[i] for i in joints]
-    iv = list(mech.independent)
+    iv = list(mech.independent) if check_independent else [int(j) for j in joints]
     if sorted(j for j in iv if j not in fixed) != sorted(int(j) for j in joints):
         raise NotDecomposable(f"the independent joints ({', '.join(mech.independent_names)}) "
                               f"are not the serial path to {mech.frame_names[frame]} "
@@ -225,16 +239,17 @@ def classify(mech: Mechanism, frame: int | None = None,
         raise NotDecomposable(f"{len(joints)} joints on the path to "
                               f"{mech.frame_names[frame]} ({', '.join(names)}); the "
                               "subproblem solvers take 6R chains and 4-DOF SCARA arms")
-    if pris:
-        raise NotDecomposable(f"prismatic joint(s) {', '.join(pris)}: the subproblem solvers "
-                              "take 6R chains")
     size = max(1.0, float(np.abs(P).max()), float(np.abs(M[:3, 3]).max()))
     tol = MEET_TOL * size
-    order = np.array([iv.index(int(j)) for j in joints])
+    order = np.array([iv.index(int(j)) if int(j) in iv else k for k, j in enumerate(joints)])
     Hf, Pf, Mf = (np.ascontiguousarray(a) for a in (H, P, M))
-    found = _try(H, P, tol)
+    if pris and pris != [names[2]]:
+        raise NotDecomposable(f"prismatic joint(s) {', '.join(pris)}: the subproblem solvers "
+                              "take 6R chains, and a prismatic third joint after two meeting "
+                              "axes (U-P-S)")
+    found = _try_ups(H, P, tol) if pris else _try(H, P, tol)
     rev = False
-    if found is None:
+    if found is None and not pris:
         Mi = np.linalg.inv(M)
         Hr = -(M[:3, :3].T @ H[::-1].T).T
         Pr = (Mi[:3, :3] @ P[::-1].T).T + Mi[:3, 3]

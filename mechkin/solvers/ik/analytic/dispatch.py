@@ -33,7 +33,7 @@ from mechkin.solvers.ik.analytic.classify import (
 from mechkin.solvers.ik.analytic.finish import solve_one
 from mechkin.solvers.ik.analytic.scara import poe_fk
 from mechkin.solvers.ik.analytic.solutions import analytic_batch, full_qv
-from mechkin.solvers.ik.analytic.solve6r import KIND_SCARA, fk_error
+from mechkin.solvers.ik.analytic.solve6r import KIND_SCARA, POS_INT12_P, fk_error
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
 ANALYTIC_METHODS = ("auto", "analytic")
@@ -86,7 +86,8 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
             oe = float(np.linalg.norm(Te[:3, :3] - T[:3, :3]) / np.sqrt(2.0))
         else:
             pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf,
-                              np.ascontiguousarray(qv[chain.order]), T)
+                              np.ascontiguousarray(qv[chain.order]), T,
+                              2 if chain.pos_kind == POS_INT12_P else -1)
     q = mech.home.copy()
     q[iv] = qv
     lo, hi = chain.limits_list

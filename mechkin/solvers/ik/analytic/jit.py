@@ -2,6 +2,12 @@
 :func:`mechkin.solvers.ik.accel.compiled_lm_available` says numba may be used, else the plain
 Python function (the same code, slower). Chosen once, at import.
 
+Caution (numba's disk cache): a compiled function is re-compiled when its own source file
+changes, not when a function it calls in another module does. After editing
+``subproblems.py`` or ``solve6r.py``, delete the cache folder (``NUMBA_CACHE_DIR``, or the
+package's ``__pycache__``) or the callers in ``finish.py`` keep the old code. An installed
+package is not affected (every file is new at install).
+
 Design
 ------
 Part of :mod:`mechkin.solvers.ik.analytic`; imports :mod:`mechkin.solvers.ik.accel` and, when

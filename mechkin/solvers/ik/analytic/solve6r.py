@@ -12,7 +12,8 @@ e^{\xi_6 q_6}``:
 * ``KIND_SPHERICAL`` (axes 4, 5, 6 meet at the wrist centre c, Pieper): ``G c`` depends on
   q1..q3 only. Position: ``POS_PAR23`` (h2 || h3: q1 by SP4 from h2^T e^{-xi_1 q_1} G c =
   h2^T c, q3 by SP3, q2 by SP1; PUMA 560 by this too, ABB, KUKA, Fanuc) or ``POS_INT12``
-  (h1, h2 meet at o: q3 by SP3 from ||G c - o||, (q1, q2) by SP2). Orientation: (q4, q5) by
+  (h1, h2 meet at o: q3 by SP3 from ||G c - o||, (q1, q2) by SP2) or ``POS_INT12_P`` (the
+  same with joint 3 prismatic: q3 from a quadratic, a U-P-S leg). Orientation: (q4, q5) by
   SP2 on h6, q6 by SP1. Up to 8 branches (IK-Geo §IV-A, "spherical wrist").
 * ``KIND_PAR234`` (h2 || h3 || h4 = d, h5 and h6 meet at o56; UR family): q1 by SP4 from
   d^T e^{-xi_1 q_1} G o56 = d^T o56; q5 by SP4 on h6 (R_{234} keeps d); q6 by SP1; the sum
@@ -70,6 +71,7 @@ KIND_PAR234 = 1
 KIND_SCARA = 2  # mechkin.solvers.ik.analytic.scara (numpy)
 POS_PAR23 = 0
 POS_INT12 = 1
+POS_INT12_P = 2  # h1 meets h2 at o, joint 3 prismatic (a U-P-S leg)
 MAX_BRANCHES = 8
 
 
@@ -155,6 +157,25 @@ def solve_spherical(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
                 q2 = sp1(h2, sub(e3c, p2), sub(y, p2), g[1])
                 R03 = mm(mm(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
                 n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_INT12_P:
+        # ||c - o + q3 h3|| = ||c_t - o||: q3^2 + 2 (h3.(c - o)) q3 + ||c - o||^2 - delta^2 = 0
+        o = vec(o_)
+        w = sub(ct, o)
+        c0 = sub(c, o)
+        bq = dot(h3, c0)
+        disc = bq * bq - (dot(c0, c0) - dot(w, w))
+        scale_ = max(dot(w, w), dot(c0, c0), 1e-300)
+        if disc >= -1e-12 * scale_:
+            r = math.sqrt(max(disc, 0.0))
+            for i3 in range(1 if r == 0.0 else 2):
+                q3 = -bq + r if i3 == 0 else -bq - r
+                v = add(c0, scale(q3, h3))
+                m12, a1, a2, b1, b2 = sp2(h1, h2, v, w, g[0], g[1])
+                for i12 in range(m12):
+                    q1 = a1 if i12 == 0 else b1
+                    q2 = a2 if i12 == 0 else b2
+                    R03 = mm(rotmat(h1, q1), rotmat(h2, q2))
+                    n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
     else:
         o = vec(o_)
         w = sub(ct, o)
@@ -210,13 +231,17 @@ def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, o56_: np.ndarray,
 
 
 @jit
-def fk_error(H: np.ndarray, P: np.ndarray, M: np.ndarray, q: np.ndarray, T: np.ndarray
-             ) -> tuple[float, float]:
+def fk_error(H: np.ndarray, P: np.ndarray, M: np.ndarray, q: np.ndarray, T: np.ndarray,
+             pris: int = -1) -> tuple[float, float]:
     """Position [m] and rotation-angle [rad] error of T(q) = prod e^{xi_i q_i} M (Murray, Li &
-    Sastry Eq. (3.3)) from the target T (4, 4)."""
+    Sastry Eq. (3.3)) from the target T (4, 4); joint ``pris`` (if >= 0) is a translation
+    along its h."""
     R = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     t = (0.0, 0.0, 0.0)
     for i in range(q.size):
+        if i == pris:
+            t = add(t, mv(R, scale(q[i], vec(H[i]))))
+            continue
         Ri = rotmat(vec(H[i]), q[i])
         p = vec(P[i])
         t = add(t, mv(R, sub(p, mv(Ri, p))))
@@ -284,6 +309,6 @@ def solve_batch(kind: int, pos_kind: int, reverse: bool, H: np.ndarray, P: np.nd
         for k in range(n):
             for i in range(6):
                 out[r, k, i] = tmp[k, 5 - i] if reverse else tmp[k, i]
-            pe, oe = fk_error(Hf, Pf, Mf, out[r, k], T)
+            pe, oe = fk_error(Hf, Pf, Mf, out[r, k], T, 2 if pos_kind == POS_INT12_P else -1)
             err[r, k, 0] = pe
             err[r, k, 1] = oe
