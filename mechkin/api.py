@@ -19,9 +19,10 @@ mechkin`` stays cheap).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from mechkin.solver import SolverBase, open_fk
 
 if TYPE_CHECKING:  # pragma: no cover
 
@@ -74,6 +75,8 @@ def fk(
         All joints ``q`` (m, n), per-row ``status`` and ``residual``, and ``poses[name]``
         (m, 4, 4) in the base frame.
     """
+    if not mech.cuts:  # open chain: no loop closure, only the frames asked for (issue 29)
+        return open_fk(mech, q_v, q_w0, frames)
     import numpy as np
 
     from mechkin.errors import ConfigError
@@ -160,7 +163,7 @@ def ik(
     import numpy as np
 
     from mechkin.errors import ConfigError
-    from mechkin.solvers.ik import IkOptions, solve_ik, solve_ik_batch
+    from mechkin.solvers.ik import solve_ik, solve_ik_batch
 
     T = np.asarray(targets, dtype=float)
     T = T[None] if T.ndim == 2 else T
@@ -169,12 +172,10 @@ def ik(
     if method not in ("auto", "analytic", "lm", "cg-golden"):
         raise ConfigError(f"method: expected 'auto', 'analytic', 'lm' or 'cg-golden', got "
                           f"{method!r}")
-    if mech.end_effector is None:
-        raise ConfigError(f"mechanism {mech.name} has no end_effector frame")
-    w = np.ones(6) if weights is None else np.asarray(weights, dtype=float)
-    n_rs = _default_restarts() if restarts is None else int(restarts)
-    num = method if method in ("lm", "cg-golden") else "lm"
-    opts = _options(IkOptions, num, n_rs, seed)
+    from mechkin.solver import ik_options
+
+    opts, w = ik_options(mech, method if method in ("lm", "cg-golden") else "lm", weights,
+                         restarts, seed)
     qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
     qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
     if fixed and method not in ("auto", "analytic"):
@@ -187,7 +188,7 @@ def ik(
         if out_a is not None:
             return out_a
     if batch:
-        from mechkin.tasks.ik import batch_results
+        from mechkin.tasks.ik_solve import batch_results
 
         W = np.broadcast_to(w, (len(T), 6))
         return batch_results(solve_ik_batch(mech, T, q_v0=qv, q_w0=qw, weights=W,
@@ -201,20 +202,6 @@ def ik(
     return out
 
 
-@lru_cache(maxsize=64)
-def _options(cls: Any, method: str, restarts: int, seed: int) -> Any:
-    """IkOptions(method, restarts, seed) (frozen: one per combination)."""
-    return cls(method=method, restarts=restarts, seed=seed)
-
-
-@lru_cache(maxsize=1)
-def _default_restarts() -> int:
-    """The ``restarts`` default of the ik scenario section (read once)."""
-    from mechkin.config.ik_spec import IkSpec
-
-    return int(IkSpec.model_fields["restarts"].default)
-
-
 def run(scenario: str | Path | Scenario, **options: Any) -> Report:
     """Run a scenario (a path or a loaded :class:`Scenario`) as ``mechkin <task>`` would, without
     writing files; ``report.write(out_dir)`` writes them. ``options``: workspace ``workers``,
@@ -224,3 +211,20 @@ def run(scenario: str | Path | Scenario, **options: Any) -> Report:
     if isinstance(scenario, (str, Path)):
         return tasks.run_file(scenario, **options)
     return tasks.run(scenario, **options)
+
+
+
+class Solver(SolverBase):
+    """Forward and inverse kinematics of one mechanism with its plans, kernels and options
+    kept (:class:`mechkin.solver.SolverBase`): ``Solver(mech).pose(q_v)`` (4, 4),
+    ``.poses(qs)`` (m, k, 4, 4), ``.fk(qs)`` an :class:`FkResult` as :func:`fk`, ``.ik(T)``
+    an :class:`IkResult` (a list for (k, 4, 4) targets) as :func:`ik`. Closed chains call
+    :func:`fk` and :func:`ik` themselves."""
+
+    def _closed_fk(self, q_v: Any, q_w0: Any, tol_phi: float | None) -> FkResult:
+        return fk(self.mech, q_v, q_w0=q_w0, frames=self._frames, tol_phi=tol_phi)
+
+    def _ik_many(self, T: Any, q_v0: Any, q_w0: Any, batch: bool) -> list[IkResult]:
+        method, weights, restarts, seed = self._ik_args
+        return ik(self.mech, T, weights=weights, method=method, q_v0=q_v0, q_w0=q_w0,
+                  restarts=restarts, batch=batch, seed=seed)
