@@ -221,7 +221,7 @@ def ik_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
         except ClosedFormMismatch as exc:
             out.append(f"{doc.where(('mechanism',))}: {short_str(str(exc), 200)}")
     if spec.method == "analytic":
-        from mechkin.tasks.ik import analytic_problem
+        from mechkin.tasks.ik_analytic import analytic_problem
 
         why = analytic_problem(sc, mech)
         if why:
