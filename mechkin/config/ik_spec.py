@@ -128,7 +128,9 @@ class IkSpec(Spec):
     each target (the analytic branches where the mechanism decomposes and the method is auto or
     analytic: complete, ``complete: true``; the closed form where the mechanism has one;
     else multi-start lm from ``solution_starts`` seeded starts, ``complete: false``; merged
-    with revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad).
+    with revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad). ``fixed``: independent
+    joints held at the given values (a 7R arm's redundant joint; auto / analytic), the rest
+    solved analytically.
     """
 
     targets: list[TargetSpec] = Field(default_factory=list)
@@ -145,6 +147,7 @@ class IkSpec(Spec):
     variant: Literal["robust", "printed"] = "robust"
     solutions: Literal["one", "all"] = "one"
     solution_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
+    fixed: dict[Name, Num] | None = None
 
     @model_validator(mode="after")
     def _check(self) -> IkSpec:
@@ -156,6 +159,9 @@ class IkSpec(Spec):
         if self.variant == "printed" and self.cg_restart is not None:
             raise ValueError("cg_restart: the printed variant never restarts (kim1995 §5.2); "
                              "use variant robust")
+        if self.fixed and self.method not in ("auto", "analytic"):
+            raise ValueError(f"fixed: holds joints for method auto or analytic (method is "
+                             f"{self.method})")
         if self.batch and self.method not in ("lm", "auto", "analytic"):
             raise ValueError("batch: only methods auto, analytic and lm solve targets in a "
                              "batch")

@@ -52,9 +52,11 @@ from mechkin.tasks.distributed import resolve as resolve_execution
 from mechkin.tasks.ik_all import _all_solutions, _clean, _solution_rows, _solutions_record
 from mechkin.tasks.ik_analytic import (
     analytic_problem,
+    held_values,
     methods_used,
     solutions_summary_extra,
     solve_batch_analytic,
+    solve_held,
 )
 from mechkin.tasks.ik_solve import _safe_norm, _solve_batch, _solve_split, solve_sequence
 from mechkin.tasks.prepare import Prepared
@@ -204,9 +206,12 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     t0 = time.perf_counter()
     ex = resolve_execution(progress=progress)
     execution_info: dict[str, Any] | None = None
+    fixed = held_values(scenario, mech)
     exact_batch = (solve_batch_analytic(mech, spec.method, T_P, W, qv0, qw0, opts)
-                   if spec.batch and not far.any() else None)
-    if exact_batch is not None:  # auto / analytic: one compiled call for every target
+                   if spec.batch and not far.any() and not fixed else None)
+    if fixed:  # held joints: the remaining chain by subproblems, warm-started
+        results, guesses = solve_held(mech, fixed, T_P, W, qv0, opts, spec.warm_start)
+    elif exact_batch is not None:  # auto / analytic: one compiled call for every target
         results, guesses = exact_batch, [(qv0, qw0)] * len(T_P)
     elif spec.batch and not far.any():
         results, execution_info = _solve_batch(scenario, T_P, W, qv0, qw0, opts, ex)

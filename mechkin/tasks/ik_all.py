@@ -31,7 +31,7 @@ from mechkin.solvers.ik.all_solutions import (
     multistart_all,
     wrapped,
 )
-from mechkin.tasks.ik_analytic import analytic_all, analytic_rows
+from mechkin.tasks.ik_analytic import analytic_all, analytic_rows, held_values
 from mechkin.tasks.ik_solve import _safe_norm
 from mechkin.tasks.prepare import Prepared
 
@@ -46,10 +46,11 @@ def _all_solutions(sc: Scenario, prepared: Prepared, T_P: np.ndarray, W: np.ndar
 
     spec: IkSpec = sc.section
     mech = prepared.mechanism
-    exact = analytic_rows(mech, spec.method, W) & ~far
+    fixed = held_values(sc, mech)
+    exact = analytic_rows(mech, spec.method, W, fixed) & ~far
     if exact.any():  # the analytic branches: complete (mechkin.solvers.ik.analytic)
         refs = np.array([g[0] for g in guesses])
-        found = iter(analytic_all(mech, T_P[exact], refs[exact]))
+        found = iter(analytic_all(mech, T_P[exact], refs[exact], fixed))
     try:
         kind = prepared.recognise_closed_form()
     except ClosedFormMismatch:

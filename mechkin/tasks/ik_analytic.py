@@ -23,7 +23,15 @@ from mechkin.solvers.ik.analytic.solutions import analytic_batch
 def analytic_problem(sc: Scenario, mech: Mechanism) -> str | None:
     """Why ``method: analytic`` cannot solve this scenario (one line naming the file, the key
     and the axes or weights that break it), or None."""
+    from mechkin.errors import ConfigError
+
     spec = sc.section
+    if spec.fixed:
+        try:
+            held_values(sc, mech)
+        except ConfigError as exc:
+            return str(exc)
+        return None
     ws = [t.weights for t in spec.targets if t.weights is not None]
     if spec.random_targets is not None or any(t.weights is None for t in spec.targets):
         ws.append(spec.weights)
@@ -35,15 +43,65 @@ def analytic_problem(sc: Scenario, mech: Mechanism) -> str | None:
     return None
 
 
-def analytic_rows(mech: Mechanism, method: str, W: np.ndarray) -> np.ndarray:
+def held_values(sc: Scenario, mech: Mechanism) -> dict[str, float] | None:
+    """``ik.fixed`` in SI (joint name -> value), checked against the mechanism: a joint that is
+    not independent, a value outside the limits, or a held set that leaves the rest
+    non-decomposable is bad input naming the key."""
+    from mechkin.errors import ConfigError
+    from mechkin.solvers.ik.analytic.classify import held_chain
+    from mechkin.tasks.common import joint_factor
+
+    given = sc.section.fixed
+    if not given:
+        return None
+    out = {}
+    for name, v in given.items():
+        if name not in mech.independent_names:
+            raise ConfigError(f"{sc.doc.where(('ik', 'fixed', name))}: not an independent "
+                              f"joint of {mech.name} ({', '.join(mech.independent_names)})")
+        out[name] = float(v) * joint_factor(mech, mech.joint_index(name), sc.spec.units)
+    try:
+        held_chain(mech, out)
+    except NotDecomposable as exc:
+        raise ConfigError(f"{sc.doc.where(('ik', 'fixed'))}: {exc}") from None
+    return out
+
+
+def solve_held(mech: Mechanism, fixed: dict[str, float], T_P: np.ndarray, W: np.ndarray,
+               qv0: np.ndarray, opts: IkOptions, warm: bool
+               ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]]]:
+    """Every target with the ``fixed`` joints held: the analytic solution nearest the guess
+    (the previous answer when ``warm``); (results, guesses)."""
+    from mechkin.solvers.ik.analytic.classify import held_chain
+    from mechkin.solvers.ik.analytic.dispatch import analytic_ik
+
+    chain = held_chain(mech, fixed)
+    qv = np.array(qv0, dtype=float)
+    qv[chain.fixed_cols] = chain.fixed_values
+    qw = mech.home[mech.dependent]
+    results, guesses = [], []
+    for T, w in zip(T_P, W, strict=True):
+        guesses.append((qv, qw))
+        r = analytic_ik(mech, chain, T, qv, w, opts)
+        results.append(r)
+        if warm and r.ok:
+            qv = r.q_v
+    return results, guesses
+
+
+def analytic_rows(mech: Mechanism, method: str, W: np.ndarray,
+                  fixed: dict[str, float] | None = None) -> np.ndarray:
     """Which targets (k,) the analytic route solves: ``auto`` / ``analytic`` on a mechanism
-    that decomposes, targets with all six weights positive."""
+    that decomposes (with the ``fixed`` joints held), targets with all six weights
+    positive."""
     if method not in ANALYTIC_METHODS:
         return np.zeros(len(W), dtype=bool)
-    try:
+    if fixed:
+        from mechkin.solvers.ik.analytic.classify import held_chain
+
+        chain = held_chain(mech, fixed)
+    else:
         chain = chain_for(mech, "auto", None)
-    except NotDecomposable:
-        chain = None
     if chain is None:
         return np.zeros(len(W), dtype=bool)
     return np.all(W > 0, axis=1)
@@ -64,12 +122,14 @@ def solve_batch_analytic(mech: Mechanism, method: str, T_P: np.ndarray, W: np.nd
                        options=opts, batch=True)
 
 
-def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray) -> list[IkSolutions]:
+def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray,
+                 fixed: dict[str, float] | None = None) -> list[IkSolutions]:
     """Every solution within the limits of each target T_P (k, 4, 4), ordered from its guess
-    refs (k, n_v): the analytic branches, complete (``complete: true``)."""
-    from mechkin.solvers.ik.analytic.classify import analytic_chain
+    refs (k, n_v): the analytic branches, complete (``complete: true``; with ``fixed``
+    joints held: complete for those values)."""
+    from mechkin.solvers.ik.analytic.classify import analytic_chain, held_chain
 
-    chain = analytic_chain(mech)
+    chain = held_chain(mech, fixed) if fixed else analytic_chain(mech)
     assert chain is not None
     t0 = time.perf_counter()
     b = analytic_batch(mech, chain, T_P, refs)

@@ -467,3 +467,39 @@ def test_stewart_legs_equal_the_closed_form():
         assert np.abs(phi).max() < 1e-10
     with pytest.raises(NotDecomposable, match="leg to"):
         platform_legs(load_mechanism(ROOT / "mechanisms" / "delta.yaml"))
+
+
+def test_task_fixed_joint_of_a_7r_arm(tmp_path):
+    """``ik: fixed: {q7: 20}`` (deg) on the Panda: every target solved with q7 held, complete
+    solutions, each exact by FK; a held set that does not decompose is one line of bad input."""
+    mech = load_mechanism(ROOT / "mechanisms" / "panda.yaml")
+    iv = mech.independent
+    rng = np.random.default_rng(9)
+    q = rng.uniform(mech.lower[iv] * 0.8, mech.upper[iv] * 0.8, size=(3, 7))
+    q[:, 6] = np.radians(20.0)
+    T = frame_poses(mech, q, [mech.end_effector])[:, 0]
+    rows = "\n".join(f"    - {{name: P{i}, matrix: {np.round(t, 15).tolist()}}}"
+                     for i, t in enumerate(T))
+    p = tmp_path / "panda_fixed.yaml"
+    p.write_text(f"""name: panda_fixed
+task: ik
+mechanism: {ROOT / "mechanisms" / "panda.yaml"}
+units: {{length: m, angle: deg}}
+ik:
+  method: analytic
+  fixed: {{q7: 20}}
+  solutions: all
+  targets:
+{rows}
+""")
+    s = mechkin.run(p).summary
+    assert s["status"] == "ok" and s["methods_used"] == ["analytic"]
+    assert s["solutions"]["complete"] is True
+    for t in s["targets"]:
+        assert t["q_v"]["q7"] == pytest.approx(np.radians(20.0), abs=1e-15)
+        assert t["position_error"] < 1e-9
+        assert all(sol["q"]["q7"] == pytest.approx(np.radians(20.0), abs=1e-15)
+                   for sol in t["solutions"])
+    p.write_text(p.read_text().replace("fixed: {q7: 20}", "fixed: {q1: 20}"))
+    with pytest.raises(ConfigError, match=r"ik\.fixed: no subproblem decomposition"):
+        mechkin.run(p)
