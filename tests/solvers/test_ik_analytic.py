@@ -503,3 +503,41 @@ ik:
     p.write_text(p.read_text().replace("fixed: {q7: 20}", "fixed: {q1: 20}"))
     with pytest.raises(ConfigError, match=r"ik\.fixed: no subproblem decomposition"):
         mechkin.run(p)
+
+
+ARM5 = """name: arm5
+description: 5R desktop arm (Lynxmotion AL5D-like D-H), h2 || h3 || h4, wrist roll
+units: {length: m, angle: deg}
+dh_convention: standard
+links: [{name: base}, {name: l1}, {name: l2}, {name: l3}, {name: l4},
+        {name: l5, frames: [{name: tool, xyz: [0, 0, 0]}]}]
+joints:
+  - {name: q1, type: revolute, parent: base, child: l1, dh: {a: 0, alpha: 90, d: 0.07}}
+  - {name: q2, type: revolute, parent: l1, child: l2, dh: {a: 0.146, alpha: 0, d: 0}}
+  - {name: q3, type: revolute, parent: l2, child: l3, dh: {a: 0.187, alpha: 0, d: 0}}
+  - {name: q4, type: revolute, parent: l3, child: l4, dh: {a: 0, alpha: 90, d: 0}}
+  - {name: q5, type: revolute, parent: l4, child: l5, dh: {a: 0, alpha: 0, d: 0.1}}
+independent: [q1, q2, q3, q4, q5]
+end_effector: tool
+"""
+
+
+def test_5r_arm_every_branch_exact(tmp_path):
+    (tmp_path / "arm5.yaml").write_text(ARM5)
+    mech = load_mechanism(tmp_path / "arm5.yaml")
+    chain = classify(mech)
+    assert "5R" in chain.description
+    q, T = random_poses(mech, 500, seed=10)
+    b = analytic_batch(mech, chain, T, mech.home[mech.independent])
+    assert np.all(b.count >= 1) and np.all(b.count <= 4)
+    ok = np.arange(8)[None] < b.count[:, None]
+    ok = ok[:, :b.q_v.shape[1]]
+    T_E = frame_poses(mech, b.q_v[ok], [mech.end_effector])[:, 0]
+    assert np.abs(T_E - np.repeat(T[:, None], ok.shape[1], axis=1)[ok]).max() < FK_TOL
+    d = np.abs((b.q_v - q[:, None] + np.pi) % (2 * np.pi) - np.pi).max(axis=-1)
+    assert np.all(np.nanmin(d, axis=1) < 1e-8)
+    assert (b.count == 4).mean() > 0.5
+    lm = mechkin.ik(mech, T[:5], q_v0=q[0], method="lm")
+    for i, r in enumerate(lm):
+        if r.ok:
+            assert any(same_mod_2pi(r.q_v, x, 1e-5) for x in b.q_v[i, :b.count[i]])

@@ -8,6 +8,7 @@
 ``solutions``  batched: every branch of many poses, wrapped into the limits, verified, merged
 ``finish``     limits, verification, order, merging (compiled); the single-pose entry
 ``scara``      4-DOF SCARA arms (numpy)
+``arm5r``      5R arms with three parallel axes (numpy)
 ``dispatch``   ``method: auto | analytic`` for one pose (IkResult), nearest the guess
 ``api_ik``     the route of mechkin.ik (single, batched, held joints, sampled self-motion)
 ``legs``       legs of parallel mechanisms from the platform pose (U-P-S)

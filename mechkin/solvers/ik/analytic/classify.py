@@ -15,6 +15,8 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
   a spherical joint at the base;
 * ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting): the UR family; reversed: h3 || h4 ||
   h5 with h1, h2 meeting;
+* ``5R`` (5 revolute joints, h2 || h3 || h4, h1 and h5 not parallel to them;
+  :mod:`mechkin.solvers.ik.analytic.arm5r`);
 * ``SCARA`` (4 joints: three revolute and one prismatic, every axis parallel;
   :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place).
 
@@ -35,6 +37,7 @@ import numpy as np
 from mechkin.errors import ModelError
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.analytic.solve6r import (
+    KIND_ARM5,
     KIND_PAR234,
     KIND_SCARA,
     KIND_SPHERICAL,
@@ -235,10 +238,13 @@ def classify(mech: Mechanism, frame: int | None = None,
     pris = [n for n, j in zip(names, joints, strict=True) if mech.s[j] == 1]
     if len(joints) == 4:
         return _scara(mech, joints, names, H, P, M, pris)
+    if len(joints) == 5 and not pris:
+        return _arm5(mech, joints, names, H, P, M)
     if len(joints) != 6:
         raise NotDecomposable(f"{len(joints)} joints on the path to "
                               f"{mech.frame_names[frame]} ({', '.join(names)}); the "
-                              "subproblem solvers take 6R chains and 4-DOF SCARA arms")
+                              "subproblem solvers take 6R chains, 5R arms and 4-DOF SCARA "
+                              "arms")
     size = max(1.0, float(np.abs(P).max()), float(np.abs(M[:3, 3]).max()))
     tol = MEET_TOL * size
     order = np.array([iv.index(int(j)) if int(j) in iv else k for k, j in enumerate(joints)])
@@ -300,6 +306,26 @@ def _scara(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
                          joints=np.asarray(joints), order=order,
                          description="SCARA: parallel axes, one prismatic joint",
                          packed=np.zeros(0), identity=bool(np.array_equal(order, np.arange(4))),
+                         limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
+                         limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()))
+
+
+def _arm5(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
+          P: np.ndarray, M: np.ndarray) -> AnalyticChain:
+    """A 5R arm with h2 || h3 || h4 and h1, h5 not parallel to them (else NotDecomposable)."""
+    if not (_parallel(H[1], H[2]) and _parallel(H[2], H[3])) or _parallel(H[0], H[1]) or \
+            _parallel(H[4], H[1]):
+        raise NotDecomposable(f"5 joints ({', '.join(names)}): the 5R solver needs the axes of "
+                              f"{names[1]}, {names[2]}, {names[3]} parallel and those of "
+                              f"{names[0]}, {names[4]} not parallel to them")
+    iv = list(mech.independent)
+    order = np.array([iv.index(int(j)) for j in joints])
+    H, P, M = (np.ascontiguousarray(a) for a in (H, P, M))
+    return AnalyticChain(kind=KIND_ARM5, pos_kind=-1, reversed=False, H=H, P=P, M=M, Hf=H,
+                         Pf=P, Mf=M, point=np.zeros(3), point2=np.zeros(3),
+                         joints=np.asarray(joints), order=order,
+                         description="5R: three parallel axes h2 || h3 || h4",
+                         packed=np.zeros(0), identity=bool(np.array_equal(order, np.arange(5))),
                          limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
                          limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()))
 

@@ -33,7 +33,7 @@ from mechkin.solvers.ik.analytic.classify import (
 from mechkin.solvers.ik.analytic.finish import solve_one
 from mechkin.solvers.ik.analytic.scara import poe_fk
 from mechkin.solvers.ik.analytic.solutions import analytic_batch, full_qv
-from mechkin.solvers.ik.analytic.solve6r import KIND_SCARA, POS_INT12_P, fk_error
+from mechkin.solvers.ik.analytic.solve6r import KIND_ARM5, KIND_SCARA, POS_INT12_P, fk_error
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
 ANALYTIC_METHODS = ("auto", "analytic")
@@ -66,7 +66,7 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
     iv = mech.independent
     T = np.ascontiguousarray(T_P, dtype=np.float64)
     ref = np.asarray(q_v0, dtype=np.float64)
-    if chain.kind == KIND_SCARA:
+    if chain.kind in (KIND_SCARA, KIND_ARM5):
         b = analytic_batch(mech, chain, T[None], ref)
         n, qv = int(b.count[0]), b.q_v[0, 0]
         pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
@@ -80,7 +80,7 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
         qv = ref.copy()
         qv[chain.fixed_cols] = chain.fixed_values
         ok = False
-        if chain.kind == KIND_SCARA:
+        if chain.kind in (KIND_SCARA, KIND_ARM5):
             Te = poe_fk(chain.H, chain.P, chain.M, chain.pos_kind, qv[chain.order][None])[0]
             pe = float(np.linalg.norm(Te[:3, 3] - T[:3, 3]))
             oe = float(np.linalg.norm(Te[:3, :3] - T[:3, :3]) / np.sqrt(2.0))

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.analytic.arm5r import arm5r_branches
 from mechkin.solvers.ik.analytic.classify import AnalyticChain
 from mechkin.solvers.ik.analytic.finish import (
     SAME_TOL,
@@ -35,7 +36,12 @@ from mechkin.solvers.ik.analytic.finish import (
     solve_one,
 )
 from mechkin.solvers.ik.analytic.scara import scara_branches
-from mechkin.solvers.ik.analytic.solve6r import KIND_SCARA, MAX_BRANCHES, solve_batch
+from mechkin.solvers.ik.analytic.solve6r import (
+    KIND_ARM5,
+    KIND_SCARA,
+    MAX_BRANCHES,
+    solve_batch,
+)
 
 
 @dataclass(frozen=True)
@@ -83,8 +89,8 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
     ref = np.asarray(ref, dtype=np.float64)
     if not chain.identity:
         ref = ref[..., chain.order]
-    if chain.kind == KIND_SCARA:
-        return _scara_batch(chain, Ts, ref, tol_pos, tol_ori, same_tol)
+    if chain.kind in (KIND_SCARA, KIND_ARM5):
+        return _numpy_batch(chain, Ts, ref, tol_pos, tol_ori, same_tol)
     if m == 1 and ref.ndim == 1 and (tol_pos, tol_ori, same_tol) == (TOL_POS, TOL_ORI,
                                                                       SAME_TOL):
         n1, q1, e = solve_one(chain.packed, Ts[0], ref)  # one pose: the shortest call
@@ -118,14 +124,18 @@ def full_qv(chain: AnalyticChain, q: np.ndarray, nv: int) -> np.ndarray:
     return out
 
 
-def _scara_batch(chain: AnalyticChain, Ts: np.ndarray, ref: np.ndarray, tol_pos: float,
+def _numpy_batch(chain: AnalyticChain, Ts: np.ndarray, ref: np.ndarray, tol_pos: float,
                  tol_ori: float, same_tol: float) -> AnalyticBatch:
-    """:func:`analytic_batch` of a SCARA (ref in chain order)."""
+    """:func:`analytic_batch` of a SCARA or a 5R arm (numpy branches; ref in chain order)."""
     m, nv = Ts.shape[0], len(chain.joints)
     ref = np.ascontiguousarray(np.broadcast_to(ref, (m, nv)))
-    q_ch, count, err = scara_branches(chain.H, chain.P, chain.M, chain.pos_kind, Ts)
-    q = np.empty((m, 2, nv))
-    pe, oe, dist = (np.empty((m, 2)) for _ in range(3))
+    if chain.kind == KIND_SCARA:
+        q_ch, count, err = scara_branches(chain.H, chain.P, chain.M, chain.pos_kind, Ts)
+    else:
+        q_ch, count, err = arm5r_branches(chain.H, chain.P, chain.M, Ts)
+    nb = q_ch.shape[1]
+    q = np.empty((m, nb, nv))
+    pe, oe, dist = (np.empty((m, nb)) for _ in range(3))
     n = np.empty(m, dtype=np.int64)
     lo = np.array([chain.limits[0][i] for i in chain.order], dtype=np.float64)
     hi = np.array([chain.limits[1][i] for i in chain.order], dtype=np.float64)

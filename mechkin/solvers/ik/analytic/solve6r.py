@@ -69,6 +69,7 @@ from mechkin.solvers.ik.analytic.subproblems import (
 KIND_SPHERICAL = 0
 KIND_PAR234 = 1
 KIND_SCARA = 2  # mechkin.solvers.ik.analytic.scara (numpy)
+KIND_ARM5 = 3  # mechkin.solvers.ik.analytic.arm5r (numpy)
 POS_PAR23 = 0
 POS_INT12 = 1
 POS_INT12_P = 2  # h1 meets h2 at o, joint 3 prismatic (a U-P-S leg)
