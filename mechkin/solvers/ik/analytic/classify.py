@@ -83,6 +83,8 @@ class AnalyticChain:
         ``order`` is 0..5 (q_v is in chain order).
     limits : ((n_v,), (n_v,))
         Lower and upper limits of the independent joints (q_v order).
+    all_joints : bool
+        The independent joints are every joint of the mechanism, in order (q is q_v).
     fixed_cols, fixed_values : (k,)
         Columns of q_v held (``fixed``) and their values.
     """
@@ -105,6 +107,7 @@ class AnalyticChain:
     identity: bool
     limits: tuple[np.ndarray, np.ndarray]
     limits_list: tuple[list[float], list[float]]
+    all_joints: bool = False
     fixed_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     fixed_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
@@ -280,6 +283,7 @@ def classify(mech: Mechanism, frame: int | None = None,
                          point2=np.asarray(pt2, float), joints=np.asarray(joints),
                          order=order, packed=np.ascontiguousarray(packed),
                          identity=bool(np.array_equal(order, np.arange(len(iv)))),
+                         all_joints=bool(np.array_equal(mech.independent, np.arange(mech.n))),
                          fixed_cols=np.array([iv.index(j) for j in fixed], dtype=int),
                          fixed_values=np.array([fixed[j] for j in fixed], dtype=float),
                          limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),

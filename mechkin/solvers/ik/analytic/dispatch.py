@@ -30,14 +30,22 @@ from mechkin.solvers.ik.analytic.classify import (
     analytic_chain,
     classify,
 )
-from mechkin.solvers.ik.analytic.finish import solve_one
+from mechkin.solvers.ik.analytic.finish import solve_one_into
 from mechkin.solvers.ik.analytic.scara import poe_fk
 from mechkin.solvers.ik.analytic.solutions import analytic_batch, full_qv
-from mechkin.solvers.ik.analytic.solve6r import KIND_ARM5, KIND_SCARA, POS_INT12_P, fk_error
+from mechkin.solvers.ik.analytic.solve6r import (
+    KIND_ARM5,
+    KIND_SCARA,
+    MAX_BRANCHES,
+    POS_INT12_P,
+    fk_error,
+)
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
 ANALYTIC_METHODS = ("auto", "analytic")
 _DEFAULT = IkOptions()
+_NONE = np.zeros(0)
+_NONE.flags.writeable = False
 
 
 def chain_for(mech: Mechanism, method: str, weights: np.ndarray | None = None
@@ -71,9 +79,11 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
         n, qv = int(b.count[0]), b.q_v[0, 0]
         pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
     else:
-        n, qc, e = solve_one(chain.packed, T, ref if chain.identity else ref[chain.order])
-        qv = qc[0] if chain.identity else full_qv(chain, qc[0], len(iv))
-        pe, oe = float(e[0, 0]), float(e[0, 1])
+        buf = np.empty((MAX_BRANCHES, 9))
+        n, mask = solve_one_into(chain.packed, T, ref if chain.identity else ref[chain.order],
+                                 buf)
+        qv = buf[0, :6] if chain.identity else full_qv(chain, buf[0, :6], len(iv))
+        pe, oe = float(buf[0, 6]), float(buf[0, 7])
     if n > 0:
         ok = pe <= opts.tol_pos and oe <= opts.tol_ori
     else:
@@ -88,17 +98,23 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
             pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf,
                               np.ascontiguousarray(qv[chain.order]), T,
                               2 if chain.pos_kind == POS_INT12_P else -1)
-    q = mech.home.copy()
-    q[iv] = qv
-    lo, hi = chain.limits_list
-    at = tuple(mech.joint_names[iv[j]] for j, x in enumerate(qv.tolist())
-               if abs(x - lo[j]) < 1e-9 or abs(x - hi[j]) < 1e-9)
+    if chain.all_joints:  # q is q_v: no copy of home, no dependent joints
+        q = qv.copy()
+    else:
+        q = mech.home.copy()
+        q[iv] = qv
+    if chain.kind in (KIND_SCARA, KIND_ARM5) or not chain.identity or n == 0:
+        lo, hi = chain.limits_list
+        at = tuple(mech.joint_names[iv[j]] for j, x in enumerate(qv.tolist())
+                   if abs(x - lo[j]) < 1e-9 or abs(x - hi[j]) < 1e-9)
+    else:
+        at = tuple(mech.joint_names[iv[j]] for j in range(6) if mask >> j & 1) if mask else ()
     if weights is None:
         f = 0.5 * (pe * pe + oe * oe)
     else:
         w = weights.tolist()
         f = 0.5 * ((w[0] + w[1] + w[2]) * pe * pe + (w[3] + w[4] + w[5]) * oe * oe) / 3.0
-    return IkResult(q_v=qv, q_w=q[mech.dependent], q=q,
+    return IkResult(q_v=qv, q_w=_NONE if chain.all_joints else q[mech.dependent], q=q,
                     status=IkStatus.OK if ok else IkStatus.UNREACHABLE,
                     position_error=pe, orientation_error=oe, f=f, grad_norm=0.0,
                     iterations=0, evaluations=1, time_s=time.perf_counter() - t0,

@@ -182,3 +182,22 @@ def solve_one(c: np.ndarray, T: np.ndarray, ref: np.ndarray) -> tuple[int, np.nd
     for i in range(MAX_BRANCHES):
         e[i, 0], e[i, 1], e[i, 2] = pe[0, i], oe[0, i], dist[0, i]
     return n[0], q[0], e
+
+
+@jit
+def solve_one_into(c: np.ndarray, T: np.ndarray, ref: np.ndarray, out: np.ndarray
+                   ) -> tuple[int, int]:
+    """:func:`solve_one` writing into out (8, 9) (q (6), position and orientation error,
+    distance per solution); returns (n, mask): mask has bit j set when joint j of the first
+    solution sits on a limit (within 1e-9)."""
+    n, q, e = solve_one(c, T, ref)
+    for i in range(MAX_BRANCHES):
+        for j in range(6):
+            out[i, j] = q[i, j]
+        out[i, 6], out[i, 7], out[i, 8] = e[i, 0], e[i, 1], e[i, 2]
+    mask = 0
+    if n > 0:
+        for j in range(6):
+            if abs(q[0, j] - c[C_LO + j]) < 1e-9 or abs(q[0, j] - c[C_HI + j]) < 1e-9:
+                mask |= 1 << j
+    return n, mask
