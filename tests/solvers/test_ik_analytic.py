@@ -541,3 +541,17 @@ def test_5r_arm_every_branch_exact(tmp_path):
     for i, r in enumerate(lm):
         if r.ok:
             assert any(same_mod_2pi(r.q_v, x, 1e-5) for x in b.q_v[i, :b.count[i]])
+
+
+def test_ur5_wrist_singularity_keeps_q6_at_the_guess(arms):
+    """UR5 with q5 = 0 (h6 parallel to h2, h3, h4): q6 turns with q2 + q3 + q4; the answer keeps
+    q6 at the guess, finite and exact by the model's FK."""
+    mech = arms["ur5"]
+    q = np.array([0.3, -1.2, 1.1, -0.5, 0.0, 0.4])
+    T = frame_poses(mech, q[None], [mech.end_effector])[0, 0]
+    guess = q + 0.05
+    b = analytic_batch(mech, classify(mech), T[None], guess)
+    sols = b.q_v[0, :b.count[0]]
+    assert len(sols) >= 1 and np.all(np.isfinite(sols))
+    assert np.abs(frame_poses(mech, sols, [mech.end_effector])[:, 0] - T).max() < FK_TOL
+    assert np.allclose(sols[:, 5], guess[5], atol=1e-12)
