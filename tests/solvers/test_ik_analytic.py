@@ -554,4 +554,5 @@ def test_ur5_wrist_singularity_keeps_q6_at_the_guess(arms):
     sols = b.q_v[0, :b.count[0]]
     assert len(sols) >= 1 and np.all(np.isfinite(sols))
     assert np.abs(frame_poses(mech, sols, [mech.end_effector])[:, 0] - T).max() < FK_TOL
-    assert np.allclose(sols[:, 5], guess[5], atol=1e-12)
+    singular = np.abs(np.sin(sols[:, 4])) < 1e-9  # the other shoulder branch is regular
+    assert singular.any() and np.allclose(sols[singular, 5], guess[5], atol=1e-12)
