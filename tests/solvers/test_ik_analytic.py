@@ -556,3 +556,27 @@ def test_ur5_wrist_singularity_keeps_q6_at_the_guess(arms):
     assert np.abs(frame_poses(mech, sols, [mech.end_effector])[:, 0] - T).max() < FK_TOL
     singular = np.abs(np.sin(sols[:, 4])) < 1e-9  # the other shoulder branch is regular
     assert singular.any() and np.allclose(sols[singular, 5], guess[5], atol=1e-12)
+
+
+def test_warmup_covers_the_analytic_signatures(tmp_path, monkeypatch):
+    """``mechkin warmup`` compiles the analytic kernels with the signatures mechkin.ik and
+    solutions: all use (one pose, many poses, the numpy classes' finishing)."""
+    pytest.importorskip("numba")
+    monkeypatch.setenv("MECHKIN_JIT", "1")
+    from mechkin.solvers.ik import warm
+    from mechkin.solvers.ik.analytic import finish
+
+    (tmp_path / "open.yaml").write_text(warm.TINY_OPEN)
+    names = [n for n, _ in warm.kernels_for(load_mechanism(tmp_path / "open.yaml"))]
+    assert {"finish.solve_one_into", "finish.solve_finish", "finish.finish_batch"} <= set(names)
+    for name in ("finish.solve_one_into", "finish.solve_finish", "finish.finish_batch"):
+        warm._analytic_runner(name)()
+    if not hasattr(finish.solve_one_into, "signatures"):
+        pytest.skip("compiled kernels off (MECHKIN_JIT=0 at import)")
+    sigs = [list(getattr(finish, f).signatures) for f in ("solve_one_into", "solve_finish")]
+    mech = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
+    _, T = random_poses(mech, 3)
+    mechkin.ik(mech, T[0])
+    analytic_batch(mech, classify(mech), T, mech.home[mech.independent])
+    assert [list(getattr(finish, f).signatures) for f in ("solve_one_into",
+                                                          "solve_finish")] == sigs

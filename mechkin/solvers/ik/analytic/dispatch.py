@@ -24,6 +24,7 @@ from dataclasses import replace
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.accel import announce
 from mechkin.solvers.ik.analytic.classify import (
     AnalyticChain,
     NotDecomposable,
@@ -79,6 +80,7 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
         n, qv = int(b.count[0]), b.q_v[0, 0]
         pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
     else:
+        announce(solve_one_into, "analytic IK (finish.solve_one_into)")
         buf = np.empty((MAX_BRANCHES, 9))
         n, mask = solve_one_into(chain.packed, T, ref if chain.identity else ref[chain.order],
                                  buf)

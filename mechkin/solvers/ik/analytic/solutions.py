@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.accel import announce
 from mechkin.solvers.ik.analytic.arm5r import arm5r_branches
 from mechkin.solvers.ik.analytic.classify import AnalyticChain
 from mechkin.solvers.ik.analytic.finish import (
@@ -87,6 +88,7 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
     Ts = np.ascontiguousarray(Ts, dtype=np.float64).reshape(-1, 4, 4)
     m = Ts.shape[0]
     ref = np.asarray(ref, dtype=np.float64)
+    announce(solve_finish, "analytic IK (finish.solve_finish)")
     if not chain.identity:
         ref = ref[..., chain.order]
     if chain.kind in (KIND_SCARA, KIND_ARM5):
