@@ -466,7 +466,7 @@ def test_stewart_legs_equal_the_closed_form():
         phi = closure_residual(mech, forward_kinematics(mech, q[None]))
         assert np.abs(phi).max() < 1e-10
     with pytest.raises(NotDecomposable, match="leg to"):
-        platform_legs(load_mechanism(ROOT / "mechanisms" / "delta.yaml"))
+        platform_legs(load_mechanism(ROOT / "mechanisms" / "lee_spherical_rrps.yaml"))
 
 
 def test_task_fixed_joint_of_a_7r_arm(tmp_path):
@@ -580,3 +580,61 @@ def test_warmup_covers_the_analytic_signatures(tmp_path, monkeypatch):
     analytic_batch(mech, classify(mech), T, mech.home[mech.independent])
     assert [list(getattr(finish, f).signatures) for f in ("solve_one_into",
                                                           "solve_finish")] == sigs
+
+
+def test_3rrr_legs_equal_the_closed_form():
+    """The planar 3-RRR from the platform pose: the leg carrying the platform (three parallel
+    axes, a pose) and the two pinned legs (two parallel axes, a point) by Subproblems 3 and 1:
+    the motor angles equal the closed form of tests/mechanisms/reference_closed_forms.py
+    (rrr_ik) to 1e-12, every joint equals the loop-closure FK that made the pose."""
+    from mechkin.model.closure import solve_closure
+    from mechkin.model.kinematics import forward_kinematics
+    from mechkin.solvers.ik.analytic.legs import platform_legs, solve_legs
+    from tests.mechanisms import reference_closed_forms as ref
+
+    mech = load_mechanism(ROOT / "mechanisms" / "planar_3rrr.yaml")
+    legs = platform_legs(mech)
+    assert [leg.kind for leg in legs] == ["planar3", "point2r", "point2r"]
+    iv = mech.independent
+    rng = np.random.default_rng(11)
+    m = 40
+    qv = mech.home[iv] + rng.uniform(-0.15, 0.15, size=(m, 3))
+    res = solve_closure(mech, qv, np.broadcast_to(mech.home[mech.dependent],
+                                                  (m, len(mech.dependent))).copy())
+    T = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[:, 0]
+    assert res.ok.sum() >= 30
+    for i in np.flatnonzero(res.ok):
+        q, ok = solve_legs(mech, legs, T[i], mech.home)
+        assert ok
+        x = np.array([T[i][0, 3], T[i][1, 3], np.arctan2(T[i][1, 0], T[i][0, 0])])
+        assert np.abs(same_mod := (q[iv] - ref.rrr_ik(x)[0] + np.pi) % (2 * np.pi) - np.pi
+                      ).max() < 1e-12, same_mod
+        assert np.abs(q - res.q[i]).max() < 1e-9
+
+
+def test_delta_legs_equal_the_closed_form():
+    """The Delta's R-U-U legs from the platform pose (the elbow on a sphere about the wrist:
+    Subproblem 3; the forearm by Subproblem 2 about the elbow; the wrist by Subproblem 1): the
+    motor angles equal the closed form of tests/mechanisms/reference_closed_forms.py
+    (delta_ik) to 1e-12, every joint equals the loop-closure FK that made the pose."""
+    from mechkin.model.closure import solve_closure
+    from mechkin.model.kinematics import forward_kinematics
+    from mechkin.solvers.ik.analytic.legs import platform_legs, solve_legs
+    from tests.mechanisms import reference_closed_forms as ref
+
+    mech = load_mechanism(ROOT / "mechanisms" / "delta.yaml")
+    legs = platform_legs(mech)
+    assert [leg.kind for leg in legs] == ["uu"] * 3
+    iv = mech.independent
+    rng = np.random.default_rng(12)
+    m = 40
+    qv = mech.home[iv] + rng.uniform(-0.2, 0.2, size=(m, 3))
+    res = solve_closure(mech, qv, np.broadcast_to(mech.home[mech.dependent],
+                                                  (m, len(mech.dependent))).copy())
+    T = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[:, 0]
+    assert res.ok.sum() >= 30
+    for i in np.flatnonzero(res.ok):
+        q, ok = solve_legs(mech, legs, T[i], mech.home)
+        assert ok
+        assert np.abs(q[iv] - ref.delta_ik(T[i][:3, 3])[0]).max() < 1e-12
+        assert np.abs(q - res.q[i]).max() < 1e-9

@@ -100,3 +100,45 @@ def arm5r_branches(H: np.ndarray, P: np.ndarray, M: np.ndarray, Ts: np.ndarray
         err[:, j, 1] = np.where(feas[:, j], oe, np.inf)
     q = np.where(feas[..., None], q, 0.0)
     return q, np.full(m, 4, dtype=np.int64), err
+
+
+def uu_leg_branches(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: np.ndarray,
+                    w: np.ndarray, Ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 5R leg R-U-U (a Delta leg): h2, h3 meet at the elbow o, h4, h5 meet at the wrist w.
+    With G = T M^{-1}: the wrist's image w_t = G w; q1 by Subproblem 3 (the elbow on the
+    sphere of radius ||w - o|| about w_t), (q2, q3) by Subproblem 2 about o, q4 by
+    Subproblem 1 on h5 and q5 by Subproblem 1. Up to 4 branches: q (m, 4, 5), count (m,),
+    FK errors err (m, 4, 2) (a target the leg's orientation cannot take fails them)."""
+    m = len(Ts)
+    RG = Ts[:, :3, :3] @ M[:3, :3].T
+    pG = Ts[:, :3, 3] - RG @ M[:3, 3]
+    wt = RG @ w + pG
+    L = np.linalg.norm(w - o)
+    qa, qb, ok1 = _sp3(H[0], np.broadcast_to(o - P[0], (m, 3)), wt - P[0], np.full(m, L))
+    q = np.zeros((m, 4, 5))
+    feas = np.zeros((m, 4), dtype=bool)
+    j = 0
+    for q1 in (qa, qb):
+        y = _rot(H[0], -q1, wt - P[0]) + P[0] - o
+        for t2, t3, ok23 in _sp2(H[1], np.broadcast_to(H[2], (m, 3)).copy(),
+                                 np.broadcast_to(w - o, (m, 3)).copy(), y):
+            R123 = np.eye(3)[None]
+            for k, t in ((0, q1), (1, t2), (2, t3)):
+                Rk = np.stack([_rot(H[k], t, np.broadcast_to(e, (m, 3))) for e in np.eye(3)],
+                              -1)
+                R123 = R123 @ Rk
+            Rt = np.swapaxes(R123, 1, 2) @ RG  # = R(h4, q4) R(h5, q5)
+            q4 = _sp1(H[3], np.broadcast_to(H[4], (m, 3)), Rt @ H[4])
+            v = np.cross(H[4], [1.0, 0, 0] if abs(H[4][0]) < 0.9 else [0, 1.0, 0])
+            q5 = _sp1(H[4], np.broadcast_to(v, (m, 3)), _rot(H[3], -q4, Rt @ v))
+            q[:, j] = np.stack([q1, t2, t3, q4, q5], -1)
+            feas[:, j] = ok1 & ok23
+            j += 1
+    err = np.full((m, 4, 2), np.inf)
+    for j in range(4):
+        T = poe_fk(H, P, M, -1, np.where(feas[:, j, None], q[:, j], 0.0))
+        err[:, j, 0] = np.where(feas[:, j], np.linalg.norm(T[:, :3, 3] - Ts[:, :3, 3], axis=-1),
+                                np.inf)
+        err[:, j, 1] = np.where(feas[:, j], np.linalg.norm(T[:, :3, :3] - Ts[:, :3, :3],
+                                                           axis=(1, 2)) / np.sqrt(2), np.inf)
+    return q, np.full(m, 4, dtype=np.int64), err

@@ -10,9 +10,12 @@ platform, kim1995 §6.2) by ``POS_INT12_P`` (two meeting axes, the stroke from a
 the spherical joint by Subproblems 2 and 1). Every joint of the mechanism follows, actuated
 and passive, each leg's branch nearest a reference configuration.
 
-Legs of other structures (Delta R-(SS)2, 3-RRR, lee's RRPS with fewer than 6 joints per leg)
-do not decompose into these 6-joint classes: :func:`platform_legs` raises NotDecomposable
-naming the leg, and their closed forms (:mod:`mechkin.solvers.closed_form`) stay as they are.
+A planar leg of three parallel revolute axes (3-RRR: the leg that carries the platform) is
+solved like a SCARA without its prismatic joint (Subproblems 3 and 1, the rotation about the
+common axis), and a leg whose cut ties positions only (3-RRR legs 2, 3: two parallel revolute
+axes reaching a pin) by Subproblems 3 and 1; an R-U-U leg (the Delta's) by Subproblems 3, 2
+and 1 (:func:`mechkin.solvers.ik.analytic.arm5r.uu_leg_branches`). Legs of other structures
+(lee's RRPS) raise NotDecomposable naming the leg; their closed forms stay as they are.
 
 Design
 ------
@@ -26,19 +29,59 @@ from dataclasses import dataclass
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.analytic.arm5r import uu_leg_branches
 from mechkin.solvers.ik.analytic.classify import AnalyticChain, NotDecomposable, classify
+from mechkin.solvers.ik.analytic.finish import finish_batch
+from mechkin.solvers.ik.analytic.scara import point2r_branches, scara_branches
 from mechkin.solvers.ik.analytic.solutions import analytic_batch
 
 
 @dataclass(frozen=True, eq=False)
 class Leg:
-    """One leg: its chain, the model joints (base first), the frame that ends it and the
-    platform frame that frame must coincide with (-1: the platform link's own frame)."""
+    """One leg: how it is solved (``kind``: "chain" an :class:`AnalyticChain`; "planar3" three
+    parallel revolute axes reaching a pose; "point2r" two parallel revolute axes putting a
+    point on a point, for a cut that ties positions only; "uu" an R-U-U leg, a Delta's), the
+    model joints (base first), the frame that ends it and the platform frame it must meet
+    (-1: the platform link's frame); H, P, M the leg at q = 0, o and w its U centres."""
 
-    chain: AnalyticChain
+    kind: str
+    chain: AnalyticChain | None
     joints: np.ndarray
     end_frame: int
     platform_frame: int
+    H: np.ndarray | None = None
+    P: np.ndarray | None = None
+    M: np.ndarray | None = None
+    o: np.ndarray | None = None
+    w: np.ndarray | None = None
+
+
+def _leg(mech: Mechanism, end: int, target: int, position_only: bool) -> Leg:
+    """The solver of the leg ending at frame ``end`` (NotDecomposable naming it)."""
+    from mechkin.solvers.ik.analytic.classify import _parallel, zero_config
+
+    joints, H, P, M = zero_config(mech, end)
+    rev = bool(np.all(mech.s[joints] == 0))
+    par = rev and all(_parallel(h, H[0]) for h in H)
+    if position_only:
+        if len(joints) == 2 and par:
+            return Leg("point2r", None, joints, end, target, H, P, M)
+        raise NotDecomposable(f"leg to {mech.frame_names[end]}: a position-only cut needs two "
+                              "parallel revolute joints")
+    if len(joints) == 3 and par:
+        return Leg("planar3", None, joints, end, target, H, P, M)
+    if len(joints) == 5 and rev:
+        from mechkin.solvers.ik.analytic.classify import MEET_TOL, _meet
+
+        tol = MEET_TOL * max(1.0, float(np.abs(P).max()))
+        o, w = _meet(H[1], P[1], H[2], P[2], tol), _meet(H[3], P[3], H[4], P[4], tol)
+        if o is not None and w is not None:
+            return Leg("uu", None, joints, end, target, H, P, M, o, w)
+    try:
+        chain = classify(mech, frame=end, check_independent=False)
+    except NotDecomposable as exc:
+        raise NotDecomposable(f"leg to {mech.frame_names[end]}: {exc}") from None
+    return Leg("chain", chain, chain.joints, end, target)
 
 
 def platform_legs(mech: Mechanism) -> list[Leg]:
@@ -47,26 +90,34 @@ def platform_legs(mech: Mechanism) -> list[Leg]:
     if mech.end_effector is None or not mech.cuts:
         raise NotDecomposable(f"mechanism {mech.name}: legs need a platform ({{E}}) and cuts")
     plat = int(mech.frame_link[mech.end_effector])
-    ends = [(plat, -1)]
+    ends = [(plat, -1, False)]
     for cut in mech.cuts:
-        if not bool(np.all(cut.mask)):
-            raise NotDecomposable(f"cut {cut.name}: a leg end needs all 6 components")
+        full = bool(np.all(cut.mask))
+        if not full and (cut.mask[3:].any() or not cut.mask[:2].all()):
+            raise NotDecomposable(f"cut {cut.name}: a leg end needs all 6 components or the "
+                                  "position (x, y or x, y, z)")
         if int(mech.frame_link[cut.b]) == plat:
-            ends.append((int(cut.a), int(cut.b)))
+            ends.append((int(cut.a), int(cut.b), not full))
         elif int(mech.frame_link[cut.a]) == plat:
-            ends.append((int(cut.b), int(cut.a)))
+            ends.append((int(cut.b), int(cut.a), not full))
         else:
             raise NotDecomposable(f"cut {cut.name} does not end on the platform "
                                   f"{mech.link_names[plat]}")
-    legs = []
-    for end, target in ends:
-        try:
-            chain = classify(mech, frame=end, check_independent=False)
-        except NotDecomposable as exc:
-            raise NotDecomposable(f"leg to {mech.frame_names[end]}: {exc}") from None
-        legs.append(Leg(chain=chain, joints=chain.joints, end_frame=end,
-                        platform_frame=target))
-    return legs
+    return [_leg(mech, end, target, pos) for end, target, pos in ends]
+
+
+def _nearest(mech: Mechanism, joints: np.ndarray, q: np.ndarray, count: np.ndarray,
+             err: np.ndarray, ref: np.ndarray) -> np.ndarray | None:
+    """The branch of q (1, nb, k) nearest ref (k,) within the limits (None: none)."""
+    m, nb, k = q.shape
+    out = np.empty((1, nb, k))
+    pe, oe, dist = (np.empty((1, nb)) for _ in range(3))
+    n = np.empty(1, dtype=np.int64)
+    finish_batch(np.ascontiguousarray(q), count.astype(np.int64), np.ascontiguousarray(err),
+                 np.ascontiguousarray(ref[None]), mech.lower[joints].astype(float),
+                 mech.upper[joints].astype(float), mech.s[joints] == 0, 1e-8, 1e-8, 1e-3, out,
+                 pe, oe, dist, n)
+    return out[0, 0] if n[0] > 0 else None
 
 
 def solve_legs(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.ndarray
@@ -82,9 +133,20 @@ def solve_legs(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.nd
         # the leg's end frame coincides with the platform frame its cut names
         T_end = T_0_plat if leg.platform_frame < 0 else \
             T_0_plat @ mech.frame_offset[leg.platform_frame]
-        b = analytic_batch(mech, leg.chain, T_end[None], q[leg.joints])
-        if b.count[0] == 0:
+        if leg.kind == "chain":
+            b = analytic_batch(mech, leg.chain, T_end[None], q[leg.joints])
+            sol = b.q_v[0, 0] if b.count[0] > 0 else None
+        elif leg.kind == "planar3":
+            qb, cnt, err = scara_branches(leg.H, leg.P, leg.M, -1, T_end[None])
+            sol = _nearest(mech, leg.joints, qb, cnt, err, q[leg.joints])
+        elif leg.kind == "uu":
+            qb, cnt, err = uu_leg_branches(leg.H, leg.P, leg.M, leg.o, leg.w, T_end[None])
+            sol = _nearest(mech, leg.joints, qb, cnt, err, q[leg.joints])
+        else:
+            qb, cnt, err = point2r_branches(leg.H, leg.P, leg.M[:3, 3], T_end[None, :3, 3])
+            sol = _nearest(mech, leg.joints, qb, cnt, err, q[leg.joints])
+        if sol is None:
             ok = False
             continue
-        q[leg.joints] = b.q_v[0, 0]
+        q[leg.joints] = sol
     return q, ok

@@ -61,29 +61,36 @@ def _sp3(k: np.ndarray, p1: np.ndarray, p2: np.ndarray, delta: np.ndarray
 
 def scara_branches(H: np.ndarray, P: np.ndarray, M: np.ndarray, prismatic: int,
                    Ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Both branches of targets Ts (m, 4, 4): q (m, 2, 4) (chain order), count (m,) and the FK
-    errors err (m, 2, 2) (position [m], orientation [rad])."""
-    rev = [i for i in range(4) if i != prismatic]
+    """Both branches of targets Ts (m, 4, 4): q (m, 2, k) (chain order), count (m,) and the FK
+    errors err (m, 2, 2) (position [m], orientation [rad]). ``prismatic`` -1: a planar 3R
+    chain (three parallel revolute axes; k = 3)."""
+    k = len(H)
+    rev = [i for i in range(k) if i != prismatic]
     a, b, c = rev
     d = H[a]
     RG = Ts[:, :3, :3] @ M[:3, :3].T
     pG = Ts[:, :3, 3] - RG @ M[:3, 3]
     x = P[c]
     Gx = RG @ x + pG
-    kp = H[prismatic]
-    qp = (Gx - x) @ d / (kp @ d)
-    y = Gx - qp[:, None] * kp
+    if prismatic >= 0:
+        kp = H[prismatic]
+        qp = (Gx - x) @ d / (kp @ d)
+        y = Gx - qp[:, None] * kp
+    else:
+        y = Gx
     qb1, qb2, ok = _sp3(H[b], np.broadcast_to(x - P[b], y.shape),
                         np.broadcast_to(P[a] - P[b], y.shape), np.linalg.norm(y - P[a], axis=-1))
     v = np.cross(d, [1.0, 0, 0] if abs(d[0]) < 0.9 else [0, 1.0, 0])
     v /= np.linalg.norm(v)
     theta = _sp1(d, np.broadcast_to(v, y.shape), RG @ v)
     m = len(Ts)
-    q = np.empty((m, 2, 4))
+    q = np.empty((m, 2, k))
     for j, qb in enumerate((qb1, qb2)):
         e = _rot(H[b], qb, np.broadcast_to(x - P[b], y.shape)) + P[b]
         qa = _sp1(H[a], e - P[a], y - P[a])
-        q[:, j, a], q[:, j, b], q[:, j, prismatic] = qa, qb, qp
+        q[:, j, a], q[:, j, b] = qa, qb
+        if prismatic >= 0:
+            q[:, j, prismatic] = qp
         q[:, j, c] = (H[c] @ d) * (theta - (H[a] @ d) * qa - (H[b] @ d) * qb)
     err = np.full((m, 2, 2), np.inf)
     for j in range(2):
@@ -113,3 +120,24 @@ def poe_fk(H: np.ndarray, P: np.ndarray, M: np.ndarray, prismatic: int, q: np.nd
             E[:, :3, 3] = P[i] - R @ P[i]
         T = T @ E
     return T @ M
+
+
+def point2r_branches(H: np.ndarray, P: np.ndarray, x0: np.ndarray, pts: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A planar 2R chain (parallel axes) putting its point x0 (at q = 0) on the points pts
+    (m, 3): q2 by Subproblem 3 (the distance from axis 1), q1 by Subproblem 1. Returns q
+    (m, 2, 2), count (m,) and the position errors err (m, 2, 2) (orientation column 0)."""
+    m = len(pts)
+    qb1, qb2, ok = _sp3(H[1], np.broadcast_to(x0 - P[1], pts.shape),
+                        np.broadcast_to(P[0] - P[1], pts.shape),
+                        np.linalg.norm(pts - P[0], axis=-1))
+    q = np.empty((m, 2, 2))
+    err = np.zeros((m, 2, 2))
+    for j, qb in enumerate((qb1, qb2)):
+        e = _rot(H[1], qb, np.broadcast_to(x0 - P[1], pts.shape)) + P[1]
+        qa = _sp1(H[0], e - P[0], pts - P[0])
+        q[:, j, 0], q[:, j, 1] = qa, qb
+        reach = _rot(H[0], qa, e - P[0]) + P[0]
+        err[:, j, 0] = np.linalg.norm(reach - pts, axis=-1)
+    err[~ok] = np.inf
+    return q, np.where(ok, 2, 0), err
