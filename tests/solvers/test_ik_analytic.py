@@ -465,8 +465,36 @@ def test_stewart_legs_equal_the_closed_form():
         assert np.abs(q - res.q[i]).max() < 1e-9
         phi = closure_residual(mech, forward_kinematics(mech, q[None]))
         assert np.abs(phi).max() < 1e-10
-    with pytest.raises(NotDecomposable, match="leg to"):
-        platform_legs(load_mechanism(ROOT / "mechanisms" / "lee_spherical_rrps.yaml"))
+    with pytest.raises(NotDecomposable, match="legs need a platform"):
+        platform_legs(load_mechanism(ROOT / "mechanisms" / "puma560.yaml"))
+
+
+def test_lee_rrps_legs_equal_the_closed_form():
+    """lee's spherical RRPS mechanism from the plate pose: the central spherical joint by
+    Subproblems 2 and 1, the three U-P-S legs like the Stewart's: the leg lengths equal
+    today's closed form (mechkin.solvers.closed_form, lee_spherical) to 1e-12."""
+    from mechkin.model.closure import solve_closure
+    from mechkin.model.kinematics import forward_kinematics
+    from mechkin.solvers.closed_form.recognise import closed_form_ik
+    from mechkin.solvers.ik.analytic.legs import platform_legs, solve_legs
+
+    mech = load_mechanism(ROOT / "mechanisms" / "lee_spherical_rrps.yaml")
+    legs = platform_legs(mech)
+    assert [leg.kind for leg in legs] == ["spherical3", "chain", "chain", "chain"]
+    iv = mech.independent
+    rng = np.random.default_rng(13)
+    m = 30
+    qv = mech.home[iv] + rng.uniform(-0.2, 0.2, size=(m, len(iv)))
+    res = solve_closure(mech, qv, np.broadcast_to(mech.home[mech.dependent],
+                                                  (m, len(mech.dependent))).copy())
+    T = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[:, 0]
+    cf, _ = closed_form_ik(mech, T, "lee_spherical", tol=1e-4)
+    assert res.ok.sum() >= 20
+    for i in np.flatnonzero(res.ok):
+        q, ok = solve_legs(mech, legs, T[i], mech.home)
+        assert ok
+        assert np.abs(q[iv] - cf[i]).max() < 1e-12
+        assert np.abs(q - res.q[i]).max() < 1e-9
 
 
 def test_task_fixed_joint_of_a_7r_arm(tmp_path):

@@ -142,3 +142,28 @@ def uu_leg_branches(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: np.ndarray,
         err[:, j, 1] = np.where(feas[:, j], np.linalg.norm(T[:, :3, :3] - Ts[:, :3, :3],
                                                            axis=(1, 2)) / np.sqrt(2), np.inf)
     return q, np.full(m, 4, dtype=np.int64), err
+
+
+def spherical3_branches(H: np.ndarray, P: np.ndarray, M: np.ndarray, Ts: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Three revolute axes meeting in a point (a spherical joint) reaching the orientation of
+    Ts (m, 4, 4): (q1, q2) by Subproblem 2 on h3 (R(h1, q1) R(h2, q2) h3 = R_G h3), q3 by
+    Subproblem 1. Two branches: q (m, 2, 3), count (m,), FK errors err (m, 2, 2)."""
+    m = len(Ts)
+    RG = Ts[:, :3, :3] @ M[:3, :3].T
+    q = np.zeros((m, 2, 3))
+    feas = np.zeros((m, 2), dtype=bool)
+    v = np.cross(H[2], [1.0, 0, 0] if abs(H[2][0]) < 0.9 else [0, 1.0, 0])
+    for j, (t1, t2, ok) in enumerate(_sp2(H[0], np.broadcast_to(H[1], (m, 3)).copy(),
+                                          np.broadcast_to(H[2], (m, 3)).copy(), RG @ H[2])):
+        w = _rot(H[1], -t2, _rot(H[0], -t1, RG @ v))
+        q[:, j] = np.stack([t1, t2, _sp1(H[2], np.broadcast_to(v, (m, 3)), w)], -1)
+        feas[:, j] = ok
+    err = np.full((m, 2, 2), np.inf)
+    for j in range(2):
+        T = poe_fk(H, P, M, -1, np.where(feas[:, j, None], q[:, j], 0.0))
+        err[:, j, 0] = np.where(feas[:, j], np.linalg.norm(T[:, :3, 3] - Ts[:, :3, 3], axis=-1),
+                                np.inf)
+        err[:, j, 1] = np.where(feas[:, j], np.linalg.norm(T[:, :3, :3] - Ts[:, :3, :3],
+                                                           axis=(1, 2)) / np.sqrt(2), np.inf)
+    return q, np.full(m, 2, dtype=np.int64), err

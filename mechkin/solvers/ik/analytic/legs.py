@@ -14,8 +14,9 @@ A planar leg of three parallel revolute axes (3-RRR: the leg that carries the pl
 solved like a SCARA without its prismatic joint (Subproblems 3 and 1, the rotation about the
 common axis), and a leg whose cut ties positions only (3-RRR legs 2, 3: two parallel revolute
 axes reaching a pin) by Subproblems 3 and 1; an R-U-U leg (the Delta's) by Subproblems 3, 2
-and 1 (:func:`mechkin.solvers.ik.analytic.arm5r.uu_leg_branches`). Legs of other structures
-(lee's RRPS) raise NotDecomposable naming the leg; their closed forms stay as they are.
+and 1 (:func:`mechkin.solvers.ik.analytic.arm5r.uu_leg_branches`); a spherical joint that
+carries the platform (lee's RRPS) by Subproblems 2 and 1. Legs of other structures raise
+NotDecomposable naming the leg; their closed forms stay as they are.
 
 Design
 ------
@@ -29,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mechkin.model.mechanism import Mechanism
-from mechkin.solvers.ik.analytic.arm5r import uu_leg_branches
+from mechkin.solvers.ik.analytic.arm5r import spherical3_branches, uu_leg_branches
 from mechkin.solvers.ik.analytic.classify import AnalyticChain, NotDecomposable, classify
 from mechkin.solvers.ik.analytic.finish import finish_batch
 from mechkin.solvers.ik.analytic.scara import point2r_branches, scara_branches
@@ -40,7 +41,8 @@ from mechkin.solvers.ik.analytic.solutions import analytic_batch
 class Leg:
     """One leg: how it is solved (``kind``: "chain" an :class:`AnalyticChain`; "planar3" three
     parallel revolute axes reaching a pose; "point2r" two parallel revolute axes putting a
-    point on a point, for a cut that ties positions only; "uu" an R-U-U leg, a Delta's), the
+    point on a point, for a cut that ties positions only; "uu" an R-U-U leg, a Delta's;
+    "spherical3" three axes meeting in a point, lee's central spherical joint), the
     model joints (base first), the frame that ends it and the platform frame it must meet
     (-1: the platform link's frame); H, P, M the leg at q = 0, o and w its U centres."""
 
@@ -70,6 +72,13 @@ def _leg(mech: Mechanism, end: int, target: int, position_only: bool) -> Leg:
                               "parallel revolute joints")
     if len(joints) == 3 and par:
         return Leg("planar3", None, joints, end, target, H, P, M)
+    if len(joints) == 3 and rev:
+        from mechkin.solvers.ik.analytic.classify import MEET_TOL, _meet
+
+        tol = MEET_TOL * max(1.0, float(np.abs(P).max()))
+        c = _meet(H[0], P[0], H[1], P[1], tol)
+        if c is not None and np.linalg.norm(np.cross(H[2], c - P[2])) < tol:
+            return Leg("spherical3", None, joints, end, target, H, P, M)
     if len(joints) == 5 and rev:
         from mechkin.solvers.ik.analytic.classify import MEET_TOL, _meet
 
@@ -138,6 +147,9 @@ def solve_legs(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.nd
             sol = b.q_v[0, 0] if b.count[0] > 0 else None
         elif leg.kind == "planar3":
             qb, cnt, err = scara_branches(leg.H, leg.P, leg.M, -1, T_end[None])
+            sol = _nearest(mech, leg.joints, qb, cnt, err, q[leg.joints])
+        elif leg.kind == "spherical3":
+            qb, cnt, err = spherical3_branches(leg.H, leg.P, leg.M, T_end[None])
             sol = _nearest(mech, leg.joints, qb, cnt, err, q[leg.joints])
         elif leg.kind == "uu":
             qb, cnt, err = uu_leg_branches(leg.H, leg.P, leg.M, leg.o, leg.w, T_end[None])
