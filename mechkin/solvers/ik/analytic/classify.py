@@ -158,13 +158,6 @@ def _meet(h1: np.ndarray, p1: np.ndarray, h2: np.ndarray, p2: np.ndarray, tol: f
     return 0.5 * ((p1 + t1 * h1) + (p2 + t2 * h2))
 
 
-def _miss(h1: np.ndarray, p1: np.ndarray, h2: np.ndarray, p2: np.ndarray) -> float:
-    n = np.cross(h1, h2)
-    if np.linalg.norm(n) < PAR_TOL:
-        return float(np.linalg.norm(np.cross(p2 - p1, h1)))
-    return abs(float((p2 - p1) @ n)) / float(np.linalg.norm(n))
-
-
 def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray, np.ndarray,
                                                             str] | None:
     """The decomposition of the chain (H, P), or None."""
@@ -197,13 +190,20 @@ def _try_ups(H: np.ndarray, P: np.ndarray, tol: float
     return KIND_SPHERICAL, POS_INT12_P, c45, o12, "U-P-S: h1 meets h2, prismatic, spherical"
 
 
+def _common_miss(H: np.ndarray, P: np.ndarray) -> float:
+    """How far three lines (h_i, p_i) are from sharing a point [m]: the largest distance from
+    the least-squares point to the lines (parallel lines: the pairwise distance)."""
+    A = sum(np.eye(3) - np.outer(h, h) for h in H)
+    b = sum((np.eye(3) - np.outer(h, h)) @ p for h, p in zip(H, P, strict=True))
+    x = np.linalg.lstsq(A, b, rcond=None)[0]
+    return float(max(np.linalg.norm(np.cross(x - p, h)) for h, p in zip(H, P, strict=True)))
+
+
 def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
     """One line naming what keeps the chain from decomposing."""
     j = names
-    w = max(_miss(H[3], P[3], H[4], P[4]), _miss(H[4], P[4], H[5], P[5]),
-            _miss(H[3], P[3], H[5], P[5]))
-    b = max(_miss(H[0], P[0], H[1], P[1]), _miss(H[1], P[1], H[2], P[2]),
-            _miss(H[0], P[0], H[2], P[2]))
+    w = _common_miss(H[3:6], P[3:6])
+    b = _common_miss(H[0:3], P[0:3])
     return (f"no subproblem decomposition: the axes of {j[3]}, {j[4]}, {j[5]} miss a common "
             f"point by {w:.4g} m (no spherical wrist), those of {j[0]}, {j[1]}, {j[2]} by "
             f"{b:.4g} m (none at the base), and neither {j[1]}, {j[2]}, {j[3]} nor "
