@@ -46,6 +46,20 @@ def ik_analytic(mech: Mechanism, T: np.ndarray, *, method: str, weights: np.ndar
             chain = chain_for(mech, method, weights)
     except NotDecomposable as exc:
         raise ConfigError(f"{'fixed' if fixed else 'method: analytic'}: {exc}") from None
+    if chain is None and mech.cuts and not fixed:
+        from mechkin.solvers.ik.analytic.dispatch import solve_ik_method
+        from mechkin.solvers.ik.analytic.legs import legs_for
+
+        if legs_for(mech) is None or not bool((np.asarray(weights) > 0).all()):
+            return None
+        out, qv, qw = [], np.asarray(q_v0, float), np.asarray(q_w0, float)
+        for Tk in T:  # a parallel mechanism by its legs, each target from the previous one
+            r = solve_ik_method(mech, Tk, method=method, q_v0=qv, q_w0=qw, weights=weights,
+                                options=options)
+            out.append(r)
+            if not batch and r.ok:
+                qv, qw = r.q_v, r.q_w
+        return out
     if chain is None:
         return None
     lm = options if options.method == "lm" else replace(options, method="lm")

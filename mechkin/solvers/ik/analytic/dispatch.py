@@ -54,6 +54,11 @@ def chain_for(mech: Mechanism, method: str, weights: np.ndarray | None = None
     """The analytic chain ``method`` uses for ``mech`` (None: lm). ``analytic`` on a chain that
     does not decompose, or with a zero weight, raises NotDecomposable naming why."""
     full = weights is None or min(np.asarray(weights).tolist()) > 0
+    if method == "analytic" and mech.cuts and full:
+        from mechkin.solvers.ik.analytic.legs import platform_legs
+
+        platform_legs(mech)  # a parallel mechanism by its legs, or NotDecomposable naming one
+        return None
     if method == "analytic":
         if not full:
             raise NotDecomposable("method analytic solves the whole pose: give all six "
@@ -133,6 +138,17 @@ def solve_ik_method(mech: Mechanism, T_P: np.ndarray, *, method: str,
     opts = options or IkOptions()
     if method in ANALYTIC_METHODS:
         chain = chain_for(mech, method, weights)
+        full = weights is None or min(np.asarray(weights).tolist()) > 0
+        if chain is None and mech.cuts and full:  # a parallel mechanism: by its legs
+            from mechkin.solvers.ik.analytic.legs import legs_for, legs_ik
+
+            legs = legs_for(mech)
+            if legs is not None:
+                qv = mech.home[mech.independent] if q_v0 is None else q_v0
+                qw = mech.home[mech.dependent] if q_w0 is None else q_w0
+                r = legs_ik(mech, legs, T_P, qv, qw, opts.tol_pos, opts.tol_ori)
+                if r.ok or method == "analytic":
+                    return r
         if chain is not None:
             guess = mech.home[mech.independent] if q_v0 is None else q_v0
             r = analytic_ik(mech, chain, T_P, np.asarray(guess, dtype=np.float64), weights,

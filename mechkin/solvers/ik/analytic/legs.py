@@ -35,6 +35,7 @@ from mechkin.solvers.ik.analytic.classify import AnalyticChain, NotDecomposable,
 from mechkin.solvers.ik.analytic.finish import finish_batch
 from mechkin.solvers.ik.analytic.scara import point2r_branches, scara_branches
 from mechkin.solvers.ik.analytic.solutions import analytic_batch
+from mechkin.solvers.ik.results import IkResult
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,3 +163,45 @@ def solve_legs(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.nd
             continue
         q[leg.joints] = sol
     return q, ok
+
+
+def legs_for(mech: Mechanism) -> list[Leg] | None:
+    """:func:`platform_legs`, cached on the Mechanism; None when a leg does not decompose."""
+    cache = mech.__dict__.get("_analytic_legs", ())
+    if cache == ():
+        try:
+            cache = platform_legs(mech)
+        except NotDecomposable:
+            cache = None
+        object.__setattr__(mech, "_analytic_legs", cache)
+    return cache
+
+
+def legs_ik(mech: Mechanism, legs: list[Leg], T_P: np.ndarray, q_v0: np.ndarray,
+            q_w0: np.ndarray, tol_pos: float, tol_ori: float) -> IkResult:
+    """IK of a parallel mechanism through its legs: every joint from the platform pose T_P
+    (4, 4) of {E}, each leg's branch nearest the guess (q_v0, q_w0); verified by the model's
+    FK (pose of {E} and the loop closure). Status ok when within tol_pos / tol_ori and the
+    loops close (1e-8); unreachable when a leg has no solution within its limits."""
+    import time
+
+    from mechkin.model.kinematics import closure_residual, forward_kinematics
+    from mechkin.solvers.ik.kernel import pose_errors
+    from mechkin.solvers.ik.results import IkStatus
+
+    t0 = time.perf_counter()
+    ref = np.where(np.isfinite(mech.home), mech.home, 0.0)
+    ref[mech.independent], ref[mech.dependent] = q_v0, q_w0
+    q, found = solve_legs(mech, legs, np.asarray(T_P, dtype=np.float64), ref)
+    kin = forward_kinematics(mech, q[None])
+    T_E = kin.frames(mech, [mech.end_effector])[:, 0]
+    pe, oe = pose_errors(T_E, np.asarray(T_P, dtype=np.float64)[None])
+    phi = closure_residual(mech, kin)
+    closed = float(np.linalg.norm(phi)) < 1e-8 if phi.size else True
+    ok = found and closed and pe[0] <= tol_pos and oe[0] <= tol_ori
+    return IkResult(q_v=q[mech.independent], q_w=q[mech.dependent], q=q,
+                    status=IkStatus.OK if ok else IkStatus.UNREACHABLE,
+                    position_error=float(pe[0]), orientation_error=float(oe[0]), f=0.0,
+                    grad_norm=0.0, iterations=0, evaluations=1,
+                    time_s=time.perf_counter() - t0, f_history=np.zeros(1),
+                    method="analytic legs")
