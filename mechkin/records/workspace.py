@@ -292,3 +292,4 @@ class WorkspaceOutput:
     title: str = ""
     joint_columns: list[str] = field(default_factory=list)
     slices: dict[str, Any] | None = None
+    robot: Any = None  # records.robot.RobotSnapshot: the mechanism in workspace.mcap
