@@ -156,3 +156,33 @@ def methods_used(results: list[IkResult]) -> list[str]:
 def solutions_summary_extra(all_sols: list[IkSolutions]) -> dict[str, Any]:
     """``complete``: every target's list is every solution within the limits."""
     return {"complete": bool(all(a.complete for a in all_sols))}
+
+
+def parallel_legs(mech: Mechanism, method: str) -> Any:
+    """The legs of a parallel mechanism (:mod:`mechkin.solvers.ik.analytic.legs`) that
+    ``auto`` / ``analytic`` solve through, or None."""
+    if method not in ANALYTIC_METHODS or not mech.cuts:
+        return None
+    from mechkin.solvers.ik.analytic.legs import legs_for
+
+    return legs_for(mech)
+
+
+def legs_all_solutions(mech: Mechanism, legs: Any, T: np.ndarray, qv: np.ndarray,
+                       qw: np.ndarray, w: np.ndarray) -> IkSolutions:
+    """Every solution of a parallel mechanism at the pose T (4, 4): every combination of its
+    legs' branches (complete), verified by FK and the loop closure, merged and ordered from
+    the guess like the other sources (:mod:`mechkin.solvers.ik.all_solutions`)."""
+    from dataclasses import replace
+
+    from mechkin.solvers.ik.all_solutions import SAME_TOL, TOL_ORI_ALL, TOL_POS_ALL, _finish
+    from mechkin.solvers.ik.analytic.legs import legs_all
+
+    t0 = time.perf_counter()
+    ref = np.where(np.isfinite(mech.home), mech.home, 0.0)
+    ref[mech.independent], ref[mech.dependent] = qv, qw
+    q = legs_all(mech, legs, np.asarray(T, dtype=np.float64), ref)
+    a = _finish(mech, q, np.asarray(T, dtype=np.float64), np.asarray(w, float),
+                np.asarray(qv, float), TOL_POS_ALL, TOL_ORI_ALL, SAME_TOL, "analytic legs",
+                len(q), t0)
+    return replace(a, complete=True)

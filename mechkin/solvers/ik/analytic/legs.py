@@ -205,3 +205,53 @@ def legs_ik(mech: Mechanism, legs: list[Leg], T_P: np.ndarray, q_v0: np.ndarray,
                     grad_norm=0.0, iterations=0, evaluations=1,
                     time_s=time.perf_counter() - t0, f_history=np.zeros(1),
                     method="analytic legs")
+
+
+def _leg_solutions(mech: Mechanism, leg: Leg, T_end: np.ndarray, ref: np.ndarray
+                   ) -> np.ndarray:
+    """Every solution (k, n_leg) of one leg within its limits, nearest ref first."""
+    if leg.kind == "chain":
+        b = analytic_batch(mech, leg.chain, T_end[None], ref)
+        return b.q_v[0, :b.count[0]]
+    if leg.kind == "planar3":
+        qb, cnt, err = scara_branches(leg.H, leg.P, leg.M, -1, T_end[None])
+    elif leg.kind == "spherical3":
+        qb, cnt, err = spherical3_branches(leg.H, leg.P, leg.M, T_end[None])
+    elif leg.kind == "uu":
+        qb, cnt, err = uu_leg_branches(leg.H, leg.P, leg.M, leg.o, leg.w, T_end[None])
+    else:
+        qb, cnt, err = point2r_branches(leg.H, leg.P, leg.M[:3, 3], T_end[None, :3, 3])
+    m, nb, k = qb.shape
+    out = np.empty((1, nb, k))
+    pe, oe, dist = (np.empty((1, nb)) for _ in range(3))
+    n = np.empty(1, dtype=np.int64)
+    finish_batch(np.ascontiguousarray(qb), cnt.astype(np.int64), np.ascontiguousarray(err),
+                 np.ascontiguousarray(ref[None]), mech.lower[leg.joints].astype(float),
+                 mech.upper[leg.joints].astype(float), mech.s[leg.joints] == 0, 1e-8, 1e-8,
+                 1e-3, out, pe, oe, dist, n)
+    return out[0, :n[0]]
+
+
+def legs_all(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.ndarray
+             ) -> np.ndarray:
+    """Every configuration (k, n) of the mechanism with {E} at T_0_E: every combination of
+    the legs' solutions within their limits (the legs are independent once the platform pose
+    is given, so the list is complete). Unverified here: the caller verifies and orders."""
+    import itertools
+
+    e = int(mech.end_effector)
+    T_0_plat = T_0_E @ np.linalg.inv(mech.frame_offset[e])
+    per = []
+    for leg in legs:
+        T_end = T_0_plat if leg.platform_frame < 0 else \
+            T_0_plat @ mech.frame_offset[leg.platform_frame]
+        per.append(_leg_solutions(mech, leg, T_end, q_ref[leg.joints]))
+    if any(len(p) == 0 for p in per):
+        return np.zeros((0, mech.n))
+    rows = []
+    for combo in itertools.product(*[range(len(p)) for p in per]):
+        q = np.array(q_ref, dtype=np.float64)
+        for leg, sols, i in zip(legs, per, combo, strict=True):
+            q[leg.joints] = sols[i]
+        rows.append(q)
+    return np.array(rows)
