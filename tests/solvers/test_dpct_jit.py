@@ -89,3 +89,25 @@ def test_rent_or_buy(monkeypatch):
     assert D.use_compiled_dp(49 * 501**2)  # time-optimal 50 x 500: ~1.2 s
     monkeypatch.setattr(accel, "compiled_lm_available", lambda: False)
     assert not D.use_compiled_dp(49 * 501**2)
+
+
+def test_time_refinement_only_shortens_and_keeps_the_limits():
+    """objective time: the r' band refinement gives a duration <= the uniform grid's (the
+    uniform path stays in the band), limits still hold; refine=False is the uniform grid."""
+    lim = D.TrackLimits.symmetric(**TVA)
+    kw = dict(dynamics=DYN, path=PATH, limits=lim, N1=30, N2=200, objective="time")
+    fine = D.solve_conveyor_tracking(**kw)
+    coarse = D.solve_conveyor_tracking(**kw, refine=False)
+    assert fine.limits_ok and coarse.limits_ok
+    assert fine.duration_s <= coarse.duration_s
+    assert "refined" in fine.message and "refined" not in coarse.message
+    assert fine.trajectory.t.shape == coarse.trajectory.t.shape  # same 30 stages
+
+
+def test_tracking_never_refines():
+    kw = dict(dynamics=DYN, path=PATH, reference=REF, limits=D.TrackLimits.symmetric(**FULL),
+              N1=30, N2=50)
+    a = D.solve_conveyor_tracking(**kw)
+    b = D.solve_conveyor_tracking(**kw, refine=False)
+    assert a.t_a_s == b.t_a_s and a.cost == b.cost
+    assert np.array_equal(a.trajectory.torque, b.trajectory.torque)
