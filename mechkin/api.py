@@ -60,7 +60,10 @@ def fk(
     q_v : array_like, shape (m, n_v) or (n_v,)
         Independent joints [rad | m], in ``mech.independent_names`` order.
     q_w0 : array_like, shape (n_w,) or (m, n_w), optional
-        First guess of the dependent joints (default ``home``); closed chains only.
+        Closed chains only. Default: every row is reached from the home assembly by
+        continuation in q_v (the assembly mode connected to home). (n_w,): the home assembly
+        is closed from this guess instead (choosing the mode). (m, n_w): a guess per row,
+        Newton from it; rows that do not close from it are reached from home.
     frames : list of str, optional
         Frames whose poses to return; ``"end_effector"`` names the mechanism's {E}
         (default: the end effector if there is one).
@@ -70,8 +73,10 @@ def fk(
     Returns
     -------
     FkResult
-        All joints ``q`` (m, n), per-row ``status`` and ``residual``, and ``poses[name]``
-        (m, 4, 4) in the base frame.
+        All joints ``q`` (m, n), per-row ``status`` (``converged``, ``outside limits`` when a
+        passive joint is outside its limits, ``constraint singularity`` when the path from home
+        stops where the assembly folds, ``not converged``), ``within_limits`` (closed chains)
+        and ``residual``, and ``poses[name]`` (m, 4, 4) in the base frame.
     """
     import numpy as np
 
@@ -84,10 +89,19 @@ def fk(
     if qv.shape[1] != len(mech.independent):
         raise ConfigError(f"q_v: expected {len(mech.independent)} columns "
                           f"({', '.join(mech.independent_names)}), got {qv.shape[1]}")
-    qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
-    qw0 = np.broadcast_to(np.atleast_2d(qw0), (qv.shape[0], len(mech.dependent)))
     kw = {} if tol_phi is None else {"tol_phi": tol_phi}
-    res = solve_closure(mech, qv, np.array(qw0), **kw)
+    inside = None
+    if mech.is_closed and len(mech.dependent):
+        # closed chains: every row reached from home (or the guess) by continuation, passive
+        # limits part of the status (mechkin.model.continuation)
+        from mechkin.model.continuation import fk_rows, within_limits
+
+        res, _ = fk_rows(mech, qv, q_w0=q_w0, **kw)
+        inside = within_limits(mech, res.q)[1].tolist()
+    else:
+        qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
+        qw0 = np.broadcast_to(np.atleast_2d(qw0), (qv.shape[0], len(mech.dependent)))
+        res = solve_closure(mech, qv, np.array(qw0), **kw)
     names = list(frames) if frames is not None else (
         ["end_effector"] if mech.end_effector is not None else [])
     idx = []
@@ -104,7 +118,7 @@ def fk(
     T = frame_poses(mech, res.q, idx) if idx else np.zeros((len(qv), 0, 4, 4))
     return FkResult(q=res.q, status=[s.value for s in res.status], residual=res.residual,
                     iterations=res.iterations, poses={n: T[:, k] for k, n in enumerate(names)},
-                    joint_names=list(mech.joint_names))
+                    joint_names=list(mech.joint_names), within_limits=inside)
 
 
 def ik(

@@ -32,7 +32,8 @@ class FkResult:
     q : array (m, n)
         Every joint [rad | m] (independent as given, dependent from the loop closure).
     status : list of str
-        Per row: ``converged``, ``not converged`` or ``singular``.
+        Per row: ``converged``, ``outside limits``, ``constraint singularity``, ``not
+        converged`` or ``singular``.
     residual : array (m,)
         ||phi_R|| at exit (0 for open chains).
     iterations : array (m,)
@@ -48,6 +49,8 @@ class FkResult:
     iterations: Any
     poses: dict[str, Any]
     joint_names: list[str]
+    #: closed chains: per row, every passive (dependent) joint within its limits
+    within_limits: list[bool] | None = None
 
     @property
     def ok(self) -> bool:
