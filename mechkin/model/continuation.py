@@ -50,8 +50,8 @@ from mechkin.model.closure import (
 from mechkin.model.kinematics import closure_jacobian, forward_kinematics
 from mechkin.model.mechanism import Mechanism
 
-MAX_STEP = 0.1          # largest move of an independent joint per step [rad, or x L for m]
-MAX_STEP_W = 0.25       # largest predicted move of a dependent joint per step [rad | x L]
+MAX_STEP = 0.2          # largest move of an independent joint per step [rad, or x L for m]
+MAX_STEP_W = 0.3        # largest predicted move of a dependent joint per step [rad | x L]
 MIN_STEP = 1e-7         # smallest path step (fraction of the path) before giving up
 CORRECTOR_ITER = 8
 TOL_CORRECT = 1e-10     # closure residual accepted inside the path (polished at the end)
