@@ -213,8 +213,8 @@ end_effector: slider_pin
 
 def slider_closed_form(qv):
     th = np.asarray(qv, float).reshape(-1)
-    r, l, e = 0.05, 0.2, 0.01
-    x = r * np.cos(th) + np.sqrt(l**2 - (r * np.sin(th) - e) ** 2)
+    r, rod, e = 0.05, 0.2, 0.01
+    x = r * np.cos(th) + np.sqrt(rod**2 - (r * np.sin(th) - e) ** 2)
     phi = np.arctan2(e - r * np.sin(th), x - r * np.cos(th))
     return np.column_stack([th, wrap(phi - th), x])
 
