@@ -23,7 +23,12 @@ from typing import Any
 import numpy as np
 
 from mechkin.records.workspace import JointSweepRecord
-from mechkin.solvers.workspace.dexterity import characteristic_length, dexterity, normalized_isotropy
+from mechkin.solvers.workspace.dexterity import (
+    characteristic_length,
+    dexterity,
+    length_bounds,
+    normalized_isotropy,
+)
 
 __all__ = ["continuation_tree", "joint_sweep", "point_cloud_volume"]
 
@@ -432,8 +437,8 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     dex_out: dict[str, Any] = {}
     if manipulability:
         prismatic = mech.s[mech.independent] == 1
-        L = float(length) if length is not None else characteristic_length(J_all[reach],
-                                                                              prismatic)
+        L = float(length) if length is not None else characteristic_length(
+            J_all[reach], prismatic, bounds=length_bounds(mech))
         iso_n = np.where(reach, normalized_isotropy(J_all, L, prismatic), 0.0)
         dex_out = {"manipulability": w_full, "isotropy": iso_full, "isotropy_position": iso_pos,
                    "isotropy_normalized": iso_n, "characteristic_length": L}
