@@ -160,7 +160,7 @@ def ik(
 
     from mechkin.config.ik_spec import IkSpec
     from mechkin.errors import ConfigError
-    from mechkin.solvers.ik import IkOptions, solve_ik, solve_ik_batch
+    from mechkin.solvers.ik import IkOptions, solve_ik_batch, solve_ik_warm
 
     T = np.asarray(targets, dtype=float)
     T = T[None] if T.ndim == 2 else T
@@ -180,10 +180,11 @@ def ik(
 
         W = np.broadcast_to(w, (len(T), 6))
         return batch_results(solve_ik_batch(mech, T, q_v0=qv, q_w0=qw, weights=W,
-                                            options=opts), len(T))
+                                            options=opts), len(T), mech)
     out = []
+    cold = (qv.copy(), qw.copy())  # closed chains: a failed warm target retried as a lone one
     for Tk in T:
-        r = solve_ik(mech, Tk, q_v0=qv, q_w0=qw, weights=w, options=opts)
+        r = solve_ik_warm(mech, Tk, q_v0=qv, q_w0=qw, cold=cold, weights=w, options=opts)
         out.append(r)
         if np.all(np.isfinite(r.q)):
             qv, qw = r.q_v, r.q_w

@@ -68,7 +68,7 @@ from mechkin.solvers.ik.results import (
     verify,
 )
 from mechkin.solvers.ik.seeds import SEED_CODEBOOK, SEED_RESTARTS
-from mechkin.solvers.ik.solve import solve_ik, solve_ik_batch, solve_ik_sequence
+from mechkin.solvers.ik.solve import solve_ik, solve_ik_batch, solve_ik_sequence, solve_ik_warm
 
 __all__ = [
     "ACTIVE_BAND", "GOLDEN", "GRAD_TOL", "LM_MU", "MAX_ITER_CG", "MAX_ITER_CLOSURE", "MAX_ITER_LM",
@@ -76,5 +76,5 @@ __all__ = [
     "TOL_ORI_RAD", "TOL_PHI", "TOL_POS_M", "IkBatchResult", "IkKernel", "IkOptions", "IkResult",
     "IkStatus", "Method", "compiled_lm_available", "evaluate", "gradient", "kernel_for",
     "objective", "pose_errors", "reduced_jacobian", "solve_ik", "solve_ik_batch",
-    "solve_ik_sequence", "verify",
+    "solve_ik_sequence", "solve_ik_warm", "verify",
 ]

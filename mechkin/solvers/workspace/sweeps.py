@@ -628,7 +628,7 @@ def task_space_sweep(
     prismatic = parts[0]["prismatic"]
     ok = cat["reachable"]
     L = float(length) if length is not None else characteristic_length(
-        cat["J"][ok], prismatic, bounds=length_bounds(_job_mechanism(_mechanism_spec(mechanism))))
+        cat["J"][ok], prismatic, bounds=length_bounds(mech))
     iso_n = np.where(ok, normalized_isotropy(cat["J"], L, prismatic), 0.0)
     return TaskSpaceRecord(T_P, cat["q_v"], cat["status"], cat["reachable"],
                            cat["position_error"], cat["orientation_error"], cat["iterations"],
