@@ -423,6 +423,7 @@ def assembly_summary(sc: Scenario, mech: Mechanism, qv: np.ndarray, q_w0: np.nda
                     and np.all(np.isfinite(q_first)) else None)
         out.update({"assembly_modes": _modes_record(mech, modes),
                     "n_assembly_modes": modes.count, "assembly_mode_followed": followed,
+                    "assembly_mode_from_home": modes.from_home,
                     "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
                     "assembly_search": {"starts": modes.starts, "converged": modes.converged,
                                         "time_s": modes.time_s}})
@@ -432,6 +433,7 @@ def assembly_summary(sc: Scenario, mech: Mechanism, qv: np.ndarray, q_w0: np.nda
         at.append({"q_v": {n: float(v) for n, v in zip(mech.independent_names, q, strict=True)},
                    "n_assembly_modes": modes.count,
                    "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
+                   "assembly_mode_from_home": modes.from_home,
                    "assembly_modes": _modes_record(mech, modes)})
     if at:
         out["assembly_at"] = at
