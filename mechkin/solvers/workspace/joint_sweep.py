@@ -140,6 +140,7 @@ def _close_rows(mech: Any, qv: np.ndarray, parent: np.ndarray, level: np.ndarray
     same bits as the whole sweep in one process.
     """
     from mechkin.model.closure import ClosureStatus, solve_closure
+    from mechkin.model.continuation import closure_from_home
 
     if todo.size == 0:
         return
@@ -166,9 +167,13 @@ def _close_rows(mech: Any, qv: np.ndarray, parent: np.ndarray, level: np.ndarray
             res = solve_closure(mech, qv[idx], guess)
             stv = np.array([x.value for x in res.status], dtype=object)
             qq = res.q
+            if (~use).any():  # no solved neighbour: continuation from the home assembly
+                r0 = closure_from_home(mech, qv[idx[~use]])
+                qq[~use] = r0.q
+                stv[~use] = [x.value for x in r0.status]
             bad = (stv != conv_val) & use
-            if bad.any():  # the neighbour's branch did not close: try from home
-                r2 = solve_closure(mech, qv[idx[bad]], q_w0)
+            if bad.any():  # the neighbour's branch did not close: continue from home
+                r2 = closure_from_home(mech, qv[idx[bad]])
                 good = np.array([x.value == conv_val for x in r2.status], dtype=bool)
                 bi = np.flatnonzero(bad)[good]
                 qq[bi] = r2.q[good]
@@ -195,13 +200,14 @@ def _evaluate_rows(mech: Any, qv: np.ndarray, frame: int, rows: slice, closed: b
                    two_phase: bool, manipulability: bool, st: dict[str, np.ndarray]) -> None:
     """Positions and dexterity of the rows ``rows`` of ``st`` (in place); closed chains
     without continuation close their loops here, from home. Row by row independent."""
-    from mechkin.model.closure import ClosureStatus, dependent_sensitivity, solve_closure
+    from mechkin.model.closure import ClosureStatus, dependent_sensitivity
+    from mechkin.model.continuation import closure_from_home
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian
 
     a, b = rows.start, rows.stop
     q, status = st["q"], st["status"]
-    if closed and not two_phase:
-        res = solve_closure(mech, qv[a:b], mech.home[mech.dependent])
+    if closed and not two_phase:  # each sample by continuation from the home assembly
+        res = closure_from_home(mech, qv[a:b])
         q[a:b] = res.q
         status[a:b] = [x.value for x in res.status]
     elif not closed:
