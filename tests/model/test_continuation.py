@@ -136,3 +136,20 @@ def test_no_result_reports_converged_with_a_passive_joint_outside_its_limits(tmp
         inside = np.all((q >= mech.lower[mech.dependent] - 1e-9)
                         & (q <= mech.upper[mech.dependent] + 1e-9), axis=1)
         assert inside[mo.ok].all()
+
+
+def test_fk_task_reports_outside_limits_and_fails(tmp_path):
+    mech, _ = load(tmp_path, M.ROBOTIQ, "rq.yaml",
+                   **{"limits: [-0.872664, 0.872664]": "limits: [-0.3, 0.3]"})
+    sc = tmp_path / "fk.yaml"
+    sc.write_text("name: rq\ntask: fk\nmechanism: rq.yaml\nunits: {length: m, angle: rad}\n"
+                  "fk:\n  time: {start: 0, stop: 1, step: 0.05}\n  motion:\n"
+                  "    driver_joint: {type: ramp, from: 0, to: 0.8}\n")
+    rep = mechkin.run(sc)
+    ref = M.robotiq_closed_form(np.linspace(0, 0.8, 21))
+    outside = np.abs(ref[:, 2]) > 0.3
+    assert outside.any() and not outside.all()
+    assert rep.summary["steps"]["outside limits"] == int(outside.sum())
+    assert rep.summary["steps"]["converged"] == int((~outside).sum())
+    assert rep.summary["status"] == "outside limits" and rep.exit_code == 1
+    assert "follower_joint" in rep.summary["joints_outside_limits"]
