@@ -264,7 +264,10 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
 
     ex = resolve(progress=progress)
     if ex.split and m >= 2 * SPLIT_MIN_STEPS:
-        return _solve_split(mech, qv, q_w0, kw, ex)
+        # the first sample's assembly as the rest reach it (from home by continuation)
+        first = solve_motion(mech, qv[:1], q_w0=q_w0, guess=guess, **kw)
+        start_w = first.q[0, mech.dependent] if first.ok[0] else q_w0
+        return _solve_split(mech, qv, start_w, kw, ex)
     if m <= CHUNK_STEPS:
         return solve_motion(mech, qv, q_w0=q_w0, guess=guess, **kw)
     parts = []
