@@ -58,6 +58,7 @@ TOL_CORRECT = 1e-10     # closure residual accepted inside the path (polished at
 ABS_CORRECTION = 1e-6   # correction always allowed regardless of the predicted move
 RATIO_SINGULAR = 1e-3   # sigma_min / sigma_max of the scaled dphi/dq_w at a stuck path
 MAX_PATH_STEPS = 20_000
+WINDOW0 = 64            # samples per step-to-step run after a miss (doubling while they hold)
 
 
 def _size(mech: Mechanism) -> float:
@@ -331,6 +332,43 @@ def _big_steps(mech: Mechanism, qv: np.ndarray, max_step: float) -> np.ndarray:
     return big
 
 
+def _big_step(mech: Mechanism, q_v: np.ndarray, prev: np.ndarray, ckw: dict) -> ClosureResult:
+    """One sample (1, n_v) from the assembled ``prev`` (n,): a single predictor-corrector step
+    when its corrector passes the acceptance test of :func:`_correct` (converged, contracting,
+    within half the predicted move), else :func:`continue_closure` with step control."""
+    kin = forward_kinematics(mech, prev[None])
+    _, J = closure_jacobian(mech, kin)
+    move = _tangent(mech, J, q_v - prev[None, mech.independent])
+    pred = prev[None, mech.dependent] + move
+    ok, qw, _ = _correct(mech, q_v, pred, move)
+    if ok[0]:
+        pol = solve_closure(mech, q_v, qw, **{k: v for k, v in ckw.items() if k != "max_step"})
+        if pol.ok[0]:
+            return pol
+    return continue_closure(mech, q_v, prev, **ckw)
+
+
+def _on_branch(mech: Mechanism, q: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """(m,) bool: sample k (solved by Newton from sample k - 1) passes the corrector's
+    acceptance test of :func:`_correct` against the first-order predictor from k - 1 (the
+    correction at most half the predicted move): a step-to-step solve that jumped to another
+    assembly mode fails it. Row 0 and rows after a failed one pass."""
+    from mechkin.model.closure import dependent_sensitivity
+
+    m = q.shape[0]
+    out = np.ones(m, dtype=bool)
+    both = np.flatnonzero(ok[:-1] & ok[1:]) if m > 1 else np.zeros(0, dtype=int)
+    if both.size == 0:
+        return out
+    iv, iw = mech.independent, mech.dependent
+    with np.errstate(all="ignore"):
+        S = dependent_sensitivity(mech, q[both])
+        move = np.einsum("kwv,kv->kw", S, q[both + 1][:, iv] - q[both][:, iv])
+        corr = np.linalg.norm(q[both + 1][:, iw] - q[both][:, iw] - move, axis=1)
+        out[both + 1] = corr <= 0.5 * np.linalg.norm(move, axis=1) + ABS_CORRECTION
+    return out
+
+
 def _put(dst: dict, sl, r: ClosureResult) -> None:
     for k in ("q", "status", "iterations", "residual", "cond"):
         dst[k][sl] = getattr(r, k)
@@ -383,12 +421,13 @@ def solve_motion(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = 
     else:
         first = closure_from_home(mech, q_v[:1], q_w0=g0, **ckw)
     big = _big_steps(mech, q_v, max_step)
+    window = WINDOW0
     k = 0
     prev: np.ndarray | None = None  # the last assembled sample before k
     start_r = first
     while k < m:
         if start_r is None:  # reach sample k from the previous assembled one
-            start_r = (continue_closure(mech, q_v[k:k + 1], prev, **ckw) if prev is not None
+            start_r = (_big_step(mech, q_v[k:k + 1], prev, ckw) if prev is not None
                        else closure_from_home(mech, q_v[k:k + 1], q_w0=g0, **ckw))
         if not start_r.ok[0]:
             # stuck (a fold) or lost: the following samples straight from the last assembled
@@ -412,6 +451,7 @@ def solve_motion(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = 
         # a run of small steps from sample k, Newton step to step
         nxt = np.flatnonzero(big[k + 1:])
         stop = m if nxt.size == 0 else k + 1 + int(nxt[0])
+        stop = min(stop, k + window)  # a window that doubles while the steps hold
         if stop - k > 1:
             r = solve_trajectory(mech, q_v[k:stop], start_r.q[0, iw], **kw)
             r = ClosureResult(np.vstack([start_r.q, r.q[1:]]),
@@ -421,8 +461,9 @@ def solve_motion(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = 
                               np.concatenate([start_r.cond, r.cond[1:]]))
         else:
             r = start_r
-        okr = r.ok
+        okr = r.ok & _on_branch(mech, r.q, r.ok)
         j = int(np.argmin(okr)) if not okr.all() else len(okr)
+        window = 2 * window if j == len(okr) else WINDOW0
         _put(out, slice(k, k + j), ClosureResult(r.q[:j], r.status[:j], r.iterations[:j],
                                                  r.residual[:j], r.cond[:j]))
         prev = out["q"][k + j - 1].copy()
