@@ -153,3 +153,13 @@ def test_fk_task_reports_outside_limits_and_fails(tmp_path):
     assert rep.summary["steps"]["converged"] == int((~outside).sum())
     assert rep.summary["status"] == "outside limits" and rep.exit_code == 1
     assert "follower_joint" in rep.summary["joints_outside_limits"]
+
+
+def test_step_to_step_newton_that_jumps_branch_is_caught(tmp_path):
+    # the Watt six-bar's crank turning by 0.3 rad a sample: plain Newton from the first-order
+    # predictor jumps to the other second-loop mode within a turn (kim1995 §5.1 step to step)
+    mech, _ = load(tmp_path, M.WATT)
+    qv = (np.arange(60) * 0.3)[:, None]
+    res = solve_motion(mech, qv)
+    assert all(s is ClosureStatus.CONVERGED for s in res.status)
+    assert joint_error(res.q, M.watt_closed_form(qv, -1.0, -1.0)) <= ATOL
