@@ -71,7 +71,10 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
     except ImportError:
         raise ConfigError(f"{path}: reading MJCF needs MuJoCo (pip install 'mechkin[mjcf]')"
                           ) from None
-    text = path.read_text(encoding="utf-8", errors="replace")
+    from mechkin.config.guarded_read import check_mjcf_files, redirect_mujoco_log
+
+    redirect_mujoco_log(mujoco)  # never MUJOCO_LOG.TXT in the working directory
+    text = check_mjcf_files(path)  # regular files within the limits, includes and meshes too
 
     def line_of(tag: str, name: str) -> int:
         m = re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
