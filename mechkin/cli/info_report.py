@@ -13,6 +13,10 @@ if TYPE_CHECKING:
     from mechkin.model import Mechanism
 
 
+#: Assembly modes at home printed by the text form of ``mechkin info``.
+SHOW_MODES = 8
+
+
 def show_info(mechanism: Path, json_out: bool) -> None:
     """Print the counts of ``mechkin info`` (text, or JSON with ``json_out``)."""
     info = run_info(mechanism=mechanism)
@@ -43,9 +47,11 @@ def show_info(mechanism: Path, json_out: bool) -> None:
     if modes:
         echo(f"  assembly modes at home    {modes['count']} ({modes['within_limits']} within "
              "the limits; nearest home first)")
-        for k, md in enumerate(modes["modes"]):
+        for k, md in enumerate(modes["modes"][:SHOW_MODES]):
             qs = ", ".join(f"{n} {v:.6g}" for n, v in md["q_w"].items())
             echo(f"    {k}: {qs}{'' if md['within_limits'] else '  (outside limits)'}")
+        if modes["count"] > SHOW_MODES:
+            echo(f"    ... {modes['count'] - SHOW_MODES} more (--json lists them all)")
 
 
 def run_info(*, mechanism: Path) -> dict[str, Any]:
