@@ -93,3 +93,23 @@ def test_fourbar_modes_and_the_one_fk_follows():
         k = modes.from_home
         dw = (fk.q[0, mech.dependent] - modes.q[k, mech.dependent] + np.pi) % (2 * np.pi) - np.pi
         assert np.abs(dw).max() < 1e-9
+
+
+def test_info_lists_the_modes_at_home():
+    from mechkin.cli.info_report import run_info
+
+    info = run_info(mechanism=ROOT / "tests" / "data" / "fourbar.yaml")
+    modes = info["assembly_modes_at_home"]
+    assert modes["count"] == 2 and modes["within_limits"] == 2
+    mech = load_mechanism(ROOT / "tests" / "data" / "fourbar.yaml")
+    home = mechkin_fk_home(mech)
+    first = np.array(list(modes["modes"][0]["q_w"].values()))
+    assert np.abs((first - home + np.pi) % (2 * np.pi) - np.pi).max() < 1e-9
+    assert run_info(mechanism=ROOT / "mechanisms" / "puma560.yaml")[
+        "assembly_modes_at_home"] is None
+
+
+def mechkin_fk_home(mech):
+    from mechkin.model.continuation import home_assembly
+
+    return home_assembly(mech).q[0, mech.dependent]
