@@ -420,8 +420,13 @@ def solve_motion(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = 
         first = solve_closure(mech, q_v[:1], g0[None], **kw)
     else:
         first = closure_from_home(mech, q_v[:1], q_w0=g0, **ckw)
+        # where Newton from the home guess lands on the same assembly, keep its digits (the
+        # motion then matches kim1995's scheme from that guess bit for bit)
+        newton = solve_closure(mech, q_v[:1], g0[None], **kw)
+        if first.ok[0] and newton.ok[0] and np.abs(newton.q - first.q).max() < 1e-9:
+            first = newton
     big = _big_steps(mech, q_v, max_step)
-    window = WINDOW0
+    window = m  # the whole motion step to step; after a miss, windows of WINDOW0 that double
     k = 0
     prev: np.ndarray | None = None  # the last assembled sample before k
     start_r = first
