@@ -94,13 +94,13 @@ def fk(
         raise ConfigError(f"q_v: expected {len(mech.independent)} columns "
                           f"({', '.join(mech.independent_names)}), got {qv.shape[1]}")
     kw = {} if tol_phi is None else {"tol_phi": tol_phi}
-    inside = None
+    inside = start = None
     if mech.is_closed and len(mech.dependent):
         # closed chains: every row reached from home (or the guess) by continuation, passive
         # limits part of the status (mechkin.model.continuation)
         from mechkin.model.continuation import fk_rows, within_limits
 
-        res, _ = fk_rows(mech, qv, q_w0=q_w0, **kw)
+        res, start = fk_rows(mech, qv, q_w0=q_w0, **kw)
         inside = within_limits(mech, res.q)[1].tolist()
     else:
         qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
@@ -122,7 +122,8 @@ def fk(
     T = frame_poses(mech, res.q, idx) if idx else np.zeros((len(qv), 0, 4, 4))
     return FkResult(q=res.q, status=[s.value for s in res.status], residual=res.residual,
                     iterations=res.iterations, poses={n: T[:, k] for k, n in enumerate(names)},
-                    joint_names=list(mech.joint_names), within_limits=inside)
+                    joint_names=list(mech.joint_names), within_limits=inside,
+                    assembly_from=start)
 
 
 def ik(

@@ -65,6 +65,9 @@ class FkResult:
     joint_names: list[str]
     #: closed chains: per row, every passive (dependent) joint within its limits
     within_limits: list[bool] | None = None
+    #: closed chains: where the rows were reached from by continuation, ``"home"`` (the home
+    #: assembly) or ``"guess"`` (the given ``q_w0``)
+    assembly_from: str | None = None
 
     @property
     def ok(self) -> bool:

@@ -356,6 +356,10 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         },
         "singularity": singularity_summary(sing, t),
         "joints_outside_limits": outside,
+        # closed chains: the first sample reached from the home assembly by continuation, or
+        # by Newton from fk.initial_guess (mechkin.model.continuation.solve_motion)
+        "assembly_start": (None if not (mech.is_closed and len(mech.dependent)) else
+                           "initial_guess" if scenario.section.initial_guess else "home"),
         "solve_time_s": solve_s,
         "rates_time_s": rates_s,
         "time_per_step_s": solve_s / max(len(t), 1),

@@ -59,7 +59,7 @@ def test_api_fk_gives_the_assembly_connected_to_home(tmp_path, name):
     res = mechkin.fk(mech, qv)
     ref = closed_form(qv)
     assert res.status == ["converged"] * len(qv)
-    assert res.within_limits == [True] * len(qv)
+    assert res.within_limits == [True] * len(qv) and res.assembly_from == "home"
     assert joint_error(res.q, ref) <= ATOL
     for k in range(3):  # one row at a time: the same rows
         one = mechkin.fk(mech, qv[k])
@@ -85,7 +85,7 @@ def test_fk_task_on_a_table_of_random_configurations(tmp_path):
         "fk:\n  table:\n    t: " + json.dumps(list(range(30))) + "\n    crank_joint: "
         + json.dumps(np.degrees(qv[:, 0]).tolist()) + "\n")
     rep = mechkin.run(sc)
-    assert rep.summary["status"] == "ok"
+    assert rep.summary["status"] == "ok" and rep.summary["assembly_start"] == "home"
     q = rep.data.q if hasattr(rep.data, "q") else None
     last = np.array(list(rep.summary["final"]["q"].values()))
     assert joint_error(last[None], M.watt_closed_form(qv[-1:], -1.0, -1.0)) <= ATOL
