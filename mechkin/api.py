@@ -93,6 +93,9 @@ def fk(
     if qv.shape[1] != len(mech.independent):
         raise ConfigError(f"q_v: expected {len(mech.independent)} columns "
                           f"({', '.join(mech.independent_names)}), got {qv.shape[1]}")
+    bad_rows = np.flatnonzero(~np.isfinite(qv).all(axis=1))
+    if bad_rows.size:
+        raise ConfigError(f"q_v: row {int(bad_rows[0])} is not finite: {qv[bad_rows[0]].tolist()}")
     kw = {} if tol_phi is None else {"tol_phi": tol_phi}
     inside = start = None
     if mech.is_closed and len(mech.dependent):

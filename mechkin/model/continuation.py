@@ -57,7 +57,8 @@ CORRECTOR_ITER = 8
 TOL_CORRECT = 1e-10     # closure residual accepted inside the path (polished at the end)
 ABS_CORRECTION = 1e-6   # correction always allowed regardless of the predicted move
 RATIO_SINGULAR = 1e-3   # sigma_min / sigma_max of the scaled dphi/dq_w at a stuck path
-MAX_PATH_STEPS = 20_000
+MAX_PATH_STEPS = 1_000   # path iterations per call (every active row advances in each)
+MAX_PATH_LENGTH = 500    # longest path, in max_step units (100 rad at 0.2): beyond, refused
 WINDOW0 = 64            # samples per step-to-step run after a miss (doubling while they hold)
 
 
@@ -125,22 +126,36 @@ def continue_closure(
     q_v = np.atleast_2d(np.asarray(q_v, dtype=np.float64))
     m = q_v.shape[0]
     start = np.array(np.broadcast_to(np.asarray(q_start, np.float64), (m, mech.n)))
-    iv, iw = mech.independent, mech.dependent
+    iw = mech.dependent
     kw = {"tol_phi": tol_phi, "tol_dq": tol_dq, "max_iter": max_iter}
     if m == 0 or len(iw) == 0 or mech.n_equations == 0:
         return solve_closure(mech, q_v, start[:, iw], **kw)
+    with np.errstate(all="ignore"):
+        return _continue(mech, q_v, start, kw, max_step)
+
+
+def _continue(mech: Mechanism, q_v: np.ndarray, start: np.ndarray, kw: dict,
+              max_step: float) -> ClosureResult:
+    m = q_v.shape[0]
+    iv, iw = mech.independent, mech.dependent
     L = _size(mech)
+    # a row that is not finite, or whose path is longer than MAX_PATH_LENGTH steps, is not
+    # tried: it stays at its start, not converged
+    refused = ~(np.isfinite(q_v).all(axis=1) & np.isfinite(start).all(axis=1))
     v0 = start[:, iv].copy()
-    dv = q_v - v0
     unit_v = np.where(mech.s[iv] == 1, L, 1.0)
     unit_w = np.where(mech.s[iw] == 1, L, 1.0)
+    dv = np.where(refused[:, None], 0.0, q_v - v0)
     span = np.max(np.abs(dv) / unit_v, axis=1, initial=0.0)
+    refused |= span > MAX_PATH_LENGTH * max_step
+    dv[refused] = 0.0
+    span[refused] = 0.0
     h_max = np.where(span > 0, np.minimum(1.0, max_step / np.maximum(span, 1e-300)), 1.0)
     t = np.zeros(m)
     h = h_max.copy()
     qw = start[:, iw].copy()
     iters = np.zeros(m, dtype=int)
-    stuck = np.zeros(m, dtype=bool)
+    stuck = refused.copy()
     active = span > 0
     for _ in range(MAX_PATH_STEPS):
         act = np.flatnonzero(active)
@@ -180,6 +195,10 @@ def continue_closure(
         iters[fin] += pol.iterations
         residual[fin] = pol.residual
         cond[fin] = pol.cond
+    status[refused] = ClosureStatus.NOT_CONVERGED
+    residual[refused] = np.inf
+    res_q[np.ix_(refused, iv)] = q_v[refused]  # the requested joints, the start's q_w
+    stuck &= ~refused
     if stuck.any():
         kin = forward_kinematics(mech, res_q[stuck])
         phi, J = closure_jacobian(mech, kin)

@@ -163,3 +163,11 @@ def test_step_to_step_newton_that_jumps_branch_is_caught(tmp_path):
     res = solve_motion(mech, qv)
     assert all(s is ClosureStatus.CONVERGED for s in res.status)
     assert joint_error(res.q, M.watt_closed_form(qv, -1.0, -1.0)) <= ATOL
+
+
+def test_bad_and_far_rows_are_answered_not_hung(tmp_path):
+    mech, _ = load(tmp_path, M.SLIDER)
+    with pytest.raises(mechkin.ConfigError, match="q_v: row 0 is not finite"):
+        mechkin.fk(mech, [[np.nan]])
+    res = mechkin.fk(mech, [[1e6], [1e300], [0.5]])  # paths longer than 100 rad: refused
+    assert res.status == ["not converged", "not converged", "converged"]
