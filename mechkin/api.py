@@ -62,7 +62,10 @@ def fk(
     q_v : array_like, shape (m, n_v) or (n_v,)
         Independent joints [rad | m], in ``mech.independent_names`` order.
     q_w0 : array_like, shape (n_w,) or (m, n_w), optional
-        First guess of the dependent joints (default ``home``); closed chains only.
+        Closed chains only. Default: every row is reached from the home assembly by
+        continuation in q_v (the assembly mode connected to home). (n_w,): the home assembly
+        is closed from this guess instead (choosing the mode). (m, n_w): a guess per row,
+        Newton from it; rows that do not close from it are reached from home.
     frames : list of str, optional
         Frames whose poses to return; ``"end_effector"`` names the mechanism's {E}
         (default: the end effector if there is one).
@@ -72,8 +75,10 @@ def fk(
     Returns
     -------
     FkResult
-        All joints ``q`` (m, n), per-row ``status`` and ``residual``, and ``poses[name]``
-        (m, 4, 4) in the base frame.
+        All joints ``q`` (m, n), per-row ``status`` (``converged``, ``outside limits`` when a
+        passive joint is outside its limits, ``constraint singularity`` when the path from home
+        stops where the assembly folds, ``not converged``), ``within_limits`` (closed chains)
+        and ``residual``, and ``poses[name]`` (m, 4, 4) in the base frame.
     """
     if not mech.cuts:  # open chain: no loop closure, only the frames asked for (issue 29)
         return open_fk(mech, q_v, q_w0, frames)
@@ -88,10 +93,22 @@ def fk(
     if qv.shape[1] != len(mech.independent):
         raise ConfigError(f"q_v: expected {len(mech.independent)} columns "
                           f"({', '.join(mech.independent_names)}), got {qv.shape[1]}")
-    qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
-    qw0 = np.broadcast_to(np.atleast_2d(qw0), (qv.shape[0], len(mech.dependent)))
+    bad_rows = np.flatnonzero(~np.isfinite(qv).all(axis=1))
+    if bad_rows.size:
+        raise ConfigError(f"q_v: row {int(bad_rows[0])} is not finite: {qv[bad_rows[0]].tolist()}")
     kw = {} if tol_phi is None else {"tol_phi": tol_phi}
-    res = solve_closure(mech, qv, np.array(qw0), **kw)
+    inside = start = None
+    if mech.is_closed and len(mech.dependent):
+        # closed chains: every row reached from home (or the guess) by continuation, passive
+        # limits part of the status (mechkin.model.continuation)
+        from mechkin.model.continuation import fk_rows, within_limits
+
+        res, start = fk_rows(mech, qv, q_w0=q_w0, **kw)
+        inside = within_limits(mech, res.q)[1].tolist()
+    else:
+        qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
+        qw0 = np.broadcast_to(np.atleast_2d(qw0), (qv.shape[0], len(mech.dependent)))
+        res = solve_closure(mech, qv, np.array(qw0), **kw)
     names = list(frames) if frames is not None else (
         ["end_effector"] if mech.end_effector is not None else [])
     idx = []
@@ -108,7 +125,8 @@ def fk(
     T = frame_poses(mech, res.q, idx) if idx else np.zeros((len(qv), 0, 4, 4))
     return FkResult(q=res.q, status=[s.value for s in res.status], residual=res.residual,
                     iterations=res.iterations, poses={n: T[:, k] for k, n in enumerate(names)},
-                    joint_names=list(mech.joint_names))
+                    joint_names=list(mech.joint_names), within_limits=inside,
+                    assembly_from=start)
 
 
 def ik(
@@ -163,7 +181,7 @@ def ik(
     import numpy as np
 
     from mechkin.errors import ConfigError
-    from mechkin.solvers.ik import solve_ik, solve_ik_batch
+    from mechkin.solvers.ik import solve_ik_batch, solve_ik_warm
 
     T = np.asarray(targets, dtype=float)
     T = T[None] if T.ndim == 2 else T
@@ -192,10 +210,11 @@ def ik(
 
         W = np.broadcast_to(w, (len(T), 6))
         return batch_results(solve_ik_batch(mech, T, q_v0=qv, q_w0=qw, weights=W,
-                                            options=opts), len(T))
+                                            options=opts), len(T), mech)
     out = []
+    cold = (qv.copy(), qw.copy())  # closed chains: a failed warm target retried as a lone one
     for Tk in T:
-        r = solve_ik(mech, Tk, q_v0=qv, q_w0=qw, weights=w, options=opts)
+        r = solve_ik_warm(mech, Tk, q_v0=qv, q_w0=qw, cold=cold, weights=w, options=opts)
         out.append(r)
         if np.all(np.isfinite(r.q)):
             qv, qw = r.q_v, r.q_w

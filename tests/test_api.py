@@ -25,9 +25,13 @@ def test_all_lists_the_api():
 
 def test_fk_then_ik_round_trip_on_a_closed_chain():
     mech = mechkin.load_mechanism(ROOT / "mechanisms/kim1995_direct_drive.yaml")
-    qv = np.array([[0.3, 1.2, 0.5], [0.4, 1.0, 0.2]])
+    # passive p_C = 90 deg - q2 - q3 must stay within its limits [5, 175] deg (issue 24: a
+    # closure outside them is "outside limits", never converged)
+    qv = np.array([[0.3, 1.0, 0.3], [0.4, 1.0, 0.2]])
     res = mechkin.fk(mech, qv)
-    assert res.ok and res.q.shape == (2, mech.n)
+    assert res.ok and res.q.shape == (2, mech.n) and res.within_limits == [True, True]
+    out = mechkin.fk(mech, [[0.3, 1.2, 0.5]])
+    assert out.status == ["outside limits"] and out.within_limits == [False]
     T = res.poses["end_effector"]
     assert T.shape == (2, 4, 4)
     sols = mechkin.ik(mech, T)

@@ -122,7 +122,8 @@ def test_solver_ik_equals_the_function(puma):
 def test_solver_on_a_closed_chain_calls_the_loop_closure():
     mech = mechkin.load_mechanism(ROOT / "mechanisms/kim1995_direct_drive.yaml")
     sol = mechkin.Solver(mech)
-    qv = np.array([[0.3, 1.2, 0.5], [0.4, 1.0, 0.2]])
+    # within the passive limits (p_C = 90 deg - q2 - q3 in [5, 175] deg; issue 24)
+    qv = np.array([[0.3, 1.0, 0.3], [0.4, 1.0, 0.2]])
     got, ref = sol.fk(qv), mechkin.fk(mech, qv)
     np.testing.assert_array_equal(got.q, ref.q)
     np.testing.assert_array_equal(got.poses["end_effector"], ref.poses["end_effector"])

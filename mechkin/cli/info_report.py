@@ -12,6 +12,10 @@ if TYPE_CHECKING:
     from mechkin.model import Mechanism
 
 
+#: Assembly modes at home printed by the text form of ``mechkin info``.
+SHOW_MODES = 8
+
+
 def show_info(mechanism: Path, json_out: bool) -> None:
     """Print the counts of ``mechkin info`` (text, or JSON with ``json_out``)."""
     info = run_info(mechanism=mechanism)
@@ -38,6 +42,15 @@ def show_info(mechanism: Path, json_out: bool) -> None:
     sing = info.get("singularity_at_home") or {}
     if sing:
         echo(f"  at home                   {sing.get('class', '?')}")
+    modes = info.get("assembly_modes_at_home")
+    if modes:
+        echo(f"  assembly modes at home    {modes['count']} ({modes['within_limits']} within "
+             "the limits; nearest home first)")
+        for k, md in enumerate(modes["modes"][:SHOW_MODES]):
+            qs = ", ".join(f"{n} {v:.6g}" for n, v in md["q_w"].items())
+            echo(f"    {k}: {qs}{'' if md['within_limits'] else '  (outside limits)'}")
+        if modes["count"] > SHOW_MODES:
+            echo(f"    ... {modes['count'] - SHOW_MODES} more (--json lists them all)")
 
 
 def run_info(*, mechanism: Path) -> dict[str, Any]:
@@ -115,7 +128,27 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
         ],
         "absolute": absolute_counts(mech, kin0.axes()[0][0], n_bodies, J[0]),
         "singularity_at_home": mechanism_singularity_at_home(mech),
+        "assembly_modes_at_home": modes_at_home(mech),
     }
+
+
+def modes_at_home(mech: Mechanism) -> dict[str, Any] | None:
+    """Every assembly mode found at the home independent joints
+    (:func:`mechkin.solvers.assembly.assembly_modes`, 64 seeded starts and the limit corners;
+    nearest home first), with its passive joints [SI] and whether it is within the
+    limits; None for a mechanism without loops."""
+    if not mech.is_closed or len(mech.dependent) == 0:
+        return None
+    import numpy as np
+
+    from mechkin.solvers.assembly import assembly_modes
+
+    home = np.where(np.isfinite(mech.home), mech.home, 0.0)
+    with np.errstate(all="ignore"):
+        m = assembly_modes(mech, home[mech.independent], starts=64, continuation=False)
+    return {"count": m.count, "within_limits": int(np.sum(m.within_limits)),
+            "modes": [{"q_w": {mech.joint_names[j]: float(m.q[k, j]) for j in mech.dependent},
+                       "within_limits": bool(m.within_limits[k])} for k in range(m.count)]}
 
 
 # Equations per joint in Haug's absolute coordinates (kim1995 ref. 13): spatial R and P 5, U 4,

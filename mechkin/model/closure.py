@@ -25,6 +25,10 @@ class ClosureStatus(enum.Enum):
     CONVERGED = "converged"
     NOT_CONVERGED = "not converged"
     SINGULAR = "singular"
+    #: a continuation path stopped where d(phi)/d(q_w) loses rank (mechkin.model.continuation)
+    CONSTRAINT_SINGULAR = "constraint singularity"
+    #: the loops close but a dependent (passive) joint is outside its limits
+    OUTSIDE_LIMITS = "outside limits"
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,9 @@ Two matrices decide whether a closed chain moves well at a configuration:
   axes 4 and 6 aligned).
 
 Both are measured by the relative smallest singular value ``ratio = sigma_min / sigma_max``
-(1 / condition number), computed by SVD on **nondimensionalised** matrices: every length is
+(1 / condition number; for a matrix with a single column, e.g. the J_r of a 1-DOF linkage,
+``min(1, sigma)``: its one singular value against the unit scale, since the ratio of a single
+column is always 1), computed by SVD on **nondimensionalised** matrices: every length is
 divided by a characteristic length ``L`` (rows of positions and velocities divided by L,
 columns of prismatic joints multiplied by L), so revolute and prismatic columns and rotation
 and translation rows compare as numbers. ``L`` defaults to :func:`characteristic_length`, the
@@ -182,6 +184,21 @@ def _cond_cols(s: np.ndarray, ncols: int) -> np.ndarray:
         return np.where(smin > 0, smax / np.where(smin > 0, smin, 1.0), np.inf)
 
 
+def _cond_scaled(s: np.ndarray, ncols: int) -> np.ndarray:
+    """Condition of a nondimensionalised matrix from its singular values s (m, k).
+
+    With two or more columns ``sigma_1 / sigma_ncols``. With one column the ratio of a vector's
+    singular values is 1 by definition, so its only singular value is measured against the
+    unit scale of the nondimensionalisation instead: ``max(1, 1 / sigma)`` (a 1-DOF linkage at a
+    dead centre, where the column vanishes, is singular; ``ratio = min(1, sigma)``).
+    """
+    if ncols != 1 or s.shape[1] < 1:
+        return _cond_cols(s, ncols)
+    with np.errstate(divide="ignore"):
+        return np.where(s[:, 0] > 0, np.maximum(1.0, 1.0 / np.where(s[:, 0] > 0, s[:, 0], 1.0)),
+                        np.inf)
+
+
 def _row_is_position(mech: Mechanism) -> np.ndarray:
     _, _, mask = _cut_arrays(mech)
     kinds = np.broadcast_to(np.array([1, 1, 1, 0, 0, 0], bool), mask.shape)
@@ -283,7 +300,7 @@ def classify(
             Pw = Phi_w * row[None, :, None] * col[None, None, :]
             s_constraint = (np.linalg.svd(Pw, compute_uv=False) if Pw.shape[1]
                             else np.zeros((m, 0)))
-        cond_constraint = _cond_cols(s_constraint, len(iw))
+        cond_constraint = _cond_scaled(s_constraint, len(iw))
     else:
         cond_constraint = np.ones(m)
     f = (mech.end_effector if end_effector is None
@@ -298,7 +315,7 @@ def classify(
         row, col = reduced_scaling(mech, L)
         Jr = Jr * row[None, :, None] * col[None, None, :]
         s_r = np.linalg.svd(Jr, compute_uv=False)
-        cond_reduced = _cond_cols(s_r, min(6, len(iv)))
+        cond_reduced = _cond_scaled(s_r, min(6, len(iv)))
         ee_name = mech.frame_names[f]
     lc = _level(_inv(cond_constraint), tol_singular, tol_near)
     li = _level(_inv(cond_reduced), tol_singular, tol_near)

@@ -47,7 +47,8 @@ class FkResult:
     q : array (m, n)
         Every joint [rad | m] (independent as given, dependent from the loop closure).
     status : list of str
-        Per row: ``converged``, ``not converged`` or ``singular``.
+        Per row: ``converged``, ``outside limits``, ``constraint singularity``, ``not
+        converged`` or ``singular``.
     residual : array (m,)
         ||phi_R|| at exit (0 for open chains).
     iterations : array (m,)
@@ -63,6 +64,11 @@ class FkResult:
     iterations: Any
     poses: dict[str, Any]
     joint_names: list[str]
+    #: closed chains: per row, every passive (dependent) joint within its limits
+    within_limits: list[bool] | None = None
+    #: closed chains: where the rows were reached from by continuation, ``"home"`` (the home
+    #: assembly) or ``"guess"`` (the given ``q_w0``)
+    assembly_from: str | None = None
 
     @property
     def ok(self) -> bool:

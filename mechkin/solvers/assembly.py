@@ -65,6 +65,9 @@ class AssemblyModes:
     converged: int
     time_s: float
     within_limits: np.ndarray | None = None  # (k,) bool: every joint within its limits
+    #: index of the mode reached from the home assembly by continuation in q_v (the one fk
+    #: returns by default, :mod:`mechkin.model.continuation`); None when that path stops
+    from_home: int | None = None
 
     @property
     def count(self) -> int:
@@ -113,15 +116,70 @@ def _starts(mech: Mechanism, q_w0: np.ndarray, k: int, seed: int) -> np.ndarray:
     return np.vstack([np.asarray(q_w0, float)[None], uni, near])
 
 
+#: At most this many corners of the dependent joints' limit box are Newton starts.
+MAX_CORNERS = 64
+
+
+def _corner_starts(mech: Mechanism) -> np.ndarray:
+    """Corners of the dependent joints' limit box (a joint without limits: home -+ pi/2, or
+    -+ half the size for a prismatic one), at most :data:`MAX_CORNERS` (a seeded subset)."""
+    import itertools
+
+    dep = mech.dependent
+    L = characteristic_length(mech)
+    home = np.where(np.isfinite(mech.home[dep]), mech.home[dep], 0.0)
+    half = np.where(mech.s[dep] == 1, 0.5 * L, 0.5 * np.pi)
+    lo = np.where(np.isfinite(mech.lower[dep]), mech.lower[dep], home - half)
+    hi = np.where(np.isfinite(mech.upper[dep]), mech.upper[dep], home + half)
+    if dep.size <= 6:
+        return np.array(list(itertools.product(*zip(lo, hi, strict=True))), dtype=float)
+    pick = np.random.default_rng(0).integers(0, 2, size=(MAX_CORNERS, dep.size)).astype(bool)
+    return np.where(pick, hi, lo)
+
+
+def _from_home(mech: Mechanism, q_v: np.ndarray, starts: np.ndarray, tol_phi: float,
+               max_iter: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Configurations at q_v reached by continuation (:mod:`mechkin.model.continuation`) from
+    the assembly modes at the home q_v (closed from home and from ``starts``): (q (k, n),
+    the one reached from the home assembly itself or None)."""
+    from mechkin.model.continuation import continue_closure, home_assembly
+
+    home = np.where(np.isfinite(mech.home), mech.home, 0.0)
+    h = home_assembly(mech)
+    at_home = solve_closure(mech, np.broadcast_to(home[mech.independent],
+                                                  (len(starts), len(mech.independent))),
+                            starts, tol_phi=min(tol_phi, 1e-12), max_iter=max_iter)
+    Q = np.vstack([h.q[:1], at_home.q])
+    ok = np.concatenate([h.ok[:1], at_home.ok])
+    Q = Q[ok]
+    if Q.shape[0] == 0:
+        return np.zeros((0, mech.n)), None
+    # one continuation per distinct home mode
+    key = mode_key(mech, Q) / np.concatenate([np.full(3 * len(mech.frame_names),
+                                                      characteristic_length(mech)), np.ones(9)])
+    keep: list[int] = []
+    for i in range(len(Q)):
+        if not any(np.abs(key[i] - key[j]).max() < 1e-6 for j in keep):
+            keep.append(i)
+    r = continue_closure(mech, np.broadcast_to(q_v, (len(keep), q_v.size)), Q[keep])
+    first = r.q[0] if (h.ok[0] and r.ok[0]) else None
+    return r.q[r.ok], first
+
+
 def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = None,
                    starts: int = ASSEMBLY_STARTS, seed: int = 0, tol_phi: float = TOL_PHI,
-                   same_tol: float = SAME_TOL, max_iter: int = 40) -> AssemblyModes:
+                   same_tol: float = SAME_TOL, max_iter: int = 40,
+                   continuation: bool = True) -> AssemblyModes:
     r"""Every assembly mode found by seeded multi-start Newton-Raphson at one q_v.
 
     .. math:: q_w^{k+1} = q_w^k - [\partial\phi_R/\partial q_w]^+ \phi_R(q_v, q_w^k)
 
-    from ``starts`` starts (the guess ``q_w0``, default home, first), kept where
-    ``||phi_R|| < tol_phi`` and merged into modes as in the module docstring.
+    from ``starts`` starts (the guess ``q_w0``, default home, first) and the corners of the
+    dependent joints' limit box; with ``continuation`` also the modes reached from the home
+    assembly and from every mode found at the home q_v by continuation in q_v
+    (:mod:`mechkin.model.continuation`); kept where ``||phi_R|| < tol_phi`` and merged into
+    modes as in the module docstring. ``from_home`` names the mode reached from the home
+    assembly (the one ``fk`` follows).
 
     Parameters
     ----------
@@ -159,11 +217,15 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
         lim = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
         return AssemblyModes(q=q, residual=r, distance=np.zeros(1), starts=1, converged=1,
                              time_s=time.perf_counter() - t0, within_limits=lim)
-    Q0 = _starts(mech, guess, max(int(starts), 1), seed)
+    Q0 = np.vstack([_starts(mech, guess, max(int(starts), 1), seed), _corner_starts(mech)])
+    extra, home_q = np.zeros((0, n)), None
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         res = solve_closure(mech, np.broadcast_to(q_v, (len(Q0), q_v.size)), Q0,
                             tol_phi=min(tol_phi, 1e-12), max_iter=max_iter)
         q = res.q
+        if continuation:
+            extra, home_q = _from_home(mech, q_v, _corner_starts(mech), tol_phi, max_iter)
+            q = np.vstack([q, extra])
         fin = np.all(np.isfinite(q), axis=1)
         q = q[fin]
         phi = closure_residual(mech, forward_kinematics(mech, q))
@@ -193,9 +255,14 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
     inside = (near >= mech.lower[dep]) & (near <= mech.upper[dep])
     q[:, dep] = np.where(inside, near, q[:, dep])
     lim = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
-    return AssemblyModes(q=q, residual=phin[idx], distance=dist[idx], starts=len(Q0),
-                         converged=int(ok.sum()), time_s=time.perf_counter() - t0,
-                         within_limits=lim)
+    out = AssemblyModes(q=q, residual=phin[idx], distance=dist[idx],
+                        starts=len(Q0) + len(extra), converged=int(ok.sum()),
+                        time_s=time.perf_counter() - t0, within_limits=lim)
+    if home_q is not None:
+        from dataclasses import replace
+
+        out = replace(out, from_home=mode_of(mech, out, home_q))
+    return out
 
 
 def mode_of(mech: Mechanism, modes: AssemblyModes, q: np.ndarray,

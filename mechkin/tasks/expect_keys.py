@@ -67,8 +67,9 @@ _STATS = {"count": NUM, "min": NUM, "max": NUM, "mean": NUM, "median": NUM, "p05
 
 FK = {
     "scenario": STR, "task": STR, "mechanism": STR, "status": STR, "n_steps": NUM,
-    "steps": {"converged": NUM, "not converged": NUM, "singular": NUM},
-    "first_failure_step": NUM,
+    "steps": {"converged": NUM, "not converged": NUM, "singular": NUM,
+              "constraint singularity": NUM, "outside limits": NUM},
+    "first_failure_step": NUM, "assembly_start": STR,
     "closure": {"n_cuts": NUM, "n_equations": NUM, "max_residual": NUM, "iterations_mean": NUM,
                 "iterations_max": NUM, "max_condition": NUM},
     "joints_outside_limits": WORDS, "solve_time_s": NUM, "time_per_step_s": NUM, "t_s": VEC,
@@ -80,6 +81,7 @@ FK = {
                     "thresholds": {"singular": NUM, "near": NUM}},
     "rates_time_s": NUM, "assembly_modes": ANY, "n_assembly_modes": NUM,
     "n_assembly_modes_within_limits": NUM, "assembly_mode_followed": ANY,
+    "assembly_mode_from_home": ANY,
     "assembly_search": ANY, "assembly_at": ANY,
     "base": {"world_frame": STR, "source": STR, "final": {"xyz_m": V3, "R": M3},
              "max_speed_m_s": NUM, "max_angular_speed_rad_s": NUM,

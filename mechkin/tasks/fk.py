@@ -28,7 +28,8 @@ from mechkin.config.scenario import FkSpec, Scenario
 from mechkin.config.units import angle_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
-from mechkin.model.closure import ClosureStatus, solve_trajectory
+from mechkin.model.closure import ClosureStatus
+from mechkin.model.continuation import solve_motion, with_limits
 from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
@@ -242,10 +243,12 @@ def _solve_split(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, kw: dict[str
 
 
 def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any,
-                     progress: bool | None) -> Any:
-    """solve_trajectory over the whole motion; a motion longer than :data:`CHUNK_STEPS` is
-    solved chunk by chunk, each warm-started from the previous chunk's last solution, with a
-    progress bar (stderr) when asked."""
+                     progress: bool | None, guess: bool = False) -> Any:
+    """The loop closure over the whole motion (:func:`mechkin.model.continuation.solve_motion`:
+    the first sample reached from the home assembly by continuation, or from ``q_w0`` when
+    ``guess`` (the scenario's ``initial_guess``), then sample to sample); a motion longer than
+    :data:`CHUNK_STEPS` is solved chunk by chunk, each continued from the previous chunk's last
+    assembled sample, with a progress bar (stderr) when asked."""
     from dataclasses import fields
 
     from mechkin.tasks.progress import progress_bar
@@ -265,18 +268,22 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
 
     ex = resolve(progress=progress)
     if ex.split and m >= 2 * SPLIT_MIN_STEPS:
-        return _solve_split(mech, qv, q_w0, kw, ex)
+        # the first sample's assembly as the rest reach it (from home by continuation)
+        first = solve_motion(mech, qv[:1], q_w0=q_w0, guess=guess, **kw)
+        start_w = first.q[0, mech.dependent] if first.ok[0] else q_w0
+        return _solve_split(mech, qv, start_w, kw, ex)
     if m <= CHUNK_STEPS:
-        return solve_trajectory(mech, qv, q_w0, **kw)
+        return solve_motion(mech, qv, q_w0=q_w0, guess=guess, **kw)
     parts = []
     with progress_bar(progress, f"fk: {m} steps") as update:
-        start_w = q_w0
+        start_q = None
         for k in range(0, m, CHUNK_STEPS):
-            r = solve_trajectory(mech, qv[k:k + CHUNK_STEPS], start_w, **kw)
+            r = solve_motion(mech, qv[k:k + CHUNK_STEPS], q_w0=q_w0, guess=guess,
+                             q_start=start_q, **kw)
             parts.append(r)
-            last = r.q[-1, mech.dependent]
-            if np.all(np.isfinite(last)):
-                start_w = last
+            good = np.flatnonzero(r.ok)
+            if good.size:
+                start_q = r.q[good[-1]]
             if update is not None:
                 update(min(k + CHUNK_STEPS, m), m)
     first = parts[0]
@@ -299,8 +306,9 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     tol = scenario.section.tolerances
     t0 = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        res = _solve_in_chunks(mech, qv, q_w0, tol, progress)
-        res = _finite_closure(mech, res, q_w0)
+        res = _solve_in_chunks(mech, qv, q_w0, tol, progress,
+                               guess=bool(scenario.section.initial_guess))
+        res = with_limits(mech, _finite_closure(mech, res, q_w0))
         solve_s = time.perf_counter() - t0
         kin = forward_kinematics(mech, res.q)
         phi = closure_residual(mech, kin)
@@ -317,13 +325,15 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
             # every step converged by construction: the same numbers from the run's own FK
             md = open_chain_derivatives(mech, kin, qd_v, qdd_v, ee)
         else:
-            q_ok = np.where(conv[:, None], res.q, np.nan)
+            closed = conv | by_status[ClosureStatus.OUTSIDE_LIMITS]  # assembled: rates exist
+            q_ok = np.where(closed[:, None], res.q, np.nan)
             md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
     rates_s = time.perf_counter() - t1
     sing = md.singularity
     n_ok = int(conv.sum())
     overall = "ok" if n_ok == len(t) else next(
-        s for s in ("singular", "not converged") if counts.get(s))
+        s for s in ("constraint singularity", "singular", "outside limits", "not converged")
+        if counts.get(s))
     lim_lo = res.q < mech.lower - 1e-9
     lim_hi = res.q > mech.upper + 1e-9
     outside = sorted({mech.joint_names[j] for j in np.flatnonzero((lim_lo | lim_hi).any(0))})
@@ -333,7 +343,8 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         "mechanism": mech.name,
         "status": overall,
         "n_steps": len(t),
-        "steps": {s: counts.get(s, 0) for s in ("converged", "not converged", "singular")},
+        "steps": {s: counts.get(s, 0) for s in ("converged", "not converged", "singular",
+                                                 "constraint singularity", "outside limits")},
         "first_failure_step": None if n_ok == len(t) else int(np.flatnonzero(~conv)[0]),
         "closure": {
             "n_cuts": mech.n_cuts,
@@ -345,6 +356,10 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
         },
         "singularity": singularity_summary(sing, t),
         "joints_outside_limits": outside,
+        # closed chains: the first sample reached from the home assembly by continuation, or
+        # by Newton from fk.initial_guess (mechkin.model.continuation.solve_motion)
+        "assembly_start": (None if not (mech.is_closed and len(mech.dependent)) else
+                           "initial_guess" if scenario.section.initial_guess else "home"),
         "solve_time_s": solve_s,
         "rates_time_s": rates_s,
         "time_per_step_s": solve_s / max(len(t), 1),
@@ -419,6 +434,7 @@ def assembly_summary(sc: Scenario, mech: Mechanism, qv: np.ndarray, q_w0: np.nda
                     and np.all(np.isfinite(q_first)) else None)
         out.update({"assembly_modes": _modes_record(mech, modes),
                     "n_assembly_modes": modes.count, "assembly_mode_followed": followed,
+                    "assembly_mode_from_home": modes.from_home,
                     "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
                     "assembly_search": {"starts": modes.starts, "converged": modes.converged,
                                         "time_s": modes.time_s}})
@@ -428,6 +444,7 @@ def assembly_summary(sc: Scenario, mech: Mechanism, qv: np.ndarray, q_w0: np.nda
         at.append({"q_v": {n: float(v) for n, v in zip(mech.independent_names, q, strict=True)},
                    "n_assembly_modes": modes.count,
                    "n_assembly_modes_within_limits": int(modes.within_limits.sum()),
+                   "assembly_mode_from_home": modes.from_home,
                    "assembly_modes": _modes_record(mech, modes)})
     if at:
         out["assembly_at"] = at

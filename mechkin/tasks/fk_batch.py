@@ -45,7 +45,7 @@ from mechkin.model.singularity import (
     TOL_SINGULAR,
     SingularityKind,
     SingularityReport,
-    _cond_cols,
+    _cond_scaled,
     _inv,
     _level,
     reduced_scaling,
@@ -197,7 +197,7 @@ def _open_chunk(mech: Mechanism, kin: Kinematics, qd_v: np.ndarray, qdd_v: np.nd
         Jr = reduced_jacobian(mech, q, f, kin=kin)
         row, col = reduced_scaling(mech, L)
         s_r = np.linalg.svd(Jr * row[None, :, None] * col[None, None, :], compute_uv=False)
-        cond_reduced = _cond_cols(s_r, min(6, len(iv)))
+        cond_reduced = _cond_scaled(s_r, min(6, len(iv)))
         ee_name = mech.frame_names[f]
     lc = _level(_inv(cond_constraint), tol_singular, tol_near)
     li = _level(_inv(cond_reduced), tol_singular, tol_near)

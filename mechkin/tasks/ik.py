@@ -28,7 +28,7 @@ from mechkin.config.scenario import Scenario
 from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism, load_mechanism
-from mechkin.model.closure import solve_closure
+from mechkin.model.continuation import fk_rows
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
 from mechkin.solvers.ik import (
@@ -96,7 +96,7 @@ def _targets(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray, lis
         lo = np.where(np.isfinite(mech.lower[iv]), mech.lower[iv], -np.pi)
         hi = np.where(np.isfinite(mech.upper[iv]), mech.upper[iv], np.pi)
         qv = rng.uniform(lo, hi, size=(rt.count, len(iv)))
-        res = solve_closure(mech, qv, mech.home[mech.dependent][None])
+        res, _ = fk_rows(mech, qv)  # the assembly connected to home, within the limits
         kin = forward_kinematics(mech, res.q)
         T_E = kin.frames(mech, [mech.end_effector])[:, 0]
         keep = np.flatnonzero(res.ok)

@@ -27,8 +27,8 @@ from mechkin.solvers.ik import (
     IkResult,
     IkStatus,
     pose_errors,
-    solve_ik,
     solve_ik_batch,
+    solve_ik_warm,
 )
 from mechkin.solvers.ik.all_solutions import (
     SAME_TOL,
@@ -75,16 +75,28 @@ def _out_of_reach(mech: Mechanism, qv: np.ndarray, qw: np.ndarray) -> IkResult:
                     time_s=0.0, f_history=np.zeros(0), method="reach bound")
 
 
-def batch_results(br: Any, k: int) -> list[IkResult]:
-    """One IkResult per row of a batched solve (its time shared equally)."""
+def joints_at_limit(mech: Mechanism, q: np.ndarray, tol: float = 1e-9) -> list[tuple[str, ...]]:
+    """Per row of q (k, n): the joints on or beyond a limit (passive ones after whole turns)."""
+    from mechkin.model.continuation import within_limits
+
+    qm, _ = within_limits(mech, np.atleast_2d(q))
+    with np.errstate(invalid="ignore"):
+        hit = (qm <= mech.lower + tol) | (qm >= mech.upper - tol)
+    return [tuple(mech.joint_names[j] for j in np.flatnonzero(h)) for h in hit]
+
+
+def batch_results(br: Any, k: int, mech: Mechanism | None = None) -> list[IkResult]:
+    """One IkResult per row of a batched solve (its time shared equally; ``mech``: with the
+    joints at a limit)."""
     per = br.time_s / k
+    at = joints_at_limit(mech, br.q) if mech is not None else [()] * k
     return [IkResult(
         q_v=br.q_v[i], q_w=br.q_w[i], q=br.q[i], status=br.status[i],
         position_error=float(br.position_error[i]),
         orientation_error=float(br.orientation_error[i]), f=float(br.f[i]),
         grad_norm=0.0, iterations=int(br.iterations[i]),
         evaluations=int(br.iterations[i]) + 1, time_s=per,
-        f_history=np.array([br.f[i]]), method="lm") for i in range(k)]
+        f_history=np.array([br.f[i]]), method="lm", at_limit=at[i]) for i in range(k)]
 
 
 #: Targets per job of a batched solve (``batch: true``). The batch is solved in these chunks
@@ -103,7 +115,8 @@ WARM_OVERLAP = 8
 def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndarray,
                    method: str, kind: str | None, opts: IkOptions, qv: np.ndarray,
                    qw: np.ndarray, warm: bool, update: Any = None, offset: int = 0,
-                   total: int | None = None
+                   total: int | None = None,
+                   cold: tuple[np.ndarray, np.ndarray] | None = None
                    ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]],
                               tuple[np.ndarray, np.ndarray]]:
     """Solve the targets in order, each warm-started from the previous solution when
@@ -117,6 +130,7 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
     results: list[IkResult] = []
     guesses: list[tuple[np.ndarray, np.ndarray]] = []
     total = len(T_P) if total is None else total
+    cold = (qv, qw) if cold is None else cold  # a failed warm target retried as a lone one
     for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
         guesses.append((qv, qw))
         if far[i]:
@@ -128,7 +142,8 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
                 r = solve_ik_method(mech, T, method=method, q_v0=qv, q_w0=qw, weights=w,
                                     options=opts)
             else:
-                r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
+                r = solve_ik_warm(mech, T, q_v0=qv, q_w0=qw, cold=cold if warm else None,
+                                  weights=w, options=opts)
             results.append(r)
             if warm and r.status is not IkStatus.SINGULAR:
                 qv, qw = r.q_v, r.q_w
@@ -148,11 +163,11 @@ def _sequence_job(job: dict[str, Any]) -> dict[str, Any]:
     if o:
         _, _, (qv, qw) = solve_sequence(mech, job["T_P"][:o], job["W"][:o], job["far"][:o],
                                         job["method"], job["kind"], job["options"], qv, qw,
-                                        job["warm"])
+                                        job["warm"], cold=(job["q_v0"], job["q_w0"]))
     entry = (qv, qw)
     res, guesses, last = solve_sequence(mech, job["T_P"][o:], job["W"][o:], job["far"][o:],
                                         job["method"], job["kind"], job["options"], qv, qw,
-                                        job["warm"])
+                                        job["warm"], cold=(job["q_v0"], job["q_w0"]))
     return {"results": res, "guesses": guesses, "entry": entry, "last": last}
 
 
@@ -204,7 +219,7 @@ def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
             o = job["overlap"]
             res, guesses, last = solve_sequence(
                 mech, job["T_P"][o:], job["W"][o:], job["far"][o:], spec.method, kind, opts,
-                *parts[j - 1]["last"], warm)
+                *parts[j - 1]["last"], warm, cold=(qv0, qw0))
             parts[j] = {"results": res, "guesses": guesses, "entry": parts[j - 1]["last"],
                         "last": last}
             repaired.append(j)
@@ -222,7 +237,7 @@ def _batch_job(job: dict[str, Any]) -> list[IkResult]:
     mech = job_mechanism(job["mechanism"])
     br = solve_ik_batch(mech, job["T_P"], q_v0=job["q_v0"], q_w0=job["q_w0"],
                         weights=job["W"], options=job["options"])
-    return batch_results(br, len(job["T_P"]))
+    return batch_results(br, len(job["T_P"]), mech)
 
 
 def _solve_batch(sc: Scenario, T_P: np.ndarray, W: np.ndarray, qv0: np.ndarray,

@@ -427,10 +427,12 @@ _FK_KEYS = {"scenario", "task", "mechanism", "status", "n_steps", "steps", "firs
             "closure", "joints_outside_limits", "solve_time_s", "time_per_step_s", "t_s",
             "final", "singularity", "rates_time_s", "assembly_modes", "n_assembly_modes",
             "n_assembly_modes_within_limits", "assembly_mode_followed", "assembly_search",
+            "assembly_mode_from_home", "assembly_start",
             "assembly_at", "base"}
 _FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_mean",
                           "iterations_max", "max_condition"},
-              "steps": {"converged", "not converged", "singular"},
+              "steps": {"converged", "not converged", "singular", "constraint singularity",
+                        "outside limits"},
               "final": {"q", "end_effector", "end_effector_in_base"},
               "base": {"world_frame", "source", "final", "max_speed_m_s",
                        "max_angular_speed_rad_s", "max_acceleration_m_s2"}}

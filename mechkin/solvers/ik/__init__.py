@@ -18,13 +18,28 @@ Design
 ------
 One solver family in several modules, each doing one thing:
 
+``kernel``     IkKernel (per-mechanism constants), the objective, evaluate, pose_errors
+``results``    IkOptions, IkResult, IkBatchResult, IkStatus; verification and status
+``seeds``      the seeded codebook (KD-tree of reachable poses), restart starts
+``lm``         Levenberg-Marquardt, batched (numpy; dispatches to the compiled kernels)
+``cg_golden``  kim1995 §5.2: conjugate gradient with golden-section line search
+``solve``      solve_ik, solve_ik_batch (starts, restarts, results)
+``chain``      solve_ik_sequence, solve_ik_warm (warm-started chains; closed chains retry a
+               failed target as a lone one)
+``accel``      whether the compiled kernels can be used
+``serial_jit`` compiled lm for open chains (numba, optional)
+``tree_jit``   compiled lm and evaluation for closed chains (numba, optional)
+============== ===================================================================
+=======
 ==================== ===============================================================================
 ``kernel``           IkKernel (per-mechanism constants), the objective, evaluate, pose_errors
 ``results``          IkOptions, IkResult, IkBatchResult, IkStatus; verification and status
 ``seeds``            the seeded codebook (KD-tree of reachable poses), restart starts
 ``lm``               Levenberg-Marquardt, batched (numpy; dispatches to the compiled kernels)
 ``cg_golden``        kim1995 §5.2: conjugate gradient with golden-section line search
-``solve``            solve_ik, solve_ik_sequence, solve_ik_batch (starts, restarts, results)
+``solve``            solve_ik, solve_ik_batch (starts, restarts, results)
+``chain``            solve_ik_sequence, solve_ik_warm (warm-started chains; closed chains retry a
+                     failed target as a lone one)
 ``accel``            whether the compiled kernels can be used
 ``serial_jit``       compiled lm for open chains (numba, optional)
 ``tree_jit``         compiled lm and evaluation for closed chains (numba, optional)
@@ -48,6 +63,7 @@ from __future__ import annotations
 
 from mechkin.solvers.ik.accel import compiled_lm_available
 from mechkin.solvers.ik.cg_golden import ACTIVE_BAND, GOLDEN, MAX_ITER_CG
+from mechkin.solvers.ik.chain import solve_ik_sequence, solve_ik_warm
 from mechkin.solvers.ik.kernel import (
     MAX_ITER_CLOSURE,
     TOL_DQ_CLOSURE,
@@ -73,7 +89,7 @@ from mechkin.solvers.ik.results import (
     verify,
 )
 from mechkin.solvers.ik.seeds import SEED_CODEBOOK, SEED_RESTARTS
-from mechkin.solvers.ik.solve import solve_ik, solve_ik_batch, solve_ik_sequence
+from mechkin.solvers.ik.solve import solve_ik, solve_ik_batch
 
 __all__ = [
     "ACTIVE_BAND", "GOLDEN", "GRAD_TOL", "LM_MU", "MAX_ITER_CG", "MAX_ITER_CLOSURE", "MAX_ITER_LM",
@@ -81,5 +97,5 @@ __all__ = [
     "TOL_ORI_RAD", "TOL_PHI", "TOL_POS_M", "IkBatchResult", "IkKernel", "IkOptions", "IkResult",
     "IkStatus", "Method", "compiled_lm_available", "evaluate", "gradient", "kernel_for",
     "objective", "pose_errors", "reduced_jacobian", "solve_ik", "solve_ik_batch",
-    "solve_ik_sequence", "verify",
+    "solve_ik_sequence", "solve_ik_warm", "verify",
 ]

@@ -193,6 +193,9 @@ def status_of(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, clo
     if not closed or not np.all(np.isfinite(q)):
         return IkStatus.SINGULAR, pos, ori, at
     if wpe[0] <= opts.tol_pos and woe[0] <= opts.tol_ori:
+        out = passive_outside(mech, q[None])[0]
+        if out:  # the loops close outside a passive joint's limits: not an answer (issue 24)
+            return IkStatus.AT_LIMIT, pos, ori, tuple(dict.fromkeys(at + out))
         return IkStatus.OK, pos, ori, at
     if converged:
         # stationary above tolerance: a limit blocks the descent (at a limit) or the target is
@@ -203,6 +206,23 @@ def status_of(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, clo
     if not np.isfinite(grad_norm) or grad_norm > 1e6:
         return IkStatus.SINGULAR, pos, ori, at
     return IkStatus.NOT_CONVERGED, pos, ori, at
+
+
+def passive_outside(mech, q: np.ndarray, tol: float = 1e-9) -> list[tuple[str, ...]]:
+    """Per row of q (m, n): the dependent (passive) joints outside their limits (revolute ones
+    after moving by whole turns into them where possible, :func:`mechkin.model.continuation.
+    within_limits`)."""
+    from mechkin.model.continuation import within_limits
+
+    q = np.atleast_2d(q)
+    if mech.dependent.size == 0:
+        return [()] * q.shape[0]
+    qm, _ = within_limits(mech, q, tol=tol)
+    x = qm[:, mech.dependent]
+    with np.errstate(invalid="ignore"):
+        bad = (x < mech.lower[mech.dependent] - tol) | (x > mech.upper[mech.dependent] + tol)
+    names = [mech.joint_names[j] for j in mech.dependent]
+    return [tuple(names[j] for j in np.flatnonzero(b)) for b in bad]
 
 
 def finite(a: np.ndarray, fallback: np.ndarray) -> np.ndarray:

@@ -41,6 +41,7 @@ from mechkin.solvers.ik.results import (
     IkStatus,
     better,
     finite,
+    passive_outside,
     status_of,
     weighted_errors,
 )
@@ -178,7 +179,8 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
                     time_s=time.perf_counter() - t0)
 
 
-_STATUS_OF_CODE = [IkStatus.OK, IkStatus.SINGULAR, IkStatus.UNREACHABLE, IkStatus.NOT_CONVERGED]
+_STATUS_OF_CODE = [IkStatus.OK, IkStatus.SINGULAR, IkStatus.UNREACHABLE, IkStatus.NOT_CONVERGED,
+                   IkStatus.AT_LIMIT]
 
 
 def _solve_consts(kern: IkKernel) -> tuple:
@@ -406,28 +408,6 @@ def _batch_open_compiled(kern: IkKernel, T_P: np.ndarray, q_v0: np.ndarray | Non
                          iterations=iters, time_s=time.perf_counter() - t0)
 
 
-def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *,
-                      q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
-                      weights: np.ndarray | list[np.ndarray] | None = None,
-                      options: IkOptions | None = None, frame: int | None = None,
-                      ) -> list[IkResult]:
-    """Solve precision points in order, each warm-started from the previous solution
-    (kim1995 §5.2 Step 2). ``weights`` (6,) for all or (k, 6) per point."""
-    kern = kernel_for(mech, frame)
-    Ts = np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4)
-    W = np.ones((len(Ts), 6)) if weights is None else np.broadcast_to(
-        np.asarray(weights, dtype=np.float64), (len(Ts), 6))
-    qv = mech.home[kern.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64)
-    qw = mech.home[kern.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
-    out = []
-    for T, w in zip(Ts, W, strict=False):
-        r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=options, kernel=kern)
-        out.append(r)
-        if r.status is not IkStatus.SINGULAR:
-            qv, qw = r.q_v, r.q_w
-    return out
-
-
 def _batch_of_one(mech: Mechanism, kern: IkKernel, T: np.ndarray, q_v0, weights,
                   opts: IkOptions, t0: float) -> IkBatchResult:
     """One target of :func:`solve_ik_batch` on an open chain: :func:`solve_ik` (one compiled
@@ -521,7 +501,14 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
             pe, oe = weighted_errors(T_E, TT, ww)
         else:
             pe, oe = e[:, 2], e[:, 3]
-        return (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
+        return (pe <= opts.tol_pos) & (oe <= opts.tol_ori) & passive_ok(qq)
+
+    def passive_ok(qq: np.ndarray) -> np.ndarray:
+        """Rows whose passive joints are within their limits (a constraint: a row outside
+        them is retried like a miss, issue 24)."""
+        if nw == 0 or qq.shape[1] != kern.n:
+            return np.ones(qq.shape[0], dtype=bool)
+        return np.array([not o for o in passive_outside(mech, qq)], dtype=bool)
 
     e0 = errors(q, T_P, w)
     if e0 is None:
@@ -561,7 +548,8 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         pe, oe = pose_errors(T_E, T_P)
     else:
         pe, oe = e[:, 0].copy(), e[:, 1].copy()
-    codes = np.where(ok, 0, np.where(~closed, 1, np.where(conv, 2, 3)))
+    codes = np.where(ok, 0, np.where(~closed, 1, np.where(~passive_ok(q) & closed, 4,
+                                                          np.where(conv, 2, 3))))
     status = np.array(_STATUS_OF_CODE, dtype=object)[codes]
     return IkBatchResult(q_v=q[:, kern.iv], q_w=q[:, kern.iw], q=q, status=status,
                          position_error=pe, orientation_error=oe, f=f, iterations=iters,

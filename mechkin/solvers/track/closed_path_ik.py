@@ -37,6 +37,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from mechkin.model.closure import solve_closure
+from mechkin.model.continuation import MAX_STEP as CONT_MAX_STEP
+from mechkin.model.continuation import continue_closure
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.model.mechanism import Mechanism
 from mechkin.model.reduced import reduced_jacobian
@@ -187,6 +189,14 @@ class ClosedHandPathIK(HandPathIK):
                          + np.einsum("mwv,mv->mw", self._anchor_S[k], qv - av[k]))
                 res = solve_closure(mech, qv, guess)
                 out[fin[res.ok]] = res.q[res.ok]
+                # far from every anchor, or lost: continuation from the nearest anchor, so the
+                # answer stays on the anchors' assembly mode (mechkin.model.continuation)
+                far = ~res.ok | (np.abs(qv - av[k]).max(axis=1) > 2 * CONT_MAX_STEP)
+                if far.any():
+                    rc = continue_closure(mech, qv[far], self._anchor_q[k[far]])
+                    fi = fin[far]
+                    out[fi] = np.nan
+                    out[fi[rc.ok]] = rc.q[rc.ok]
         ok = np.isfinite(out).all(axis=1)
         if ok.any():
             S[ok] = sensitivity(mech, out[ok])

@@ -103,8 +103,19 @@ def normalized_isotropy(J: np.ndarray, length: float, prismatic: np.ndarray | No
     return _ratio(singular_values(normalized_jacobian(J, length, prismatic)))
 
 
+def length_bounds(mech) -> tuple[float, float]:
+    """The range a characteristic length of ``mech`` may take [m]: (size / 1000, size), with
+    size the largest distance between two joint axis points at home
+    (:func:`mechkin.model.singularity.characteristic_length`; a SCARA's reach)."""
+    from mechkin.model.singularity import characteristic_length as size_of
+
+    size = size_of(mech)
+    return 1e-3 * size, size
+
+
 def characteristic_length(J: np.ndarray, prismatic: np.ndarray | None = None, *,
-                          max_samples: int = 2000) -> float:
+                          max_samples: int = 2000,
+                          bounds: tuple[float, float] | None = None) -> float:
     r"""The characteristic length that best conditions the sampled workspace.
 
     ``L* = argmax_L mean_k 1/kappa(J_L,k)``: the length that maximises Gosselin & Angeles's
@@ -122,6 +133,10 @@ def characteristic_length(J: np.ndarray, prismatic: np.ndarray | None = None, *,
         Columns of prismatic joints.
     max_samples : int
         At most this many samples (evenly strided) enter the search.
+    bounds : (float, float), optional
+        The search stays within [lo, hi] [m] (:func:`length_bounds`: the mechanism's own size),
+        so an index that keeps improving as L grows (a direction only prismatic or only
+        rotational columns span) cannot drive L to overflow.
 
     Returns
     -------
@@ -141,9 +156,12 @@ def characteristic_length(J: np.ndarray, prismatic: np.ndarray | None = None, *,
     if pr is not None and pr.any():
         # prismatic columns: omega ~ 1/m, v ~ 1; revolute: omega ~ 1, v ~ m
         rv = ~pr
-        a = np.linalg.norm(J[:, 3:6][:, :, rv]) / max(np.linalg.norm(J[:, 0:3][:, :, rv]), 1e-300)
-        b = np.linalg.norm(J[:, 3:6][:, :, pr]) / max(np.linalg.norm(J[:, 0:3][:, :, pr]), 1e-300)
-        cands = [x for x in (a, b) if np.isfinite(x) and x > 0]
+        cands = []
+        for cols in (rv, pr):
+            num = np.linalg.norm(J[:, 3:6][:, :, cols])
+            den = np.linalg.norm(J[:, 0:3][:, :, cols])
+            if num > 0 and den > 0:  # a prismatic joint turns nothing: no ratio from it
+                cands.append(num / den)
         L0 = float(np.exp(np.mean(np.log(cands)))) if cands else nv / nw
     else:
         L0 = nv / nw
@@ -152,6 +170,11 @@ def characteristic_length(J: np.ndarray, prismatic: np.ndarray | None = None, *,
         return -float(np.mean(normalized_isotropy(J, float(np.exp(log_l)), pr)))
 
     grid = np.log(L0) + np.linspace(-3.0, 3.0, 61) * np.log(10.0)
+    if bounds is not None:
+        lo_b, hi_b = np.log(float(bounds[0])), np.log(float(bounds[1]))
+        grid = np.unique(np.clip(grid, lo_b, hi_b))
+        if grid.size < 8:
+            grid = np.linspace(lo_b, hi_b, 61)
     vals = np.array([cost(x) for x in grid])
     k = int(np.argmin(vals))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]

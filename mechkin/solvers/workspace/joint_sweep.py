@@ -23,7 +23,12 @@ from typing import Any
 import numpy as np
 
 from mechkin.records.workspace import JointSweepRecord
-from mechkin.solvers.workspace.dexterity import characteristic_length, dexterity, normalized_isotropy
+from mechkin.solvers.workspace.dexterity import (
+    characteristic_length,
+    dexterity,
+    length_bounds,
+    normalized_isotropy,
+)
 
 __all__ = ["continuation_tree", "joint_sweep", "point_cloud_volume"]
 
@@ -135,6 +140,7 @@ def _close_rows(mech: Any, qv: np.ndarray, parent: np.ndarray, level: np.ndarray
     same bits as the whole sweep in one process.
     """
     from mechkin.model.closure import ClosureStatus, solve_closure
+    from mechkin.model.continuation import closure_from_home
 
     if todo.size == 0:
         return
@@ -161,9 +167,13 @@ def _close_rows(mech: Any, qv: np.ndarray, parent: np.ndarray, level: np.ndarray
             res = solve_closure(mech, qv[idx], guess)
             stv = np.array([x.value for x in res.status], dtype=object)
             qq = res.q
+            if (~use).any():  # no solved neighbour: continuation from the home assembly
+                r0 = closure_from_home(mech, qv[idx[~use]])
+                qq[~use] = r0.q
+                stv[~use] = [x.value for x in r0.status]
             bad = (stv != conv_val) & use
-            if bad.any():  # the neighbour's branch did not close: try from home
-                r2 = solve_closure(mech, qv[idx[bad]], q_w0)
+            if bad.any():  # the neighbour's branch did not close: continue from home
+                r2 = closure_from_home(mech, qv[idx[bad]])
                 good = np.array([x.value == conv_val for x in r2.status], dtype=bool)
                 bi = np.flatnonzero(bad)[good]
                 qq[bi] = r2.q[good]
@@ -190,13 +200,14 @@ def _evaluate_rows(mech: Any, qv: np.ndarray, frame: int, rows: slice, closed: b
                    two_phase: bool, manipulability: bool, st: dict[str, np.ndarray]) -> None:
     """Positions and dexterity of the rows ``rows`` of ``st`` (in place); closed chains
     without continuation close their loops here, from home. Row by row independent."""
-    from mechkin.model.closure import ClosureStatus, dependent_sensitivity, solve_closure
+    from mechkin.model.closure import ClosureStatus, dependent_sensitivity
+    from mechkin.model.continuation import closure_from_home
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian
 
     a, b = rows.start, rows.stop
     q, status = st["q"], st["status"]
-    if closed and not two_phase:
-        res = solve_closure(mech, qv[a:b], mech.home[mech.dependent])
+    if closed and not two_phase:  # each sample by continuation from the home assembly
+        res = closure_from_home(mech, qv[a:b])
         q[a:b] = res.q
         status[a:b] = [x.value for x in res.status]
     elif not closed:
@@ -432,8 +443,8 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     dex_out: dict[str, Any] = {}
     if manipulability:
         prismatic = mech.s[mech.independent] == 1
-        L = float(length) if length is not None else characteristic_length(J_all[reach],
-                                                                              prismatic)
+        L = float(length) if length is not None else characteristic_length(
+            J_all[reach], prismatic, bounds=length_bounds(mech))
         iso_n = np.where(reach, normalized_isotropy(J_all, L, prismatic), 0.0)
         dex_out = {"manipulability": w_full, "isotropy": iso_full, "isotropy_position": iso_pos,
                    "isotropy_normalized": iso_n, "characteristic_length": L}

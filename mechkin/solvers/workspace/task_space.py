@@ -26,6 +26,7 @@ from mechkin.records.workspace import TaskSpaceRecord
 from mechkin.solvers.workspace.dexterity import (
     characteristic_length,
     dexterity,
+    length_bounds,
     normalized_isotropy,
 )
 from mechkin.solvers.workspace.jobs import ProgressCallback, run_jobs
@@ -196,7 +197,8 @@ def task_space_sweep(
                                z, z)
     prismatic = parts[0]["prismatic"]
     ok = cat["reachable"]
-    L = float(length) if length is not None else characteristic_length(cat["J"][ok], prismatic)
+    L = float(length) if length is not None else characteristic_length(
+        cat["J"][ok], prismatic, bounds=length_bounds(mech))
     iso_n = np.where(ok, normalized_isotropy(cat["J"], L, prismatic), 0.0)
     return TaskSpaceRecord(T_P, cat["q_v"], cat["status"], cat["reachable"],
                            cat["position_error"], cat["orientation_error"], cat["iterations"],
