@@ -10,6 +10,7 @@ import pytest
 
 pytest.importorskip("numba")
 
+import mechkin.solvers.track.dp_stage as DS  # noqa: E402
 import mechkin.solvers.track.dpct as D  # noqa: E402
 from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics  # noqa: E402
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath  # noqa: E402
@@ -44,7 +45,7 @@ CASES = [
 
 
 def _solve(monkeypatch, compiled: bool, objective, ref, lim, N1, N2, dp):
-    monkeypatch.setattr(D, "use_compiled_dp", lambda pairs: compiled)
+    monkeypatch.setattr(DS, "use_compiled_dp", lambda pairs: compiled)
     tabs = []
     orig = _RUN_DP
 
@@ -83,12 +84,12 @@ def test_rent_or_buy(monkeypatch):
 
     monkeypatch.delenv("MECHKIN_JIT", raising=False)
     monkeypatch.setattr(accel, "compiled_lm_available", lambda: True)
-    monkeypatch.setattr(D, "_dp_spent", [0.0])
-    monkeypatch.setattr(D, "_dp_loaded", [False])
-    assert not D.use_compiled_dp(49 * 101**2)  # park 50 x 100: ~0.05 s of numpy
-    assert D.use_compiled_dp(49 * 501**2)  # time-optimal 50 x 500: ~1.2 s
+    monkeypatch.setattr(DS, "_dp_spent", [0.0])
+    monkeypatch.setattr(DS, "_dp_loaded", [False])
+    assert not DS.use_compiled_dp(49 * 101**2)  # park 50 x 100: ~0.05 s of numpy
+    assert DS.use_compiled_dp(49 * 501**2)  # time-optimal 50 x 500: ~1.2 s
     monkeypatch.setattr(accel, "compiled_lm_available", lambda: False)
-    assert not D.use_compiled_dp(49 * 501**2)
+    assert not DS.use_compiled_dp(49 * 501**2)
 
 
 def test_time_refinement_only_shortens_and_keeps_the_limits():

@@ -4,7 +4,8 @@ Owns the path geometry (``path_geometry``: p(r), R*(r) and their r-derivatives),
 park §3.1 and the dynamics along it (``path``), the path inverse kinematics of open chains
 (``path_ik``, park Eq. (7), (9)-(11)) and of closed chains (``closed_path_ik``), the three
 planners: the phase-plane dynamic programme (``dpct``, park §3-§4; its problem records in
-``dp_problem``, its limit model in ``dp_limits``), TOPP-RA (``topp``, Pham & Pham 2018; the
+``dp_problem``, its limit model in ``dp_limits``, one stage and the backward pass in
+``dp_stage``, the compiled stage in ``dp_jit``), TOPP-RA (``topp``, Pham & Pham 2018; the
 constraint rows in ``topp_problem``, the two passes in ``topp_passes``) and the intercept plans
 (``intercept`` by TOPP-RA, ``intercept_dp`` by the DP), and the planner choice (``plan``).
 
