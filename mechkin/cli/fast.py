@@ -31,10 +31,11 @@ _FLAGS: dict[str, tuple[str, Any]] = {
     "--progress": ("progress", True),
     "--no-progress": ("progress", False),
 }
-_VALUED = {"--out": "out", "-o": "out", "--max-memory": "max_memory", "--workers": "workers",
-           "-j": "workers", "--scheduler": "scheduler"}
+_VALUED = {"--out": "out", "-o": "out", "--max-memory": "max_memory", "--max-time": "max_time",
+           "--workers": "workers", "-j": "workers", "--scheduler": "scheduler"}
 _DEFAULTS: dict[str, Any] = {"out": None, "json_out": False, "plots": True, "force": False,
-                             "max_memory": None, "progress": None, "workers": None,
+                             "max_memory": None, "max_time": None, "progress": None,
+                             "workers": None,
                              "scheduler": None}
 _WORKERS = re.compile(r"[1-9][0-9]{0,8}")
 

@@ -199,6 +199,11 @@ def _grid_record(res: TrackResult) -> dict[str, Any]:
     return rec
 
 
+#: Seconds per DP transition (N1 x N2 x N2 of a grid): a 50 x 100 grid takes about 15 s on a
+#: loaded 2-core machine; for the estimate before a long job (tasks.budget.estimate_time).
+DP_S_PER_TRANSITION = 3e-5
+
+
 def _check_budget(scenario: Scenario, mech: Any) -> None:
     """The DP's memory before any work: N1 x N2 states (cost, predecessor, times, joint
     values, rates and torques per state) plus one stage's N2 x N2 transitions per joint."""
@@ -212,6 +217,8 @@ def _check_budget(scenario: Scenario, mech: Any) -> None:
         key = ("track", "grid") if k == 0 else ("track", "grid_study", str(k - 1))
         budget.check(scenario.doc.where(key), 2.0 * (states + stage),
                      f"a {g.N1} x {g.N2} DP grid for {mech.n} joints")
+        budget.estimate_time(scenario.doc.where(key), DP_S_PER_TRANSITION * g.N1 * g.N2 ** 2,
+                             f"a {g.N1} x {g.N2} DP grid")
 
 
 def check_budget(scenario: Scenario) -> None:
