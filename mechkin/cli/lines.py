@@ -80,6 +80,7 @@ def _naming_failed_expects(fn: Any) -> Any:
         head = text[: -len(wrote)] if text.endswith(wrote) else text
         return f"{head}; expect failed: {keys}{wrote if text.endswith(wrote) else ''}"
 
+    line.__name__ = line.__qualname__ = fn.__name__.lstrip("_")
     return line
 
 

@@ -74,7 +74,7 @@ def check_file(path: str | os.PathLike[str], *, what: str, limit: int, hint: str
     try:
         st = os.stat(p)
     except FileNotFoundError:
-        raise ConfigError(f"{p}: {what} not found") from None
+        raise ConfigError(f"{p}: file not found (the {what})") from None
     except (OSError, ValueError) as exc:
         raise ConfigError(f"{p}: cannot read the {what}: "
                           f"{getattr(exc, 'strerror', None) or exc}") from None
