@@ -26,6 +26,7 @@ FORBIDDEN = {
     "io": {"config", "model", "solvers", "tasks", "cli", "api"},
     "tasks": {"cli", "api"},  # io: only mechkin.tasks.write (test_tasks_reach_io_through_write)
     "api": {"cli", "io"},
+    "solver": {"cli", "io", "api"},
     "errors": {"config", "model", "solvers", "tasks", "io", "records", "cli", "api", "spatial"},
 }
 #: the task layer's one door to io (Report.write's writer)
