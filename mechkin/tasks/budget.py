@@ -222,8 +222,8 @@ def human_time(sec: float) -> str:
 
 def estimate_time(where: str, seconds: float, what: str) -> None:
     """Before a job: refuse it when its estimated run time exceeds ``--max-time`` (one line,
-    exit 2); print the estimate on stderr when it exceeds :data:`NOTICE_S`; keep it for the
-    summary (``estimated_time_s``). The estimate is an order of magnitude (this machine's speed
+    exit 2); when it exceeds :data:`NOTICE_S`, print it on stderr and keep it for the summary
+    (``estimated_time_s``). The estimate is an order of magnitude (this machine's speed
     is not measured), so the refusal has a factor of 2 of slack."""
     import sys
 
@@ -234,7 +234,7 @@ def estimate_time(where: str, seconds: float, what: str) -> None:
                           f"more than --max-time {human_time(lim)} (raise it, or make the job "
                           "smaller)")
     found = _ESTIMATES.get()
-    if found is not None:
+    if seconds > NOTICE_S and found is not None:  # a short job's summary stays as it was
         found.append({"where": where, "what": what, "seconds": round(seconds, 1)})
     if seconds > NOTICE_S:
         sys.stderr.write(f"mechkin: {what}: estimated about {human_time(seconds)} "

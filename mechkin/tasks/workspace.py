@@ -131,9 +131,9 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
                              f"a task-space sweep of {m} poses x {starts} starts")
 
 
-#: Seconds per ik start of a task-space sweep (121 poses x 9 starts of the PUMA take about 15 s
+#: Seconds per ik start of a task-space sweep (121 poses x 9 starts of the PUMA: 10 s of compute
 #: on a loaded 2-core machine); for the estimate before a long job.
-IK_S_PER_START = 5e-3
+IK_S_PER_START = 1e-2
 
 
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,
