@@ -33,7 +33,7 @@ def _mcap(path: Path):
         counts = {summ.channels[cid].topic: n
                   for cid, n in summ.statistics.channel_message_counts.items()}
         decoded: dict[str, list] = {}
-        proto = [t for t in topics if t != "/mechkin/state"]
+        proto = [t for t in topics if t not in ("/mechkin/state", "/robot_description")]
         for _s, ch, _m, msg in reader.iter_decoded_messages(topics=proto):
             decoded.setdefault(ch.topic, []).append(msg)
         for _s, ch, m in reader.iter_messages(topics=["/mechkin/state"]):
@@ -91,6 +91,7 @@ def test_full_case_outputs_csv_and_mcap(tmp_path: Path) -> None:
     assert topics["/scene"] == "foxglove.SceneUpdate"
     assert topics["/joint_states"] == "foxglove.JointStates"
     assert "/mechkin/state" in topics
+    assert counts.pop("/robot_description") == 1  # the URDF, once
     assert all(n == K for n in counts.values()), counts
     assert stats.message_start_time == 0
     assert stats.message_end_time == round(summary["duration_s"] * 1e9)
@@ -128,10 +129,10 @@ def test_infeasible_limits_exit_1_naming_the_limit(tmp_path: Path) -> None:
     assert summary["files"] == ["summary.json"]
 
 
-def test_expect_failure_exits_1(tmp_path: Path) -> None:
+def test_expect_failure_exits_5(tmp_path: Path) -> None:
     p = _local(tmp_path, "park_conveyor_none", ("max: 0.650000001", "max: 0.61"))
     res = runner.invoke(app, ["track", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
-    assert res.exit_code == 1
+    assert res.exit_code == 5  # an expect failed
     assert "expect t_a_s" in res.stderr
 
 

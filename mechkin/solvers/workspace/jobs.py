@@ -9,7 +9,8 @@ A ``progress(done, total)`` callback reports completed jobs. :func:`connect_clus
 scheduler before any work, every probe bounded by ``MECHKIN_DASK_TIMEOUT`` (in (0, 600] s): a
 refused port answers at once, a stopped worker's silence times out. Local workers leave as soon
 as mechkin's process is gone (:func:`die_with_parent`). Split out of ``sweeps.py`` (issue 23:
-modules that fit in a head); the names stay importable from :mod:`mechkin.solvers.workspace.sweeps`.
+modules that fit in a head); the names stay importable from
+:mod:`mechkin.solvers.workspace.sweeps`.
 
 Imports: the standard library (dask lazily), mechkin.errors.
 """
@@ -141,13 +142,7 @@ def run_jobs(
     with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
                              initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures: dict[Future[R], int] = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
-        try:
-            _collect(as_completed(futures), futures, results, total, progress)
-        except BaseException:
-            # a failed job, or the progress callback stopping the run (--max-time): the jobs
-            # not started are dropped, not run to the end before the error surfaces
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
+        _collect(as_completed(futures), futures, results, total, progress)
     return results
 
 
