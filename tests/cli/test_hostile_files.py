@@ -308,5 +308,5 @@ def test_a_failed_expect_names_its_key_on_stdout(tmp_path):
         "frequency: 0.5}", "frequency: 0.7}", 1)
     (tmp_path / "s.yaml").write_text(text)
     r = _mechkin(tmp_path, "fk", "s.yaml", "--out", "o", "--no-plots")
-    assert r.returncode == 1, r.stderr
+    assert r.returncode == 5, r.stderr  # exit 5: an expect did not hold
     assert "expect failed: final.end_effector.xyz_m" in r.stdout, r.stdout
