@@ -38,6 +38,11 @@ MaxMemoryOption = Annotated[str | None, typer.Option(
     "--max-memory", metavar="SIZE",
     help="Memory budget of the job, e.g. 8G or 512M [default: MECHKIN_MAX_MEMORY, else half "
          "of this machine's memory]")]
+MaxTimeOption = Annotated[str | None, typer.Option(
+    "--max-time", metavar="DURATION",
+    help="Refuse a job estimated to take longer (e.g. 90s, 5m, 2h) and stop one that runs "
+         "longer, between two jobs, with nothing written [default: MECHKIN_MAX_TIME, else no "
+         "limit]")]
 ProgressOption = Annotated[bool | None, typer.Option(
     "--progress/--no-progress",
     help="Progress bar on stderr for long runs [default: when stderr is a terminal]")]
@@ -67,13 +72,14 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
         plots: PlotsOption = True,
         force: ForceOption = False,
         max_memory: MaxMemoryOption = None,
+        max_time: MaxTimeOption = None,
         progress: ProgressOption = None,
         workers: WorkersOption = None,
         scheduler: SchedulerOption = None,
     ) -> None:
         raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force,
-                                 max_memory=max_memory, progress=progress, workers=workers,
-                                 scheduler=scheduler))
+                                 max_memory=max_memory, max_time=max_time, progress=progress,
+                                 workers=workers, scheduler=scheduler))
 
     command.__doc__ = doc
     command.__name__ = f"{task}_cli"

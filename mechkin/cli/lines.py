@@ -6,12 +6,12 @@ from __future__ import annotations
 from typing import Any
 
 
-def fk_line(s: dict[str, Any]) -> str:
+def _fk_line(s: dict[str, Any]) -> str:
     return (f"{s['scenario']}: {s['status']} ({s['n_steps']} steps, max ||phi|| "
             f"{s['closure']['max_residual']:.3g}); wrote {s['out_dir']}")
 
 
-def ik_line(s: dict[str, Any]) -> str:
+def _ik_line(s: dict[str, Any]) -> str:
     if "counts" not in s:  # a biped run
         return f"{s['scenario']}: {s.get('status', '?')}; wrote {s['out_dir']}"
     c = s["counts"]
@@ -20,7 +20,7 @@ def ik_line(s: dict[str, Any]) -> str:
             f"rad); wrote {s['out_dir']}")
 
 
-def track_line(s: dict[str, Any]) -> str:
+def _track_line(s: dict[str, Any]) -> str:
     if s["status"] != "ok":
         return f"{s['scenario']}: {s['status']}; wrote {s['out_dir']}"
     head = (f"t_a = {s['t_a_s']:.4g} s" if s["t_a_s"] is not None
@@ -63,6 +63,29 @@ def workspace_line(s: dict[str, Any]) -> str:
     tail = f"; expect failed: {', '.join(failed)}" if failed else ""
     return f"{s['scenario']}: {s['status']} ({body}){tail}; wrote {s['out_dir']}"
 
+
+def _naming_failed_expects(fn: Any) -> Any:
+    """``fn``'s line with the keys of the failed ``expect:`` entries before ``; wrote``."""
+
+    def line(s: dict[str, Any]) -> str:
+        text = fn(s)
+        failed = [str(c.get("key", "?")) for c in s.get("expect", []) or []
+                  if isinstance(c, dict) and not c.get("ok", True)]
+        if not failed or "expect failed:" in text:
+            return text
+        keys = ", ".join(failed)
+        keys = keys if len(keys) <= 120 else keys[:117] + "..."
+        wrote = f"; wrote {s.get('out_dir')}"
+        head = text[: -len(wrote)] if text.endswith(wrote) else text
+        return f"{head}; expect failed: {keys}{wrote if text.endswith(wrote) else ''}"
+
+    line.__name__ = line.__qualname__ = fn.__name__.lstrip("_")
+    return line
+
+
+fk_line = _naming_failed_expects(_fk_line)
+ik_line = _naming_failed_expects(_ik_line)
+track_line = _naming_failed_expects(_track_line)
 
 #: the line function of each run command
 LINES = {"fk": fk_line, "ik": ik_line, "track": track_line, "workspace": workspace_line}

@@ -81,16 +81,32 @@ def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots:
              line: Callable[[dict[str, Any]], str], force: bool, max_memory: str | None,
              **options: Any) -> int:
     from mechkin.errors import ConfigError
-    from mechkin.io.report import prepare_output
-    from mechkin.tasks import budget, run
-    from mechkin.tasks.common import load_task_scenario
-    from mechkin.tasks.distributed import execution
+    from mechkin.tasks import budget
 
     try:
         limit = budget.parse_size(max_memory) if max_memory is not None else None
     except ValueError:
         raise ConfigError(f"--max-memory: expected a size like 8G or 512M, got "
                           f"{max_memory[:40]!r}") from None
+    max_time = options.pop("max_time", None)
+    try:
+        seconds = budget.parse_duration(max_time) if max_time is not None else None
+    except ValueError:
+        raise ConfigError(f"--max-time: expected a duration like 90s, 5m or 2h, got "
+                          f"{max_time[:40]!r}") from None
+    with budget.time_budget(seconds) as estimates:
+        return _run_scenario(task, scenario, out, json_out, plots, line, force, limit,
+                             estimates, **options)
+
+
+def _run_scenario(task: str, scenario: Path, out: Path | None, json_out: bool, plots: bool,
+                  line: Callable[[dict[str, Any]], str], force: bool, limit: int | None,
+                  estimates: list[dict[str, Any]], **options: Any) -> int:
+    from mechkin.io.report import prepare_output
+    from mechkin.tasks import budget, run
+    from mechkin.tasks.common import load_task_scenario
+    from mechkin.tasks.distributed import execution
+
     sc = load_task_scenario(scenario, task)
     with budget.memory_budget(limit), execution(
             options.get("workers"), options.get("scheduler"), options.get("progress")
@@ -99,6 +115,8 @@ def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots:
             # floating-point warnings of a diverging solve: the statuses and summary say it
             warnings.simplefilter("ignore", RuntimeWarning)
             rep = run(sc, **options)
+        if estimates and isinstance(rep.summary, dict):  # the estimate made before the job
+            rep.summary["estimated_time_s"] = round(sum(e["seconds"] for e in estimates), 1)
         summary = rep.write(out_dir, plots=plots)
     report(summary, json_out, line(summary))
     for msg in rep.messages:

@@ -12,6 +12,7 @@ from mechkin.cli.common import (
     ForceOption,
     JsonOption,
     MaxMemoryOption,
+    MaxTimeOption,
     OutOption,
     PlotsOption,
     ProgressOption,
@@ -29,6 +30,7 @@ def workspace_cli(
     plots: PlotsOption = True,
     force: ForceOption = False,
     max_memory: MaxMemoryOption = None,
+    max_time: MaxTimeOption = None,
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,
     progress: ProgressOption = None,
@@ -36,5 +38,6 @@ def workspace_cli(
     """Workspace and isotropy maps (lee's spherical mechanism), design sweeps, joint and
     task-space sweeps of any mechanism."""
     raise typer.Exit(execute("workspace", scenario, out, json_out, plots, _line, force=force,
-                             max_memory=max_memory, workers=workers, scheduler=scheduler,
+                             max_memory=max_memory, max_time=max_time, workers=workers,
+                             scheduler=scheduler,
                              progress=progress))

@@ -50,7 +50,7 @@ def _mib(n: int) -> str:
 
 def _kind(mode: int) -> str:
     if stat.S_ISDIR(mode):
-        return "a directory"
+        return "it is a directory"
     if stat.S_ISFIFO(mode):
         return "a FIFO"
     if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
@@ -74,12 +74,12 @@ def check_file(path: str | os.PathLike[str], *, what: str, limit: int, hint: str
     try:
         st = os.stat(p)
     except FileNotFoundError:
-        raise ConfigError(f"{p}: {what} not found") from None
+        raise ConfigError(f"{p}: file not found (the {what})") from None
     except (OSError, ValueError) as exc:
         raise ConfigError(f"{p}: cannot read the {what}: "
                           f"{getattr(exc, 'strerror', None) or exc}") from None
     if not stat.S_ISREG(st.st_mode):
-        raise ConfigError(f"{p}: the {what} is {_kind(st.st_mode)}, expected a regular file")
+        raise ConfigError(f"{p}: the {what} is not a regular file ({_kind(st.st_mode)})")
     if st.st_size > limit:
         raise _refuse_size(p, f"the {what}", st.st_size, limit, hint)
     return st.st_size
@@ -96,7 +96,7 @@ def read_bytes(path: str | os.PathLike[str], *, what: str, limit: int, hint: str
     try:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):  # swapped between the check and the open
-            raise ConfigError(f"{p}: the {what} is {_kind(mode)}, expected a regular file")
+            raise ConfigError(f"{p}: the {what} is not a regular file ({_kind(mode)})")
         chunks: list[bytes] = []
         got = 0
         while got <= limit:

@@ -26,7 +26,6 @@ messages (keys, values, names) go through :func:`short` so a 1 MB name cannot fl
 from __future__ import annotations
 
 import os
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -139,51 +138,13 @@ def _mib(n: int) -> str:
 
 
 def _read_text(path: Path, limit: int) -> str:
-    """The file's text; ConfigError for anything but a readable regular UTF-8 file <= limit."""
-    try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: file not found") from None
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if stat.S_ISDIR(st.st_mode):
-        raise ConfigError(f"{path}: is a directory, expected a YAML file")
-    if not stat.S_ISREG(st.st_mode):
-        raise ConfigError(f"{path}: is not a regular file (a device, FIFO or socket), "
-                          "expected a YAML file")
-    if st.st_size > limit:
-        raise ConfigError(f"{path}: file is {st.st_size} bytes, more than the limit of "
-                          f"{limit} bytes ({_mib(limit)}) for a YAML file (a long motion goes "
-                          "in a CSV file; MECHKIN_MAX_YAML_MB raises the limit)")
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    try:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):  # replaced between stat and open
-            raise ConfigError(f"{path}: is not a regular file, expected a YAML file")
-        chunks: list[bytes] = []
-        got = 0
-        while got <= limit:
-            b = os.read(fd, min(1 << 20, limit + 1 - got))
-            if not b:
-                break
-            chunks.append(b)
-            got += len(b)
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    finally:
-        os.close(fd)
-    raw = b"".join(chunks)
-    if len(raw) > limit:
-        raise ConfigError(f"{path}: file is more than the limit of {limit} bytes "
-                          f"({_mib(limit)}) for a YAML file")
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        raise ConfigError(f"{path}:{line}: not UTF-8 text (byte {exc.start}: "
-                          f"{exc.reason})") from None
+    """The file's text through the one guarded reader (:mod:`mechkin.config.guarded_read`):
+    ConfigError for anything but a readable regular UTF-8 file of at most ``limit`` bytes."""
+    from mechkin.config.guarded_read import read_text
+
+    return read_text(path, what="YAML file", limit=limit,
+                     hint="a long motion goes in a CSV file; MECHKIN_MAX_YAML_MB raises the "
+                          "limit")
 
 
 # ---- composing and constructing from events ---------------------------------------------------

@@ -16,8 +16,9 @@ import contextlib
 import contextvars
 import os
 from collections.abc import Iterator
+from typing import Any
 
-from mechkin.errors import ConfigError
+from mechkin.errors import ConfigError, MechkinError
 
 _LIMIT: contextvars.ContextVar[int | None] = contextvars.ContextVar("mechkin_budget",
                                                                     default=None)
@@ -129,3 +130,113 @@ def check_workers(where: str, workers: int) -> None:
         raise ConfigError(f"{where}: {workers} worker processes on a machine with {cpus} CPUs "
                           f"(at most {4 * cpus}; use --scheduler for a cluster)")
     check(where, workers * WORKER_BYTES, f"{workers} worker processes")
+
+
+# ---- time: an estimate before a long job, and --max-time ---------------------------------------
+
+#: A job estimated beyond this many seconds prints its estimate on stderr before it starts.
+NOTICE_S = 30.0
+_TIME: contextvars.ContextVar[float | None] = contextvars.ContextVar("mechkin_time",
+                                                                     default=None)
+_ESTIMATES: contextvars.ContextVar[list[dict[str, Any]] | None] = contextvars.ContextVar(
+    "mechkin_estimates", default=None)
+_START: contextvars.ContextVar[float | None] = contextvars.ContextVar("mechkin_start",
+                                                                      default=None)
+_DURATION_UNITS = {"": 1.0, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+def parse_duration(text: str) -> float:
+    """``"90"``, ``"90s"``, ``"5m"``, ``"1.5h"``, ``"2d"`` -> seconds (ValueError if not a
+    positive finite duration of at most a year)."""
+    t = text.strip().lower()
+    unit = next((u for u in ("min", "s", "m", "h", "d") if t.endswith(u)), "")
+    num = float(t[: len(t) - len(unit)] if unit else t)
+    sec = num * _DURATION_UNITS[unit]
+    if not 0 < sec <= 366 * 86400.0:
+        raise ValueError(f"expected a duration like 90s, 5m or 2h, got {text[:40]!r}")
+    return sec
+
+
+def time_limit() -> float | None:
+    """The run's ``--max-time`` in seconds, else ``MECHKIN_MAX_TIME``, else None (no limit)."""
+    v = _TIME.get()
+    if v is not None:
+        return v
+    env = os.environ.get("MECHKIN_MAX_TIME")
+    if env:
+        try:
+            return parse_duration(env)
+        except ValueError:
+            raise ConfigError(f"MECHKIN_MAX_TIME: expected a duration like 90s, 5m or 2h, got "
+                              f"{env[:40]!r}") from None
+    return None
+
+
+@contextlib.contextmanager
+def time_budget(max_seconds: float | None) -> Iterator[list[dict[str, Any]]]:
+    """Set the run's time limit (None: the environment's) and collect the run's estimates
+    (``{"where", "what", "seconds"}``) in the yielded list."""
+    import time
+
+    found: list[dict[str, Any]] = []
+    t1 = _TIME.set(max_seconds)
+    t2 = _ESTIMATES.set(found)
+    t3 = _START.set(time.monotonic())
+    try:
+        yield found
+    finally:
+        _START.reset(t3)
+        _ESTIMATES.reset(t2)
+        _TIME.reset(t1)
+
+
+class TimeLimitExceeded(MechkinError):
+    """The run went past ``--max-time``: stopped between two jobs, nothing written (exit 1)."""
+
+    exit_code = 1
+
+
+def check_deadline() -> None:
+    """Raise :class:`TimeLimitExceeded` once the run has used its ``--max-time`` (called
+    between the jobs of a split run)."""
+    import time
+
+    lim, start = _TIME.get(), _START.get()
+    if lim is None or start is None:
+        return
+    used = time.monotonic() - start
+    if used > lim:
+        raise TimeLimitExceeded(f"--max-time: stopped after {human_time(used)} (limit "
+                                f"{human_time(lim)}) between two jobs; no output was changed")
+
+
+def human_time(sec: float) -> str:
+    if sec < 120:
+        return f"{sec:.0f} s"
+    if sec < 7200:
+        return f"{sec / 60:.0f} min"
+    if sec < 2 * 86400:
+        return f"{sec / 3600:.1f} h"
+    return f"{sec / 86400:.3g} days"
+
+
+def estimate_time(where: str, seconds: float, what: str) -> None:
+    """Before a job: refuse it when its estimated run time exceeds ``--max-time`` (one line,
+    exit 2); when it exceeds :data:`NOTICE_S`, print it on stderr and keep it for the summary
+    (``estimated_time_s``). The estimate is an order of magnitude (this machine's speed
+    is not measured), so the refusal has a factor of 2 of slack."""
+    import sys
+
+    seconds = float(seconds) if seconds == seconds else 0.0
+    lim = time_limit()
+    if lim is not None and seconds > 2.0 * lim:
+        raise ConfigError(f"{where}: {what} is estimated to take about {human_time(seconds)}, "
+                          f"more than --max-time {human_time(lim)} (raise it, or make the job "
+                          "smaller)")
+    found = _ESTIMATES.get()
+    if seconds > NOTICE_S and found is not None:  # a short job's summary stays as it was
+        found.append({"where": where, "what": what, "seconds": round(seconds, 1)})
+    if seconds > NOTICE_S:
+        sys.stderr.write(f"mechkin: {what}: estimated about {human_time(seconds)} "
+                         f"({where.split(': ', 1)[0]}); --max-time bounds a run\n")
+        sys.stderr.flush()

@@ -149,14 +149,23 @@ def map_jobs(fn: Callable[[Any], Any], jobs: Sequence[Any], description: str,
         Local processes when ``ex.workers`` is None.
     """
     from mechkin.solvers.workspace.sweeps import run_jobs
+    from mechkin.tasks.budget import check_deadline
     from mechkin.tasks.progress import progress_bar
 
     ex = current() if ex is None else ex
     workers = ex.n_workers(default_workers)
+
+    def timed(update: Callable[[int, int], None] | None) -> Callable[[int, int], None]:
+        def call(done: int, total: int) -> None:
+            check_deadline()  # --max-time: stop between two jobs
+            if update is not None:
+                update(done, total)
+        return call
+
     if progress is not None:
-        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=progress)
+        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=timed(progress))
     with progress_bar(ex.progress, description) as update:
-        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=update)
+        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=timed(update))
 
 
 def call(job: tuple[Callable[..., Any], tuple[Any, ...]]) -> Any:

@@ -3,7 +3,10 @@
 :func:`progress_bar` yields a callback ``update(done, total)`` (or None when disabled): a rich
 progress bar when ``enabled`` is True, or None (the default: only when stderr is a terminal).
 
-Imports: the standard library; rich inside.
+With a time limit (``--max-time``, :mod:`mechkin.tasks.budget`) the callback also stops the run
+between two jobs once the limit is used (bar or not).
+
+Imports: the standard library, tasks.budget; rich inside.
 """
 
 from __future__ import annotations
@@ -24,9 +27,12 @@ def resolve(progress: bool | None) -> tuple[bool, bool]:
 def progress_bar(progress: bool | None, description: str
                  ) -> Iterator[Callable[[int, int], None] | None]:
     """A rich progress bar on stderr as a callback ``update(done, total)``; None when off."""
+    from mechkin.tasks.budget import check_deadline, time_limit
+
     show, force = resolve(progress)
     if not show:
-        yield None
+        # with a --max-time the callback still runs: it stops the run between two jobs
+        yield (lambda done, total: check_deadline()) if time_limit() is not None else None
         return
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -38,5 +44,6 @@ def progress_bar(progress: bool | None, description: str
 
         def update(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
+            check_deadline()
 
         yield update

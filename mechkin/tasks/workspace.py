@@ -126,6 +126,14 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
         m = int(spec.samples or 0) or _grid_size(axes) + len(spec.poses or [])
         budget.check(doc.where(("workspace",)), 3.0 * per * m,
                      f"a task-space sweep of {m} poses of {mech.name} ({mech.n} joints)")
+        starts = 1 + int(getattr(spec, "restarts", 0) or 0)
+        budget.estimate_time(doc.where(("workspace",)), IK_S_PER_START * m * starts,
+                             f"a task-space sweep of {m} poses x {starts} starts")
+
+
+#: Seconds per ik start of a task-space sweep (121 poses x 9 starts of the PUMA: 10 s of compute
+#: on a loaded 2-core machine); for the estimate before a long job.
+IK_S_PER_START = 1e-2
 
 
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,

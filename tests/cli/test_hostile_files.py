@@ -300,3 +300,13 @@ def test_summary_json_of_a_good_run_is_still_json(tmp_path):
     r = _mechkin(tmp_path, "fk", str(fk), "--out", "o", "--no-plots")
     assert r.returncode == 0, r.stderr
     assert json.loads((tmp_path / "o" / "summary.json").read_text())["status"] == "ok"
+
+
+def test_a_failed_expect_names_its_key_on_stdout(tmp_path):
+    text = (ROOT / "scenarios" / "five_bar_fk.yaml").read_text()
+    text = text.replace("../mechanisms/", f"{ROOT}/mechanisms/").replace(
+        "frequency: 0.5}", "frequency: 0.7}", 1)
+    (tmp_path / "s.yaml").write_text(text)
+    r = _mechkin(tmp_path, "fk", "s.yaml", "--out", "o", "--no-plots")
+    assert r.returncode == 5, r.stderr  # exit 5: an expect did not hold
+    assert "expect failed: final.end_effector.xyz_m" in r.stdout, r.stdout
