@@ -70,4 +70,9 @@ def _warmup(paths: list[Path]) -> None:
         dt, cached = fk_accel.warm()
         how = "loaded from cache" if cached else "compiled" if cached is False else "ready"
         typer.echo(f"{dt:6.1f} s ({how})")
+        from mechkin.solvers.track.dpct import warm_compiled_stage
+
+        sys.stdout.write(f"  {'dp_jit.dp_stage':30s} {'track DP stage':28s} ... ")
+        sys.stdout.flush()
+        typer.echo(f"{warm_compiled_stage():6.1f} s (ready)")
         typer.echo(f"done in {time.perf_counter() - t_all:.1f} s")

@@ -541,3 +541,19 @@ def solve_conveyor_tracking(
         trajectory=traj,
         dp=opts,
     )
+
+
+def warm_compiled_stage() -> float:
+    """Compile (or load from numba's cache) the compiled DP stage now, by planning a tiny
+    time-optimal motion of park's 2-link arm on it (``mechkin warmup``); returns the seconds."""
+    from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+    from mechkin.solvers.track import dp_stage
+    from mechkin.solvers.track.path import PlanarTwoLinkLinePath
+
+    t0 = time.perf_counter()
+    dp_stage._dp_loaded[0] = True  # the compiled stage from here on in this process
+    solve_conveyor_tracking(
+        dynamics=PlanarTwoLinkDynamics(), path=PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732]),
+        reference=None, limits=TrackLimits.symmetric(torque=[0.5, 0.2]), N1=6, N2=12,
+        objective="time")
+    return time.perf_counter() - t0
