@@ -159,6 +159,22 @@ class CutSpec(Spec):
     description: str | None = None
 
 
+class CouplingSpec(Spec):
+    """A linear joint coupling (URDF ``<mimic>``, MJCF ``<equality><joint>``):
+    ``joint = multiplier * master + offset``.
+
+    The coupled ``joint`` is dependent: its row ``q_joint - multiplier q_master - offset`` is a
+    constraint row of phi, solved with the loop closure. ``offset`` is in the coupled joint's
+    unit (angle for revolute, length for prismatic); ``multiplier`` is in joint unit per master
+    unit (file units).
+    """
+
+    joint: Name
+    master: Name
+    multiplier: Num = 1.0
+    offset: Num = 0.0
+
+
 class MechanismSpec(Spec):
     """A mechanism file: links, joints, cuts, independent joints, end effector, and optionally
     the ``closed_form`` (stewart, direct_drive, lee_spherical) that solves its inverse
@@ -173,6 +189,7 @@ class MechanismSpec(Spec):
     links: Annotated[list[LinkSpec], Field(min_length=1)]
     joints: list[JointSpec] = Field(default_factory=list)
     cuts: list[CutSpec] = Field(default_factory=list)
+    couplings: list[CouplingSpec] = Field(default_factory=list)
     independent: list[Name] | None = None
     end_effector: Name | None = None
     gravity: Vec3 | None = None  # in the file's length unit per s^2 (default -9.81 m/s^2 z)

@@ -9,7 +9,7 @@ import numpy as np
 from mechkin.config.load import YamlDoc, short, short_list
 from mechkin.config.schema import MechanismSpec
 from mechkin.errors import ConfigError
-from mechkin.model.mechanism import AXIS_NAMES, Cut, JointGroup, Mechanism
+from mechkin.model.mechanism import AXIS_NAMES, Coupling, Cut, JointGroup, Mechanism
 from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import rot_z
 from mechkin.spatial.transforms import T_from, transform_from_xyz_rpy
@@ -378,6 +378,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
                 continue
             mask = np.array([a in c.mask for a in AXIS_NAMES])
         cuts.append(Cut(c.name, frame_idx[fa], frame_idx[fb], mask))
+    couplings = _couplings(spec, P, [jt[0] for jt in joints], groups)
     # ---- end effector --------------------------------------------------------------------------
     ee = None
     if spec.end_effector is not None:
@@ -439,6 +440,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         gravity=gravity,
         virtual_links=frozenset(link_idx.get(v, -1) for v in virtual) if virtual else frozenset(),
         description=spec.description or "",
+        couplings=couplings,
     )
     P.raise_if_any()
     mech = _with_partition(mech, spec, P, names, groups)
@@ -477,12 +479,17 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
               "nothing can move")
         P.raise_if_any()
     group_of = {g.name: g for g in groups}
+    coupled = {c.joint for c in mech.couplings}
     if spec.independent is None:
         if mech.cuts:
             P.add(("independent",), f"a closed chain needs its independent joints listed "
                   f"({dof} degrees of freedom)")
             P.raise_if_any()
-        return mech
+        if not coupled:
+            return mech
+        # an open chain with couplings: every joint but the coupled ones
+        ind = np.array([k for k in range(n) if k not in coupled], dtype=int)
+        return replace(mech, independent=ind, dependent=np.array(sorted(coupled), dtype=int))
     idx: list[int] = []
     for k, name in enumerate(spec.independent):
         if name in names:
@@ -491,6 +498,9 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
             idx.extend(group_of[name].joints)
         else:
             P.add(("independent", k), f"unknown joint {short(name)} (joints: {short_list(names)})")
+    for i in sorted(set(idx) & coupled):
+        P.add(("independent",), f"joint {short(names[i])} is coupled (couplings:): a coupled "
+              "joint follows its master and cannot be independent")
     P.raise_if_any()
     if len(set(idx)) != len(idx):
         P.add(("independent",), "a joint is listed twice")
@@ -509,3 +519,35 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
                   "the constraint Jacobian of the dependent joints is rank deficient at home")
             P.raise_if_any()
     return replace(mech, independent=ind, dependent=dep)
+
+
+def _couplings(spec: MechanismSpec, P: _Problems, names: list[str],
+               groups: list[JointGroup]) -> tuple[Coupling, ...]:
+    """Joint couplings ``joint = multiplier * master + offset`` (SI spec) -> Coupling rows
+    (:mod:`mechkin.model.couplings`); unknown, self- and doubly-coupled joints are reported."""
+    out: list[Coupling] = []
+    seen: dict[str, int] = {}
+    compound = {g.name for g in groups if len(g.joints) > 1}
+    for i, c in enumerate(spec.couplings):
+        kp = ("couplings", i)
+        bad = False
+        for key in ("joint", "master"):
+            v = getattr(c, key)
+            if v not in names:
+                hint = (f"; name a component of the {v} joint ({v}_1, {v}_2, ...)"
+                        if v in compound else "")
+                P.add(kp + (key,), f"unknown joint {short(v)} (joints: {short_list(names)}){hint}")
+                bad = True
+        if bad:
+            continue
+        if c.joint == c.master:
+            P.add(kp + ("master",), f"joint {short(c.joint)} cannot follow itself")
+            continue
+        if c.joint in seen:
+            P.add(kp + ("joint",), f"joint {short(c.joint)} is already coupled "
+                  f"(couplings[{seen[c.joint]}])")
+            continue
+        seen[c.joint] = i
+        out.append(Coupling(names.index(c.joint), names.index(c.master), float(c.multiplier),
+                            float(c.offset)))
+    return tuple(out)

@@ -28,6 +28,18 @@ class Cut:
 
 
 @dataclass(frozen=True)
+class Coupling:
+    """A linear joint coupling ``q_joint = multiplier * q_master + offset`` (URDF mimic, MJCF
+    joint equality): one constraint row ``q_joint - multiplier q_master - offset`` of phi,
+    after the cut rows (:mod:`mechkin.model.couplings`). ``joint``, ``master``: joint indices."""
+
+    joint: int
+    master: int
+    multiplier: float
+    offset: float
+
+
+@dataclass(frozen=True)
 class JointGroup:
     """A joint as the user wrote it (a universal expands to 2 joints, a spherical to 3)."""
 
@@ -86,6 +98,7 @@ class Mechanism:
     inertia: np.ndarray
     gravity: np.ndarray
     virtual_links: frozenset[int] = field(default_factory=frozenset)
+    couplings: tuple[Coupling, ...] = ()
     description: str = ""
     # stick drawings (mechkin.model.drawing): declared plates (name, link, ((kind, index), ...)),
     # kind "frame" or "joint"; auto_plates: convex-hull plates on the other links
@@ -108,12 +121,15 @@ class Mechanism:
 
     @property
     def n_equations(self) -> int:
-        """Number of loop-closure equations (6 per cut, fewer with masks)."""
-        return int(sum(int(c.mask.sum()) for c in self.cuts))
+        """Number of constraint equations of phi: 6 per cut (fewer with masks), then one per
+        joint coupling."""
+        return int(sum(int(c.mask.sum()) for c in self.cuts)) + len(self.couplings)
 
     @property
     def is_closed(self) -> bool:
-        return bool(self.cuts)
+        """Whether phi has rows (cuts or joint couplings): the dependent joints are solved by
+        the loop closure."""
+        return bool(self.cuts) or bool(self.couplings)
 
     # ---- partition (kim1995 Eq. (3)) -----------------------------------------------------------
     @property

@@ -195,7 +195,9 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     # starts for one target (stop_on_first) end at the first success: about one row's work
     # (measured, PUMA 560 scenario: 30 restart rows 6.4 ms by numpy, one row from the guess
     # 9.6 ms)
-    if accel.use_compiled("closed" if closed_chain else "open", 1 if stop_on_first else m):
+    # the compiled closed-chain kernel has no joint-coupling rows: numpy for those
+    if (not (closed_chain and kern.mech.couplings)
+            and accel.use_compiled("closed" if closed_chain else "open", 1 if stop_on_first else m)):
         if not closed_chain:
             return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history, stop_on_first)
         from mechkin.solvers.ik import tree_jit
