@@ -24,6 +24,9 @@ def show_info(mechanism: Path, json_out: bool) -> None:
          f"({info['n_revolute']} revolute, {info['n_prismatic']} prismatic)")
     echo(f"  links                     {info['n_links']}")
     echo(f"  cuts                      {info['n_cuts']}")
+    if info.get("floating_base"):
+        echo("  base                      floating (6-DOF virtual chain from the world: "
+             "base_x, base_y, base_z, base_yaw, base_pitch, base_roll)")
     if info.get("couplings"):
         echo(f"  joint couplings           {len(info['couplings'])} ("
              + ", ".join(f"{c['joint']} = {c['multiplier']:g} {c['master']} {c['offset']:+g}"
@@ -40,7 +43,8 @@ def show_info(mechanism: Path, json_out: bool) -> None:
         echo(f"    note: {info['mobility_note']}")
     echo(f"  independent               {', '.join(info['independent'])}")
     echo(f"  dependent                 {', '.join(info['dependent']) or '-'}")
-    echo(f"  end effector              {info['end_effector'] or '-'}")
+    echo(f"  end effector              {info['end_effector'] or '-'}"
+         + (f" ({info['end_effector_note']})" if info.get("end_effector_note") else ""))
     sing = info.get("singularity_at_home") or {}
     if sing:
         echo(f"  at home                   {sing.get('class', '?')}")
@@ -109,6 +113,7 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
         "dependent": mech.dependent_names,
         "end_effector": mech.frame_names[mech.end_effector]
         if mech.end_effector is not None else None,
+        "end_effector_note": getattr(mech, "end_effector_note", "") or None,
         "joints": [
             {"name": g.name, "type": g.type,
              "coordinates": [mech.joint_names[j] for j in g.joints]}
@@ -119,6 +124,7 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
              "equations": int(c.mask.sum())}
             for c in mech.cuts
         ],
+        "floating_base": bool(getattr(mech, "floating", False)),
         "couplings": [
             {"joint": mech.joint_names[c.joint], "master": mech.joint_names[c.master],
              "multiplier": c.multiplier, "offset": c.offset}
@@ -131,7 +137,7 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
 
 # Equations per joint in Haug's absolute coordinates (kim1995 ref. 13): spatial R and P 5, U 4,
 # S 3; planar R and P 2.
-_SPATIAL_EQ = {"revolute": 5, "prismatic": 5, "universal": 4, "spherical": 3}
+_SPATIAL_EQ = {"revolute": 5, "prismatic": 5, "universal": 4, "spherical": 3, "floating": 0}
 
 
 def absolute_counts(mech: Mechanism, axes: Any, n_bodies: int, J: Any) -> dict[str, Any]:

@@ -71,6 +71,7 @@ class TreeJoint:
     limits: tuple[float, float] | None = None
     offset: float = 0.0
     line: int = 1
+    label: str | None = None  # how messages name the element (default ``joint[<name>]``)
 
 
 @dataclass
@@ -93,6 +94,8 @@ class Tree:
     couplings: list[dict] = field(default_factory=list)
     #: named sites that look like a tool (tool, tcp, end_effector, ee, ...): default end effector
     tool_sites: list[str] = field(default_factory=list)
+    #: a floating base (MJCF free joint): the root link moves, its home pose (xyz, rpy) in SI
+    floating: tuple[list[float], list[float]] | None = None
 
 
 class Sidecar(Spec):
@@ -290,14 +293,14 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
             jnames.add(j.name)
             components.update(f"{j.name}_{k + 1}" for k in range(3))
             lines[("joints", i)] = j.line
-            labels[("joints", i)] = f"joint[{j.name}]"
+            labels[("joints", i)] = j.label or f"joint[{j.name}]"
             continue
         if home is None:
             home = 0.0
             if j.limits is not None and not j.limits[0] <= 0.0 <= j.limits[1]:
                 home = 0.5 * (j.limits[0] + j.limits[1])
         d["home"] = float(home)
-        labels[("joints", i)] = f"joint[{j.name}]"
+        labels[("joints", i)] = j.label or f"joint[{j.name}]"
         spec_joints.append(d)
         jnames.add(j.name)
         lines[("joints", i)] = j.line
@@ -351,6 +354,9 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         data["independent"] = list(tree.independent)
     if ee is not None:
         data["end_effector"] = ee
+    if tree.floating is not None:
+        data["base"] = "floating"
+        data["base_pose"] = {"xyz": _clean(tree.floating[0]), "rpy": _clean(tree.floating[1])}
     if tree.gravity is not None:
         data["gravity"] = [float(g) for g in tree.gravity]
     if ee_note:
@@ -446,8 +452,9 @@ def spec_to_yaml_text(spec: MechanismSpec, header: str = "") -> str:
     for j in d.get("joints", []):
         if j.get("origin") == {}:
             del j["origin"]
-    order = ["name", "description", "notes", "units", "dh_convention", "base", "links", "joints",
-             "cuts", "independent", "end_effector", "gravity", "closed_form"]
+    order = ["name", "description", "notes", "units", "dh_convention", "base", "base_pose",
+             "links", "joints", "cuts", "couplings", "independent", "end_effector", "gravity",
+             "closed_form"]
     d = {k: d[k] for k in order if k in d}
 
     class _Dumper(yaml.SafeDumper):

@@ -14,6 +14,13 @@ from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import rot_z
 from mechkin.spatial.transforms import T_from, transform_from_xyz_rpy
 
+#: how an importer's ``notes`` say why it chose the end effector (mechkin.config.tree_import)
+EE_NOTE = "end effector: "
+
+#: joints of a floating base's virtual chain (``base: floating``): world x, y, z, then
+#: R = Rz(yaw) Ry(pitch) Rx(roll) (URDF roll-pitch-yaw, as ``base_pose.rpy``)
+FLOATING_JOINTS = ("base_x", "base_y", "base_z", "base_yaw", "base_pitch", "base_roll")
+
 COMPOUND_AXES = {"universal": ([1, 0, 0], [0, 1, 0]),
                  "spherical": ([1, 0, 0], [0, 1, 0], [0, 0, 1])}
 
@@ -190,7 +197,15 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
             continue
         seen[link.name] = ("links", i, "name")
         link_names.append(link.name)
+    floating = spec.base == "floating" and "floating" not in link_names
     base_name = spec.base or spec.links[0].name
+    if floating:  # a 6-DOF virtual chain from a world link to the first link (DESIGN.md)
+        body = spec.links[0].name
+        base_name = next(w for w in ("world", "world_0", "world_1") if w not in link_names)
+        link_names.insert(0, base_name)
+    elif spec.base_pose is not None:
+        P.add(("base_pose",), "base_pose is the home pose of a floating base; it needs "
+              "base: floating")
     if base_name not in link_names:
         P.add(("base",), f"unknown link {short(base_name)} (links: {short_list(link_names)})")
         P.raise_if_any()
@@ -210,6 +225,24 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         joints.append((name, kind, parent, child, A, B, lo, hi, home, kp))
         return len(joints) - 1
 
+    if floating:
+        bp = spec.base_pose
+        xyz = bp.xyz if bp is not None else [0.0, 0.0, 0.0]
+        rpy = bp.rpy if bp is not None else [0.0, 0.0, 0.0]
+        idxs = []
+        parent = base_name
+        for k, (jn, prism, ax, h) in enumerate(zip(FLOATING_JOINTS, (1, 1, 1, 0, 0, 0),
+                                                   ((1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 1),
+                                                    (0, 1, 0), (1, 0, 0)),
+                                                   (*xyz, rpy[2], rpy[1], rpy[0]), strict=True)):
+            Ra = T_from(align_z(list(ax)), np.zeros(3))
+            child = body if k == 5 else f"_{jn}_link"
+            if k < 5:
+                virtual.append(child)
+            idxs.append(add_joint(jn, prism, parent, child, Ra, Ra.T.copy(), -np.inf, np.inf,
+                                  float(h), ("base",)))
+            parent = child
+        groups.append(JointGroup("base", "floating", tuple(idxs)))
     for i, j in enumerate(spec.joints):
         kp = ("joints", i)
         ncomp = {"universal": 2, "spherical": 3}.get(j.type, 1)
@@ -441,6 +474,9 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         virtual_links=frozenset(link_idx.get(v, -1) for v in virtual) if virtual else frozenset(),
         description=spec.description or "",
         couplings=couplings,
+        floating=floating,
+        end_effector_note=(spec.notes[len(EE_NOTE):] if spec.notes and ee is not None
+                           and spec.notes.startswith(EE_NOTE) else ""),
     )
     P.raise_if_any()
     mech = _with_partition(mech, spec, P, names, groups)

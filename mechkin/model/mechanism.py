@@ -99,6 +99,10 @@ class Mechanism:
     gravity: np.ndarray
     virtual_links: frozenset[int] = field(default_factory=frozenset)
     couplings: tuple[Coupling, ...] = ()
+    #: ``base: floating``: joints base_x..base_roll carry the first link from a world link 0
+    floating: bool = False
+    #: how an importer chose the default end effector ("site 'tcp' (named like a tool)"), or ""
+    end_effector_note: str = ""
     description: str = ""
     # stick drawings (mechkin.model.drawing): declared plates (name, link, ((kind, index), ...)),
     # kind "frame" or "joint"; auto_plates: convex-hull plates on the other links
