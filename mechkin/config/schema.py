@@ -24,6 +24,11 @@ Name = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z_][A-Za-z0-9_.\-]*$"
 AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
 
 
+#: joints of a floating base's virtual chain (``base: floating``): world x, y, z, then
+#: R = Rz(yaw) Ry(pitch) Rx(roll) (URDF roll-pitch-yaw, as ``base_pose.rpy``)
+FLOATING_JOINTS = ("base_x", "base_y", "base_z", "base_yaw", "base_pitch", "base_roll")
+
+
 class Spec(BaseModel):
     """Base of every file schema: frozen, unknown keys are errors."""
 

@@ -416,7 +416,7 @@ def _default_end_effector(tree: Tree, order: list[str], children: dict
         hit = [n for n in names if tool_rank(n) == rank]
         if len(hit) == 1:
             what = "site" if hit[0] in tree.tool_sites else "frame"
-            return hit[0], f"end effector: {what} {hit[0]!r} (named like a tool; default)"
+            return hit[0], f"end effector: default: the {what} named like a tool"
     if tree.cuts:
         return None, None
     moving = {n: [j for j in children[n] if j.kind != "fixed"] for n in children}
@@ -425,8 +425,7 @@ def _default_end_effector(tree: Tree, order: list[str], children: dict
     has_moving_parent = {j.child for js in children.values() for j in js if j.kind != "fixed"}
     ends = [n for n in order if n in has_moving_parent and not moving[n]]
     if len(ends) == 1:
-        return ends[0], (f"end effector: {ends[0]!r} (the last moving body of the serial chain; "
-                         "default)")
+        return ends[0], "end effector: default: the last moving body of the serial chain"
     return None, None
 
 

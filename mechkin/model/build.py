@@ -7,7 +7,7 @@ from collections import deque
 import numpy as np
 
 from mechkin.config.load import YamlDoc, short, short_list
-from mechkin.config.schema import MechanismSpec
+from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.errors import ConfigError
 from mechkin.model.mechanism import AXIS_NAMES, Coupling, Cut, JointGroup, Mechanism
 from mechkin.spatial.dh import dh_modified, dh_standard
@@ -17,9 +17,6 @@ from mechkin.spatial.transforms import T_from, transform_from_xyz_rpy
 #: how an importer's ``notes`` say why it chose the end effector (mechkin.config.tree_import)
 EE_NOTE = "end effector: "
 
-#: joints of a floating base's virtual chain (``base: floating``): world x, y, z, then
-#: R = Rz(yaw) Ry(pitch) Rx(roll) (URDF roll-pitch-yaw, as ``base_pose.rpy``)
-FLOATING_JOINTS = ("base_x", "base_y", "base_z", "base_yaw", "base_pitch", "base_roll")
 
 COMPOUND_AXES = {"universal": ([1, 0, 0], [0, 1, 0]),
                  "spherical": ([1, 0, 0], [0, 1, 0], [0, 0, 1])}
