@@ -19,8 +19,8 @@ frames, ...); this module reads the compiled arrays, never the XML, for the kine
   and the anchor on body2 (``eq_data[0:3]``), MuJoCo's weld error ``xpos1 + R1 relpos -
   (xpos2 + R2 anchor)`` and ``quat1 relquat`` vs ``quat2``; site welds join the site frames;
   ``<joint>``, ``<tendon>``, ``<flex>`` equalities are refused (couplings, like URDF mimic);
-- independent joints: the joints driven by actuators (``actuator_trnid``), unless the sidecar
-  says otherwise; home: the keyframe named ``home`` if there is one, else ``qpos0``.
+- independent joints of a closed chain: the joints driven by actuators (``actuator_trnid``),
+  unless the sidecar says otherwise (an open chain: every joint but the coupled ones); home: the keyframe named ``home`` if there is one, else ``qpos0``.
 
 May import: config, spatial, errors, numpy, mujoco.
 """
@@ -234,7 +234,7 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
     independent = None
     act = [name(obj.mjOBJ_JOINT, int(m.actuator_trnid[a, 0]), "")
            for a in range(m.nu) if int(m.actuator_trntype[a]) == mujoco.mjtTrn.mjTRN_JOINT]
-    if act:
+    if act and cuts:  # an open chain: every joint but the coupled ones (build's default)
         coupled = {c["joint"] for c in couplings}
         independent = list(dict.fromkeys(a for a in act if a not in coupled))
         if floating is not None:

@@ -190,11 +190,9 @@ class MechanismSpec(Spec):
     notes: str | None = None
     units: Units = Field(default_factory=Units)
     dh_convention: Literal["standard", "modified"] = "standard"
-    base: Name | None = Field(
-        default=None,
-        description="the fixed link (default: the first link), or `floating`: the first link "
-                    "moves, carried by a 6-DOF virtual chain from the world (joints base_x, "
-                    "base_y, base_z, base_yaw, base_pitch, base_roll)")
+    # the fixed link (default: the first link), or ``floating``: the first link moves, carried
+    # by a 6-DOF virtual chain from the world (base_x, base_y, base_z, base_yaw, ..._roll)
+    base: Name | None = None
     base_pose: OriginSpec | None = None  # home pose of a floating base (xyz, rpy)
     links: Annotated[list[LinkSpec], Field(min_length=1)]
     joints: list[JointSpec] = Field(default_factory=list)

@@ -85,7 +85,12 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "units": "Units of every number in this file; converted to SI (m, rad) once on loading.",
         "dh_convention": "D-H convention of the joints placed by `dh`: standard (Denavit-"
                          "Hartenberg) or modified (Craig).",
-        "base": "The fixed link (ground); default: the first link.",
+        "base": "The fixed link (ground); default: the first link. `floating`: the first "
+                "link moves, carried from the world by 6 virtual joints base_x, base_y, base_z, "
+                "base_yaw, base_pitch, base_roll (inputs of fk, unknowns of ik).",
+        "base_pose": f"Home pose of a floating base: xyz {_L}, rpy {_A}.",
+        "couplings": "Linear joint couplings joint = multiplier * master + offset (URDF "
+                     "<mimic>): the coupled joints are dependent, solved with the loop closure.",
         "links": "The rigid bodies of the spanning tree (at least one).",
         "joints": "Joints of the spanning tree, each between a parent (link or frame) and a "
                   "child link; the chains are cut at the cut links (kim1995 §2).",
@@ -166,6 +171,13 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                   "joints.",
         "limits": f"Joint limits [lo, hi] {_A} (prismatic: {_L}); one pair, or one per axis.",
         "home": f"Home configuration {_A} (prismatic: {_L}); one per axis for compound joints.",
+    },
+    "CouplingSpec": {
+        "joint": "The coupled (dependent) joint: q_joint = multiplier * q_master + offset "
+                 "(URDF <mimic>, MJCF <equality><joint>); a constraint row of phi.",
+        "master": "The joint it follows.",
+        "multiplier": "Joint unit per master unit (file units).",
+        "offset": "In the coupled joint's unit (file units).",
     },
     "CutSpec": {
         "name": "Name of the cut link (kim1995 §2).",

@@ -55,7 +55,7 @@ def _check_geometry(spec: MechanismSpec, P: _Problems) -> None:
     arithmetic overflow: at least one joint; every axis a direction; successive axes of a
     universal or spherical joint not parallel; lengths within MAX_LENGTH m, angles within
     MAX_ANGLE rad, masses within MAX_MASS kg (SI spec)."""
-    if not spec.joints:
+    if not spec.joints and spec.base != "floating":
         P.add(("joints",), "a mechanism needs at least one joint")
 
     def bound(kp: tuple, values, limit: float, what: str) -> None:
