@@ -23,7 +23,7 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -111,6 +111,7 @@ class Sidecar(Spec):
     end_effector: Name | None = None
     home: dict[str, Num] | None = None
     couplings: list[CouplingSpec] | None = None
+    base: Literal["floating", "fixed"] | None = None  # floating: the root link moves (6 DOF)
 
 
 def _clean(v) -> list[float]:
@@ -153,6 +154,10 @@ def merge_sidecar(tree: Tree, sidecar: Path | None) -> tuple[Tree, YamlDoc | Non
         for k, v in sc.home.items():
             tree.home[k] = float(v)
         tree.__dict__["_home_where"] = doc.where(("home",))
+    if sc.base == "floating" and tree.floating is None:
+        tree.floating = ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    elif sc.base == "fixed":
+        tree.floating = None
     if sc.couplings is not None:  # the sidecar's list replaces the file's couplings
         tree.couplings = [c.model_dump() | {"_line": doc.line_of(("couplings", i)),
                                             "_file": str(sidecar),
