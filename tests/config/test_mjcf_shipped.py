@@ -74,6 +74,7 @@ LEG = """
           {geom}
           <body name="{s}_foot" pos="0 0 -0.4">
             <joint name="{s}_ankle" axis="0 1 0" range="-1 1"/>
+            <joint name="{s}_ankle_roll" axis="1 0 0" range="-1 1"/>
             {geom}
             <site name="{s}_sole" pos="0.03 0 -0.05"/>
           </body>
@@ -93,8 +94,8 @@ BIPED = """<mujoco model="biped">
   </worldbody>
   <keyframe>
     <key name="home" qpos="0.1 -0.2 0.85  0.9950042 0 0 0.0998334
-      0.9800666 0.1986693 0 0   0.6  -0.3
-      0.9689124 0 -0.2474040 0   0.4  -0.2"/>
+      0.9800666 0.1986693 0 0   0.6  -0.3  0.05
+      0.9689124 0 -0.2474040 0   0.4  -0.2  -0.05"/>
   </keyframe>
 </mujoco>
 """
