@@ -144,6 +144,11 @@ def merge_sidecar(tree: Tree, sidecar: Path | None) -> tuple[Tree, YamlDoc | Non
         tree.cuts = [c.model_dump(exclude_none=True) | {"_line": doc.line_of(("cuts", i)),
                                                          "_file": str(sidecar)}
                      for i, c in enumerate(sc.cuts)]
+    tree.__dict__["_sidecar_where"] = {
+        (k,): doc.where((k,)) for k in data if k in ("independent", "end_effector", "home")}
+    if "cuts" in data:
+        tree.__dict__["_sidecar_where"].update(
+            {("cuts", i): doc.where(("cuts", i)) for i in range(len(sc.cuts))})
     if sc.independent is not None:
         tree.independent = list(sc.independent)
         tree.__dict__["_independent_where"] = doc.where(("independent",))
@@ -366,7 +371,8 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         data["gravity"] = [float(g) for g in tree.gravity]
     if ee_note:
         data["notes"] = ee_note
-    doc = RobotDoc(path=path, data=data, lines=lines | (source_lines or {}), labels=labels)
+    doc = RobotDoc(path=path, data=data, lines=lines | (source_lines or {}), labels=labels,
+                   sidecar=tree.__dict__.get("_sidecar_where", {}))
     spec = validate_model(doc, MechanismSpec, data)
     if tree.ignored:
         what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
@@ -380,18 +386,33 @@ class RobotDoc(YamlDoc):
     elements (``joints[3]`` -> ``joint[panda_finger_joint2]``) at their real lines."""
 
     labels: dict = field(default_factory=dict)
+    #: key paths written in the sidecar: (sidecar where-prefix "file:line: key") by key path
+    sidecar: dict = field(default_factory=dict)
 
     def where(self, key_path) -> str:
         from mechkin.config.load import format_key_path
 
         kp = tuple(key_path)
         for n in range(len(kp), 0, -1):
+            if kp[:n] in self.sidecar:
+                rest = format_key_path(kp[n:]) if kp[n:] else ""
+                return self.sidecar[kp[:n]] + ("" if not rest else
+                                               (rest if rest.startswith("[") else "." + rest))
             if kp[:n] in self.labels:
                 rest = format_key_path(kp[n:]) if kp[n:] else ""
                 label = self.labels[kp[:n]] + ("" if not rest else
                                                (rest if rest.startswith("[") else "." + rest))
                 return f"{self.path}:{self.line_of(kp)}: {label}"
+        if kp and kp[0] in SIDECAR_KEYS:  # not in the robot file: say where it goes
+            side = self.path.with_name(self.path.stem + ".mechkin.yaml").name
+            return (f"{self.path}:{self.line_of(kp)}: {format_key_path(kp)} (not in the robot "
+                    f"file: set '{kp[0]}:' in the sidecar {side})")
         return super().where(key_path)
+
+
+#: keys a sidecar can give (what a robot file cannot say)
+SIDECAR_KEYS = ("name", "description", "cuts", "independent", "end_effector", "home",
+                "couplings", "base")
 
 
 #: words that mark a tool frame (strong), or probably one (weak)

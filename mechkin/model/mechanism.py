@@ -194,3 +194,32 @@ class Mechanism:
             return int(self.frame_link[f])
         j = self.link_parent_joint[f]
         return -1 if j < 0 else int(self.joint_parent_frame[j])
+
+
+def end_effector_hint(mech: Mechanism, limit: int = 6) -> str:
+    """What to write when ``mech`` has no end effector: the key, where it goes (the sidecar
+    ``ROBOT.mechkin.yaml`` beside a URDF/MJCF file, else the mechanism file), an example and the
+    candidate frames (frames on links that carry no joint, tool-like names first)."""
+    import re
+
+    carrying = set(int(x) for x in mech.joint_parent_link)
+    leaves = [f for f in range(len(mech.frame_names))
+              if int(mech.frame_link[f]) not in carrying
+              and int(mech.frame_link[f]) not in mech.virtual_links]
+    names = [mech.frame_names[f] for f in leaves] or list(mech.frame_names)
+
+    def rank(n: str) -> int:
+        low = n.lower()
+        if any(w in low for w in ("tool", "tcp", "end_effector", "sole", "foot", "hand")):
+            return 0
+        return 1 if re.search(r"(^|_)(ee|eef|tip|flange|gripper)(_|$)", low) else 2
+
+    names = sorted(names, key=rank)
+    more = f", ... ({len(names)} in all)" if len(names) > limit else ""
+    src = mech.source
+    if src is not None and src.suffix.lower() in (".urdf", ".xml", ".mjcf"):
+        where = f"in the sidecar {src.with_name(src.stem + '.mechkin.yaml')}"
+    else:
+        where = "in the mechanism file"
+    return (f"fix: set end_effector {where}, e.g. 'end_effector: {names[0]}' (candidate "
+            f"frames: {', '.join(names[:limit])}{more})")

@@ -197,8 +197,12 @@ def ik_problems(sc: Any, mech: Any) -> list[str]:
     doc = sc.doc
     out: list[str] = []
     if mech.end_effector is None:
-        out.append(f"{doc.where(('mechanism',))}: mechanism {short(mech.name)} has no "
-                   "end_effector frame")
+        from mechkin.model.mechanism import end_effector_hint
+
+        src = (mech.source.name if mech.source is not None and mech.source.suffix.lower() in
+               (".urdf", ".xml", ".mjcf") else mech.name)  # a robot file: its file name
+        out.append(f"{doc.where(('mechanism',))}: mechanism {short(src)} has no "
+                   f"end_effector frame; {end_effector_hint(mech)}")
     if spec.method == "closed-form":
         from mechkin.solvers.closed_form.recognise import (
             ClosedFormMismatch,
@@ -293,8 +297,10 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
                            f"{limit_count_message(mech, lo.shape[0])}")
     if spec.path.frame is None:
         if mech.end_effector is None:
+            from mechkin.model.mechanism import end_effector_hint
+
             out.append(f"{doc.where(('track', 'path'))}: the mechanism has no end_effector; "
-                       "name the hand frame in path.frame")
+                       f"name the hand frame in path.frame; {end_effector_hint(mech, 5)}")
     elif spec.path.frame not in mech.frame_names:
         out.append(_unknown_joint(sc, ("track", "path", "frame"), spec.path.frame,
                                   list(mech.frame_names), "a frame"))
@@ -327,7 +333,10 @@ def _frame_problems(sc: Any, mech: Any) -> list[str]:
                                    list(mech.frame_names), "a frame")]
         return []
     if mech.end_effector is None:
-        return [f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; give frame"]
+        from mechkin.model.mechanism import end_effector_hint
+
+        return [f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; give "
+                f"workspace.frame; {end_effector_hint(mech, 5)}"]
     return []
 
 
