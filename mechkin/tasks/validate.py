@@ -350,17 +350,18 @@ def _joint_sweep_problems(sc: Any, mech: Any) -> list[str]:
     out += _frame_problems(sc, mech)
     if out:
         return out
-    swept = [n for n in names if n in given] if (given or spec.method == "grid") else names
+    swept = [n for n in names if n in given] if spec.method == "grid" else names
     if not swept:
         return [f"{doc.where(('workspace', 'joints'))}: method grid needs at least one joint "
                 "with n"]
     for n in swept:
         j = mech.joint_index(n)
         js = given.get(n)
-        if (js is None or js.range is None) and not (
+        if (js is None or js.range is None) and mech.s[j] == 1 and not (
                 math.isfinite(float(mech.lower[j])) and math.isfinite(float(mech.upper[j]))):
-            out.append(f"{doc.where(('workspace', 'joints', n))}: joint {short(n)} has no "
-                       "limits; give a range")
+            # (a revolute joint without limits is swept over a full turn)
+            out.append(f"{doc.where(('workspace', 'joints', n))}: prismatic joint {short(n)} "
+                       f"has no limits; give a range, e.g. '{n}: {{range: [0, 100]}}'")
         if spec.method == "grid" and (js is None or js.n is None):
             out.append(f"{doc.where(('workspace', 'joints', n))}: method grid needs n")
     if not out and spec.method == "grid":
