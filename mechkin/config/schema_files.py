@@ -280,12 +280,19 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
     },
     "TargetSpec": {
         "name": "Name of the precision point.",
+        "frame": "The frame that meets this pose (default: the end effector). Targets that "
+                 "name their frame are solved together, as one target set.",
         "matrix": f"Pose of the hand as a 4x4 homogeneous matrix (translation {_L}).",
         "xyz": f"Position of the hand {_L} (with euler or quaternion).",
         "euler": "Orientation as intrinsic Euler angles (with xyz).",
         "quaternion": "Orientation as a quaternion (w, x, y, z) (with xyz).",
         "weights": "Weights of this point (6: position x, y, z, then orientation); default "
                    "the section's weights.",
+    },
+    "TargetSetSpec": {
+        "name": "Name of the target set.",
+        "targets": "One target per frame (each with frame: and its own weights), solved "
+                   "together with the loop closure and couplings.",
     },
     "RandomTargetsSpec": {
         "count": "Number of reachable random poses (forward kinematics of random joints "
@@ -306,6 +313,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                    "restarts, Arora's golden section, no passive-limit projection) or robust "
                    "(the default: restarts, a capped bracket, passive limits kept).",
         "targets": "Precision points {P} (kim1995 §5), solved in order.",
+        "target_sets": "Sets of targets of several frames (a biped's feet, a humanoid's feet "
+                       "and hands), each set solved together; sets in order.",
         "random_targets": "Seeded random reachable targets (besides or instead of targets).",
         "weights": "Default diagonal of W (kim1995 Eq. (9)): position x, y, z, then "
                    "orientation.",

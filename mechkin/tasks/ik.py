@@ -54,6 +54,7 @@ from mechkin.tasks.common import (
     with_expect,
 )
 from mechkin.tasks.distributed import Execution, map_jobs
+from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
 from mechkin.tasks.distributed import resolve as resolve_execution
 
 
@@ -469,6 +470,9 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     """
     spec: IkSpec = scenario.section
     mech = load_mechanism(scenario.mechanism_path)
+    if has_target_sets(spec):  # targets naming their frames: solved together per set
+        o = ik_options(spec, scenario.spec.units)
+        return run_target_sets(scenario, mech, *_initial(scenario, mech), o.tol_pos, o.tol_ori)
     if mech.end_effector is None:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: mechanism {mech.name} has no "
                           "end_effector frame")

@@ -196,7 +196,8 @@ def ik_problems(sc: Any, mech: Any) -> list[str]:
     spec = sc.section
     doc = sc.doc
     out: list[str] = []
-    if mech.end_effector is None:
+    framed = bool(spec.target_sets) or any(t.frame is not None for t in spec.targets)
+    if mech.end_effector is None and not framed:
         from mechkin.model.mechanism import end_effector_hint
 
         src = (mech.source.name if mech.source is not None and mech.source.suffix.lower() in
