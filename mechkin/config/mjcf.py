@@ -10,7 +10,7 @@ frames, ...); this module reads the compiled arrays, never the XML, for the kine
   ``offset = -qpos0_k`` (mechkin q = MuJoCo qpos), and a body whose last joint is not at its
   origin becomes a named frame (the body's name) on a link ``<body>_<joint>``;
 - hinge -> revolute, slide -> prismatic, ball -> spherical (three revolutes x-y-z: the same
-  positions, another parametrisation than MuJoCo's quaternion); free joints are refused;
+  positions, another parametrisation than MuJoCo's quaternion);
 - bodies without joints, sites -> named frames; inertials (``body_mass``, ``body_ipos``,
   ``body_iquat``, principal ``body_inertia``) -> com and tensor in the body axes;
 - ``<equality><connect>`` -> a cut with mask x, y, z between the anchor on body1
@@ -18,9 +18,15 @@ frames, ...); this module reads the compiled arrays, never the XML, for the kine
   sites; ``<weld>`` -> a full cut between ``(relpos, relquat)`` on body1 (``eq_data[3:10]``)
   and the anchor on body2 (``eq_data[0:3]``), MuJoCo's weld error ``xpos1 + R1 relpos -
   (xpos2 + R2 anchor)`` and ``quat1 relquat`` vs ``quat2``; site welds join the site frames;
-  ``<joint>``, ``<tendon>``, ``<flex>`` equalities are refused (couplings, like URDF mimic);
+  a linear ``<joint>`` equality is a coupling ``q1 = c1 q2 + c0 + q1_0 - c1 q2_0`` (MuJoCo's
+  is relative to qpos0; nonlinear polycoef terms are refused), ``<tendon>`` and ``<flex>``
+  equalities are refused, each with the file's line and the fix;
+- a free joint: the body is the root of a floating base (``base: floating``, its home the
+  keyframe's pose); ball joints start at the keyframe's quaternion; missing mesh / texture
+  files: compiled without them (``mujoco.MjSpec``);
 - independent joints of a closed chain: the joints driven by actuators (``actuator_trnid``),
-  unless the sidecar says otherwise (an open chain: every joint but the coupled ones); home: the keyframe named ``home`` if there is one, else ``qpos0``.
+  unless the sidecar says otherwise (an open chain: every joint but the coupled ones); home:
+  the keyframe named ``home`` if there is one, else ``qpos0``.
 
 May import: config, spatial, errors, numpy, mujoco.
 """

@@ -54,8 +54,8 @@ from mechkin.tasks.common import (
     with_expect,
 )
 from mechkin.tasks.distributed import Execution, map_jobs
-from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
 from mechkin.tasks.distributed import resolve as resolve_execution
+from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
 
 
 def _closed_form_kind(scenario: Scenario, mech: Mechanism) -> str:

@@ -47,7 +47,7 @@ def pin_model(path: Path):
     try:
         model = pin.buildModelFromUrdf(str(path), mimic=True)
         model.mimic_from_xml = {}
-    except ValueError:
+    except (ValueError, TypeError):  # (TypeError: a Pinocchio without mimic support)
         model = pin.buildModelFromUrdf(str(path))
         model.mimic_from_xml = urdf_mimics(path)
     return pin, model, model.createData()

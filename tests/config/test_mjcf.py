@@ -151,8 +151,9 @@ def test_unsupported_mjcf_is_a_config_error(tmp_path):
                                     '<joint name="c" joint1="j1" joint2="j2"/>'))
     assert len(load_mechanism(coupled).couplings) == 1
     nonlin = tmp_path / "nonlin.xml"
-    nonlin.write_text(WELD.replace('<weld name="w" body1="tip" body2="anchor" anchor="0.1 0 0"/>',
-                                   '<joint name="c" joint1="j1" joint2="j2" polycoef="0 1 2 0 0"/>'))
+    nonlin.write_text(WELD.replace(
+        '<weld name="w" body1="tip" body2="anchor" anchor="0.1 0 0"/>',
+        '<joint name="c" joint1="j1" joint2="j2" polycoef="0 1 2 0 0"/>'))
     with pytest.raises(ConfigError, match=r"nonlin\.xml:18: equality/joint\[c\]\.polycoef: "
                                           r"nonlinear.*fix: "):
         load_mechanism(nonlin)

@@ -82,7 +82,7 @@ def _feasible_stances(m, mech, rng, k):
         TR_goal = _flat(yaw + turn, 0.0, 0.0)
         TR_goal[:3, 3] = _flat(yaw, 0, 0)[:3, :3] @ [fwd, side, 0.0]
 
-        def resid(x, q=q):
+        def resid(x, q=q, TR_goal=TR_goal):
             qq = q.copy()
             qq[leg["right"]] = x
             d.qpos[:] = _mujoco_qpos(m, mech, qq)
@@ -114,7 +114,7 @@ def test_biped_both_soles_on_the_plane_pelvis_height_given(tmp_path):
     m = mujoco.MjModel.from_xml_path(str(path))
     stances = _feasible_stances(m, mech, np.random.default_rng(2025), SETS)
     ok = 0
-    for q_true, TL, TR, h in stances:
+    for _q_true, TL, TR, h in stances:
         assert abs(TL[2, 3]) < 1e-10 and abs(TR[2, 3]) < 1e-10  # on the plane, flat
         assert abs(TL[2, 2] - 1) < 1e-10 and abs(TR[2, 2] - 1) < 1e-10
         T_h = np.eye(4)

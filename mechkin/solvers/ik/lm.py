@@ -196,8 +196,9 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     # (measured, PUMA 560 scenario: 30 restart rows 6.4 ms by numpy, one row from the guess
     # 9.6 ms)
     # the compiled closed-chain kernel has no joint-coupling rows: numpy for those
+    n_rows = 1 if stop_on_first else m
     if (not (closed_chain and kern.mech.couplings)
-            and accel.use_compiled("closed" if closed_chain else "open", 1 if stop_on_first else m)):
+            and accel.use_compiled("closed" if closed_chain else "open", n_rows)):
         if not closed_chain:
             return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history, stop_on_first)
         from mechkin.solvers.ik import tree_jit
