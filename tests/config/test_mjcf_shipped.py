@@ -260,3 +260,17 @@ def test_mjcf_path_is_named_not_the_robot(tmp_path):
     msg = str(exc.value)
     assert msg.startswith(f"{path}:4: body[b].freejoint") and "fix:" in msg
     assert Path(path).name in msg
+
+
+def test_sidecar_names_ball_joint_components(tmp_path):
+    path = tmp_path / "biped.xml"
+    path.write_text(_biped(MESH_GEOM))
+    plain = load_mechanism(path)
+    (tmp_path / "biped.mechkin.yaml").write_text("home: {left_hip_2: 0.25}\n"
+                                                 "end_effector: left_sole\n")
+    mech = load_mechanism(path)
+    i = mech.joint_index("left_hip_2")
+    assert mech.home[i] == 0.25 and plain.home[i] != 0.25
+    j = mech.joint_index("left_hip_1")  # the other components keep the keyframe's values
+    assert mech.home[j] == plain.home[j]
+    assert mech.frame_names[mech.end_effector] == "left_sole"
