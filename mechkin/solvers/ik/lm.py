@@ -228,7 +228,7 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     # converged: weighted errors far below the verification tolerances
     f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
     done = ~closed_ok | (f < f_abs)
-    stall_check = opts.restarts > 0 and not kern.n_cuts  # closed chains crawl by nature
+    stall_check = opts.restarts > 0 and not kern.mech.cuts  # closed chains crawl by nature
     act = np.flatnonzero(~done)
     # compacted working set of the active rows
     qa, xa, Ja, fa, la, wa = qv[act], x[act], J[act], f[act], lam[act], w[act]
