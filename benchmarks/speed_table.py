@@ -7,6 +7,9 @@ Rows (issue 15): single FK (PUMA 560), batched FK (1e4-1e6 configurations), sing
 (Panda, PUMA 560; scenario defaults; verified success), batched IK (m = 1, 100, 5000), the
 time-optimal planner vs toppra, one ``mechkin ik`` call vs ``python -c "import numpy, scipy"``,
 and ``mechkin fk`` of 100k configurations vs the batched API on the same configurations.
+Rows of issue 29 (:mod:`speed_rows`): the public API (``Solver.pose``, ``mechkin.fk``,
+``mechkin.ik``, ``Solver.ik``) vs Pinocchio and rtb, ``mechkin.run`` of the time-optimal track
+scenarios vs toppra end to end, the first run after ``mechkin warmup`` vs a warm run.
 
 How: every measurement is repeated ``--rounds`` times, the tools interleaved within a round
 (mechkin, peer, mechkin, ...), and the table gives the median per tool and the median of the
@@ -44,6 +47,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+import speed_rows  # noqa: E402
 from timing import FK100K  # noqa: E402
 
 from mechkin.model import load_mechanism  # noqa: E402
@@ -320,6 +324,10 @@ def main() -> None:  # noqa: C901 - one linear script
         r_def.note = ("numba not loaded (the plain-Python route)" if numba_seen == {"False"}
                       else "numba loaded in the child")
         rows.append(r_def)
+        # ---- the public API (issue 29): Solver.pose, mechkin.fk --------------------------
+        rows += speed_rows.public_fk_rows(R, puma, q1, rtb, None if pin is None else
+                                          (pin, pmodel, pdata), Row)
+        rows.append(speed_rows.public_fk_default_row(R, q1, rtb, Row, tmp))
 
         # ---- batched FK -----------------------------------------------------------------
         sizes = (10_000, 100_000) if quick else (10_000, 100_000, 1_000_000)
@@ -365,6 +373,8 @@ def main() -> None:  # noqa: C901 - one linear script
                     flg.append(ans["flag"])
             row.note = success_note(oks, okp, flg, n_ik)
             rows.append(row)
+
+        rows += speed_rows.public_ik_rows(R, mechs, qs, rtb, Row, success_note)
 
         # ---- batched IK -----------------------------------------------------------------
         b_sizes = (1, 100, 2000) if quick else (1, 100, 5000)
@@ -417,6 +427,10 @@ def main() -> None:  # noqa: C901 - one linear script
                                 f"{100 * (d_tp - ref) / ref:+.3f} %")
                     rows.append(row)
 
+            trows, tnotes = speed_rows.track_rows(R, bt, Row)
+            rows += trows
+            notes += tnotes
+
         # ---- one mechkin call; CLI fk 100k ---------------------------------------------
         env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
         env.pop("MECHKIN_JIT", None)  # as a user runs it
@@ -464,6 +478,9 @@ def main() -> None:  # noqa: C901 - one linear script
                         f"start-up, scenario, records and the table (`mechkin --version` "
                         f"alone: {statistics.median(ver):.2f} s)")
             rows.append(row)
+        frows, fnotes = speed_rows.first_run_rows(R, Row)
+        rows += frows
+        notes += fnotes
         if rtb is not None:
             rtb.close()
     took = (_dt.datetime.now(_dt.timezone.utc) - started).total_seconds()

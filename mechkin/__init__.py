@@ -5,6 +5,8 @@ The Python API (stable; see the README's "Python API" section)::
     import mechkin
     mech = mechkin.load_mechanism("mechanisms/puma560.yaml")
     res = mechkin.fk(mech, q_v)                      # FkResult: q, status, poses
+    sol = mechkin.Solver(mech)                       # plans and options kept: sol.pose(q),
+                                                     # sol.fk(qs), sol.ik(T)
     sols = mechkin.ik(mech, targets)                 # list of IkResult, verified by FK
     report = mechkin.run("scenarios/puma560_wave_fk.yaml")   # Report: summary, status
     report.write("outputs/wave")                     # the CLI's files
@@ -30,6 +32,7 @@ __all__ = [
     "Mechanism",
     "Report",
     "Scenario",
+    "Solver",
     "__version__",
     "fk",
     "ik",
@@ -43,7 +46,7 @@ _WHERE = {
     "load_scenario": "mechkin.api", "run": "mechkin.api",
     "FkResult": "mechkin.records", "Report": "mechkin.records",
     "IkResult": "mechkin.solvers.ik", "Mechanism": "mechkin.model",
-    "Scenario": "mechkin.config.scenario",
+    "Scenario": "mechkin.config.scenario", "Solver": "mechkin.api",
     "MechkinError": "mechkin.errors", "ConfigError": "mechkin.errors",
 }
 

@@ -22,6 +22,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from mechkin.solver import SolverBase, open_fk
+
 if TYPE_CHECKING:  # pragma: no cover
 
     from mechkin.config.scenario import Scenario
@@ -73,6 +75,8 @@ def fk(
         All joints ``q`` (m, n), per-row ``status`` and ``residual``, and ``poses[name]``
         (m, 4, 4) in the base frame.
     """
+    if not mech.cuts:  # open chain: no loop closure, only the frames asked for (issue 29)
+        return open_fk(mech, q_v, q_w0, frames)
     import numpy as np
 
     from mechkin.errors import ConfigError
@@ -144,25 +148,20 @@ def ik(
     """
     import numpy as np
 
-    from mechkin.config.ik_spec import IkSpec
     from mechkin.errors import ConfigError
-    from mechkin.solvers.ik import IkOptions, solve_ik, solve_ik_batch
+    from mechkin.solvers.ik import solve_ik, solve_ik_batch
 
     T = np.asarray(targets, dtype=float)
     T = T[None] if T.ndim == 2 else T
     if T.ndim != 3 or T.shape[1:] != (4, 4):
         raise ConfigError(f"targets: expected (k, 4, 4) poses, got shape {T.shape}")
-    if method not in ("lm", "cg-golden"):
-        raise ConfigError(f"method: expected 'lm' or 'cg-golden', got {method!r}")
-    if mech.end_effector is None:
-        raise ConfigError(f"mechanism {mech.name} has no end_effector frame")
-    w = np.ones(6) if weights is None else np.asarray(weights, dtype=float)
-    n_rs = IkSpec.model_fields["restarts"].default if restarts is None else int(restarts)
-    opts = IkOptions(method=method, restarts=n_rs, seed=seed)  # type: ignore[arg-type]
+    from mechkin.solver import ik_options
+
+    opts, w = ik_options(mech, method, weights, restarts, seed)
     qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
     qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
     if batch:
-        from mechkin.tasks.ik import batch_results
+        from mechkin.tasks.ik_solve import batch_results
 
         W = np.broadcast_to(w, (len(T), 6))
         return batch_results(solve_ik_batch(mech, T, q_v0=qv, q_w0=qw, weights=W,
@@ -185,3 +184,20 @@ def run(scenario: str | Path | Scenario, **options: Any) -> Report:
     if isinstance(scenario, (str, Path)):
         return tasks.run_file(scenario, **options)
     return tasks.run(scenario, **options)
+
+
+
+class Solver(SolverBase):
+    """Forward and inverse kinematics of one mechanism with its plans, kernels and options
+    kept (:class:`mechkin.solver.SolverBase`): ``Solver(mech).pose(q_v)`` (4, 4),
+    ``.poses(qs)`` (m, k, 4, 4), ``.fk(qs)`` an :class:`FkResult` as :func:`fk`, ``.ik(T)``
+    an :class:`IkResult` (a list for (k, 4, 4) targets) as :func:`ik`. Closed chains call
+    :func:`fk` and :func:`ik` themselves."""
+
+    def _closed_fk(self, q_v: Any, q_w0: Any, tol_phi: float | None) -> FkResult:
+        return fk(self.mech, q_v, q_w0=q_w0, frames=self._frames, tol_phi=tol_phi)
+
+    def _ik_many(self, T: Any, q_v0: Any, q_w0: Any, batch: bool) -> list[IkResult]:
+        method, weights, restarts, seed = self._ik_args
+        return ik(self.mech, T, weights=weights, method=method, q_v0=q_v0, q_w0=q_w0,
+                  restarts=restarts, batch=batch, seed=seed)

@@ -92,8 +92,36 @@ def version_cli() -> None:
 
 def run_app() -> None:
     """Run the typer app on ``sys.argv`` (Ctrl-C outside a command: one line, exit 130)."""
+    _one_line_usage_errors()
     try:
         app()
     except KeyboardInterrupt:  # outside a command's own handler (argument parsing, start-up)
         typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
         raise SystemExit(130) from None
+
+
+def _one_line_usage_errors() -> None:
+    """A bad option or argument (``--workers 0``): one line ``mechkin fk: error: ...`` on
+    stderr instead of typer's usage text and box (exit 2 as before)."""
+    import sys
+
+    try:
+        from typer import rich_utils
+    except ImportError:  # pragma: no cover - typer without rich: click's plain lines
+        return
+    original = rich_utils.rich_format_error
+    if getattr(original, "_mechkin", False):
+        return
+
+    def one_line(exc: object) -> None:
+        if type(exc).__name__ == "NoArgsIsHelpError":  # plain `mechkin`: the help
+            original(exc)
+            return
+        ctx = getattr(exc, "ctx", None)
+        where = ctx.command_path if ctx is not None else "mechkin"
+        msg = " ".join(str(exc.format_message()).split())  # type: ignore[attr-defined]
+        msg = msg if len(msg) <= 200 else msg[:197] + "..."
+        sys.stderr.write(f"{where}: error: {msg} (see --help)\n")
+
+    one_line._mechkin = True  # type: ignore[attr-defined]
+    rich_utils.rich_format_error = one_line

@@ -39,17 +39,17 @@ def _import(robot: Path, out: Path | None, sidecar: Path | None) -> None:
     if is_urdf(robot):
         from mechkin.config.urdf import read_urdf_spec
 
-        spec, _ = read_urdf_spec(robot, sidecar)
+        spec, doc = read_urdf_spec(robot, sidecar)
     elif robot.suffix.lower() in (".xml", ".mjcf"):
         from mechkin.config.mjcf import read_mjcf_spec
 
-        spec, _ = read_mjcf_spec(robot, sidecar)
+        spec, doc = read_mjcf_spec(robot, sidecar)
     else:
         raise ConfigError(f"{robot}: expected a .urdf, .xml or .mjcf robot file")
     # build it once, so a file that imports is a file every command accepts
     from mechkin.model.build import build_mechanism
 
-    build_mechanism(spec)
+    build_mechanism(spec, doc)  # problems located in the robot file
     text = spec_to_yaml_text(spec, f"# imported by mechkin import from {robot.name}\n")
     if out is None:
         typer.echo(text, nl=False)

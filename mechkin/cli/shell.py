@@ -207,7 +207,8 @@ def handle_errors(fn: F) -> F:
             return fn(*args, **kwargs)
         except MechkinError as exc:
             for ln in str(exc).splitlines() or [type(exc).__name__]:
-                echo(f"error: {ln}" if not _has_location(ln) else ln, err=True)
+                ln = f"error: {ln}" if not _has_location(ln) else ln
+                echo(ln if len(ln) <= 300 else ln[:297] + "...", err=True)  # one short line
             raise Exit(exc.exit_code) from None
         except KeyboardInterrupt:
             _stop_children()

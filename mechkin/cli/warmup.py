@@ -57,7 +57,7 @@ def _warmup(paths: list[Path]) -> None:
         for item in warm.warm(mechs):
             if isinstance(item, tuple):
                 name, role = item
-                sys.stdout.write(f"  {name:24s} {role:28s} ... ")
+                sys.stdout.write(f"  {name:30s} {role:28s} ... ")
                 sys.stdout.flush()
                 continue
             how = ("loaded from cache" if item.was_cached else "compiled"
@@ -65,7 +65,7 @@ def _warmup(paths: list[Path]) -> None:
             typer.echo(f"{item.seconds:6.1f} s ({how})")
         from mechkin.model import fk_accel
 
-        sys.stdout.write(f"  {'fk_jit.plan_poses':24s} {'forward kinematics':28s} ... ")
+        sys.stdout.write(f"  {'fk_jit.plan_poses':30s} {'forward kinematics':28s} ... ")
         sys.stdout.flush()
         dt, cached = fk_accel.warm()
         how = "loaded from cache" if cached else "compiled" if cached is False else "ready"

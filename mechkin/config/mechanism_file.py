@@ -23,6 +23,17 @@ def is_robot_file(path: str | Path) -> bool:
 
 def read_mechanism_spec(path: str | Path, doc: YamlDoc | None = None
                         ) -> tuple[MechanismSpec, YamlDoc]:
+    """:func:`_read_mechanism_spec`, then joint names whose table columns would collide with a
+    task's own columns are refused (:mod:`mechkin.config.columns`)."""
+    from mechkin.config.columns import check_joint_columns
+
+    spec, doc = _read_mechanism_spec(path, doc)
+    check_joint_columns(spec, doc)
+    return spec, doc
+
+
+def _read_mechanism_spec(path: str | Path, doc: YamlDoc | None = None
+                         ) -> tuple[MechanismSpec, YamlDoc]:
     """Parse, validate (unknown keys, types, finiteness) and convert to SI.
 
     ``doc``: the file already parsed by :func:`mechkin.config.load.read_yaml` (read once).

@@ -79,14 +79,17 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
     except ImportError:
         raise ConfigError(f"{path}: reading MJCF needs MuJoCo (pip install 'mechkin[mjcf]')"
                           ) from None
-    text = path.read_text(encoding="utf-8", errors="replace")
+    from mechkin.config.guarded_read import check_mjcf_files, redirect_mujoco_log
+
+    redirect_mujoco_log(mujoco)  # never MUJOCO_LOG.TXT in the working directory
+    text = check_mjcf_files(path)  # regular files within the limits, includes and meshes too
 
     def line_of(tag: str, name: str) -> int:
         m = re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
         return text.count("\n", 0, m.start()) + 1 if m else 1
 
     m, _ = _compile(mujoco, path)
-    els = _elements(path)
+    els = _elements(text)
     obj = mujoco.mjtObj
 
     def name(kind, i: int, default: str) -> str:
@@ -317,13 +320,14 @@ class _Elements:
         return lines[i] if 0 <= i < len(lines) else 1
 
 
-def _elements(path: Path) -> _Elements:
+def _elements(text: str) -> _Elements:
+    """The lines of the elements of the main file's text (already read and checked)."""
     out = _Elements()
     try:
         from lxml import etree
 
-        root = etree.parse(str(path)).getroot()
-    except Exception:  # no lxml, or includes MuJoCo resolves and lxml does not
+        root = etree.fromstring(text.encode("utf-8"))
+    except Exception:  # no lxml, or a file MuJoCo parses and lxml does not
         return out
 
     def own(body):  # direct children, through <frame> elements

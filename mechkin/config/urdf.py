@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc
+from mechkin.config.load import YamlDoc, short_str
 from mechkin.config.schema import MechanismSpec
 from mechkin.config.tree_import import (
     Tree,
@@ -55,10 +55,9 @@ def is_urdf(path: str | Path) -> bool:
         return True
     if p.suffix.lower() != ".xml":
         return False
-    try:
-        head = p.read_text(encoding="utf-8", errors="replace")[:4096]
-    except OSError:
-        return False
+    from mechkin.config.guarded_read import read_head
+
+    head = read_head(p, 4096)  # "" for a FIFO or device: the reader refuses it, located
     import re
 
     m = re.search(r"<\s*([A-Za-z_][\w:.-]*)", re.sub(r"<\?.*?\?>|<!--.*?-->", "", head, flags=re.S))
@@ -71,8 +70,12 @@ def _parse_xml(path: Path):
     except ImportError:  # pragma: no cover - lxml comes with yourdfpy
         raise ConfigError(f"{path}: reading URDF needs yourdfpy (pip install "
                           "'mechkin[urdf]')") from None
+    from mechkin.config.guarded_read import check_count, read_robot_xml
+
     try:
-        return etree.parse(str(path)).getroot()
+        data = read_robot_xml(path, "URDF file")
+        check_count(path, "<joint>", data.count(b"<joint"))
+        return etree.fromstring(data, base_url=str(path))
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read: {exc}") from None
     except etree.XMLSyntaxError as exc:
@@ -132,11 +135,11 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                 couplings.append({"joint": name, "master": m.get("joint"), "multiplier": mult,
                                   "offset": off, "_line": m.sourceline, "_file": str(path),
                                   "_label": f"joint[{name}].mimic"})
-        if typ in ("floating", "planar"):
-            problems.append(f"{path}:{e.sourceline}: joint[{name}].type: {typ} joints are not "
-                            "supported (mechkin joints: revolute, continuous, prismatic, fixed); "
-                            "fix: make it type=\"fixed\" (or remove it and its parent link, so "
-                            "its child is the base)")
+        if typ not in ("revolute", "continuous", "prismatic", "fixed"):
+            problems.append(f"{path}:{e.sourceline}: joint[{short_str(name)}].type: "
+                            f"{short_str(typ)} joints are not supported (mechkin joints: revolute, "
+                            "continuous, prismatic, fixed); fix: make it type=\"fixed\" (or "
+                            "remove it and its parent link, so its child is the base)")
     if problems:
         raise ConfigError(problems)
     try:
@@ -168,6 +171,10 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
         limits = None
         if j.type in ("revolute", "prismatic") and j.limit is not None:
             lo, hi = j.limit.lower, j.limit.upper
+            nonfinite = [v for v in (lo, hi) if v is not None and not np.isfinite(v)]
+            if nonfinite or (lo is not None and hi is not None and lo > hi):
+                raise ConfigError(f"{path}:{line}: joint[{j.name}].limit: expected finite "
+                                  f"lower <= upper, got lower={lo}, upper={hi}")
             if lo is not None and hi is not None and lo < hi:
                 limits = (float(lo), float(hi))
         joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line))

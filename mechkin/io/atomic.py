@@ -14,10 +14,11 @@ import contextlib
 import logging
 import os
 import secrets
+import stat
 from collections.abc import Iterator
 from pathlib import Path
 
-from mechkin.errors import OutputError
+from mechkin.errors import OutputDirError, OutputError
 
 __all__ = [
     "atomic_path",
@@ -41,6 +42,24 @@ def _fsync_file(path: Path) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
+
+
+def refuse_special(final: Path) -> None:
+    """OutputDirError (exit 2, nothing written) when ``final`` exists and is not a regular
+    file: a device (``-o /dev/null``), FIFO, socket, folder or symlink is never replaced."""
+    try:
+        st = os.lstat(final)
+    except FileNotFoundError:
+        return
+    except OSError as e:
+        raise OutputDirError(f"{final}: cannot write: {e.strerror or e}") from None
+    if stat.S_ISREG(st.st_mode):
+        return
+    kind = ("a symlink" if stat.S_ISLNK(st.st_mode) else "a folder" if stat.S_ISDIR(st.st_mode)
+            else "a FIFO" if stat.S_ISFIFO(st.st_mode) else "a socket" if stat.S_ISSOCK(
+                st.st_mode) else "a device")
+    raise OutputDirError(f"{final}: exists and is {kind}; mechkin replaces only regular files "
+                         "(nothing written)")
 
 
 def _remove_quietly(path: Path) -> None:
@@ -72,6 +91,8 @@ def atomic_path(path: str | os.PathLike[str], *, fsync: bool = True) -> Iterator
 
     Raises
     ------
+    OutputDirError
+        ``path`` exists and is not a regular file (a device, FIFO, folder or symlink).
     OutputError
         The directory cannot be created or the rename fails.
 
@@ -81,6 +102,7 @@ def atomic_path(path: str | os.PathLike[str], *, fsync: bool = True) -> Iterator
     ...     fig.savefig(tmp)
     """
     final = Path(path)
+    refuse_special(final)
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
         tmp = _temp_name(final)

@@ -9,10 +9,12 @@ Imports: io.atomic, io.csv_out, io.summary, errors.
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import os
 import shutil
 import signal
+import stat
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path, PurePosixPath
@@ -21,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from mechkin.errors import OutputError
+from mechkin.errors import OutputDirError, OutputError
 from mechkin.io.atomic import _STAGING_PREFIX, _fsync_file
 from mechkin.io.csv_out import format_csv
 from mechkin.io.summary import summary_json
@@ -35,11 +37,19 @@ _HELD = {signal.SIGINT, signal.SIGTERM}
 #: Cleanups of the runs in progress (staging folders, locks), run by a signal handler that
 #: leaves the process at once (mechkin.cli.common.terminate_cleanly).
 _CLEANUPS: dict[int, Any] = {}
+_NEXT_KEY = [0]
+
+#: Written into the output folder before the first rename of a commit and removed after the
+#: last (summary.json is renamed last): a folder holding it and no summary.json is an
+#: interrupted commit; the next run reads it to know which files mechkin wrote there.
+COMMIT_MARKER = ".mechkin-commit.json"
 
 
 def register_cleanup(fn: Any) -> int:
-    """Keep ``fn`` to run if the process is stopped by a signal; returns a key to forget it."""
-    key = id(fn)
+    """Keep ``fn`` to run if the process is stopped by a signal; returns a key to forget it.
+    Keys grow with each registration, so :func:`run_cleanups` runs the newest first."""
+    _NEXT_KEY[0] += 1
+    key = _NEXT_KEY[0]
     _CLEANUPS[key] = fn
     return key
 
@@ -93,6 +103,105 @@ def signals_held():
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+class _DirFd:
+    """The output folder opened once; every path under it is reached component by component
+    with ``O_NOFOLLOW`` from that descriptor, so no symlink inside it is ever followed."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.fd = -1
+
+    def __enter__(self) -> _DirFd:
+        self.fd = os.open(self.path, os.O_RDONLY | os.O_DIRECTORY)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        os.close(self.fd)
+
+    def _parent(self, rel: str, create: bool) -> tuple[int, str] | None:
+        """(descriptor of rel's folder, base name); None if a folder on the way is missing
+        (and not ``create``). Raises OSError (ELOOP, ENOTDIR) on a symlink or a file."""
+        parts = rel.split("/")
+        fd = os.dup(self.fd)
+        try:
+            for part in parts[:-1]:
+                if create:
+                    with contextlib.suppress(FileExistsError):
+                        os.mkdir(part, 0o777, dir_fd=fd)
+                try:
+                    nfd = os.open(part, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW,
+                                  dir_fd=fd)
+                except FileNotFoundError:
+                    os.close(fd)
+                    return None
+                os.close(fd)
+                fd = nfd
+        except BaseException:
+            os.close(fd)
+            raise
+        return fd, parts[-1]
+
+    def foreign(self, rel: str) -> str | None:
+        """Why ``rel`` cannot be written by mechkin (a symlink or a file on the way, or a
+        destination that is not a regular file), or None."""
+        try:
+            got = self._parent(rel, create=False)
+        except OSError:
+            return f"{rel!r} goes through a symlink or a file"
+        if got is None:
+            return None
+        fd, base = got
+        try:
+            st = os.stat(base, dir_fd=fd, follow_symlinks=False)
+        except FileNotFoundError:
+            return None
+        finally:
+            os.close(fd)
+        if not stat.S_ISREG(st.st_mode):
+            what = "a symlink" if stat.S_ISLNK(st.st_mode) else "not a regular file"
+            return f"{rel!r} exists and is {what}"
+        return None
+
+    def move_in(self, src: Path, rel: str) -> None:
+        got = self._parent(rel, create=True)
+        assert got is not None
+        fd, base = got
+        try:
+            os.replace(src, base, dst_dir_fd=fd)
+        finally:
+            os.close(fd)
+
+    def remove_owned(self, rel: str) -> bool:
+        """Remove ``rel`` if it is a regular file reached through real folders (never a
+        symlink, a folder or a special file, never outside the folder); True if removed."""
+        try:
+            rel = _check_relative(rel)
+            got = self._parent(rel, create=False)
+        except (OSError, OutputError):
+            return False
+        if got is None:
+            return False
+        fd, base = got
+        try:
+            st = os.stat(base, dir_fd=fd, follow_symlinks=False)
+            if stat.S_ISREG(st.st_mode):
+                os.unlink(base, dir_fd=fd)
+                return True
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
+        return False
+
+    def sync(self) -> None:
+        with contextlib.suppress(OSError):
+            os.fsync(self.fd)
+
+
+#: OSErrors of a writer that are bugs, not the disk's answer
+_NOT_IO = (FileNotFoundError, IsADirectoryError, NotADirectoryError)
+
+
 def _check_relative(name: str | os.PathLike[str]) -> str:
     rel = PurePosixPath(Path(name).as_posix())
     if rel.is_absolute() or not rel.parts or any(p in ("..", ".", "") for p in rel.parts):
@@ -137,8 +246,9 @@ class OutputDir:
     """
 
     def __init__(self, path: str | os.PathLike[str], *, fsync: bool = True,
-                 replaces: Sequence[str] = ()) -> None:
+                 replaces: Sequence[str] = (), scenario: str | None = None) -> None:
         self.path = Path(path)
+        self.scenario = scenario
         self._fsync = fsync
         self._staging: Path | None = None
         self._files: list[str] = []
@@ -194,6 +304,11 @@ class OutputDir:
             if exc_type is None:
                 self._commit(staging)
                 ok = True
+            elif isinstance(exc, OSError) and not isinstance(exc, _NOT_IO):
+                # a writer hit a full disk or an I/O error while staging: exit 4, not a bug
+                raise OutputError(f"{self.path}: cannot write the outputs: "
+                                  f"{exc.strerror or exc}; the folder keeps its previous "
+                                  "contents") from exc
         finally:
             shutil.rmtree(staging, ignore_errors=True)
             self._staging = None
@@ -207,22 +322,53 @@ class OutputDir:
                 self.path.rmdir()  # only if empty
 
     def _commit(self, staging: Path) -> None:
+        """Move the staged files into place: the commit protocol.
+
+        With SIGINT/SIGTERM held: every destination is checked first (a folder on the way
+        that is a symlink or a file, a destination that is not a regular file: refused, nothing
+        moved); :data:`COMMIT_MARKER` (this run's file list and the previous run's) is renamed
+        into the folder; the previous summary.json is removed, then the files are renamed
+        into place, the previous run's files that this run did not write are removed, and
+        summary.json comes last; then the marker goes. Killed at any moment (SIGKILL), the
+        folder holds the previous run whole, or this run whole, or no summary.json and the
+        marker: a folder every reader sees as incomplete and the next run cleans up.
+        """
         missing = [n for n in self._files if not (staging / n).is_file()]
         if missing:
             raise OutputError(f"{self.path}: files requested but never written: {missing}")
+        names = [n for n in self._files if n != "summary.json"]
+        last = ["summary.json"] if "summary.json" in self._files else []
         try:
             if self._fsync:
                 for name in self._files:
                     _fsync_file(staging / name)
-            with signals_held():
-                for name in self._files:
-                    dst = self.path / name
-                    dst.parent.mkdir(parents=True, exist_ok=True)
-                    os.replace(staging / name, dst)
+            marker = staging / COMMIT_MARKER
+            marker.write_text(json.dumps({
+                "pid": os.getpid(), "scenario": self.scenario, "files": names + last,
+                "replaces": [n for n in self._replaces if isinstance(n, str)]}) + "\n",
+                encoding="utf-8")
+            if self._fsync:
+                _fsync_file(marker)
+            with signals_held(), _DirFd(self.path) as root:
+                for name in names + last:
+                    problem = root.foreign(name)
+                    if problem:
+                        marker.unlink()
+                        raise OutputDirError(f"--out {self.path}: {problem}; mechkin does not "
+                                             "replace what it did not create (nothing written)")
+                os.replace(marker, self.path / COMMIT_MARKER)
+                root.sync()
+                if last:
+                    root.remove_owned("summary.json")
+                for name in names:
+                    root.move_in(staging / name, name)
                 for name in self._replaces:
                     if name not in self._files:
-                        with contextlib.suppress(OSError, OutputError):
-                            (self.path / _check_relative(name)).unlink()
+                        root.remove_owned(name)
+                for name in last:
+                    root.move_in(staging / name, name)
+                root.sync()
+                root.remove_owned(COMMIT_MARKER)
         except OSError as e:
             raise OutputError(f"{self.path}: cannot move outputs into place: "
                               f"{e.strerror or e}") from e

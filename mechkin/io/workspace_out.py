@@ -76,7 +76,9 @@ def write_lee_workspace(record: LeeWorkspaceRecord, out_dir: str | os.PathLike[s
                  summary={**record.summary, **(extra_summary or {})}, writer="workspace",
                  data=WorkspaceOutput("lee_spherical", record),
                  outputs=OutputFlags(csv=csv, plots=plots, mcap=False))
-    return list(rep.write(out_dir, plots=plots)["files"])
+    from mechkin.io.report import write_report
+
+    return list(write_report(rep, out_dir, plots=plots)["files"])
 
 
 # --------------------------------------------------------------------------- lee

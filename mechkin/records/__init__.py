@@ -3,15 +3,17 @@
 A task (``mechkin.tasks.<x>.run``) turns a validated scenario into a :class:`Report`: the
 summary that becomes ``summary.json``, the ``expect:`` results, and one task record
 (``data``) that holds plain arrays for the task's writer in ``mechkin.io`` (CSV columns, plot
-series, MCAP frame trees). Nothing here solves, and nothing here writes files except through
-:meth:`Report.write`, which hands the report to :func:`mechkin.io.report.write_report`.
+series, MCAP frame trees). Nothing here solves or writes files: :meth:`Report.write` calls the
+writer installed with :func:`set_report_writer` (the task layer installs
+:func:`mechkin.tasks.write.write_report`, which hands the report to
+:func:`mechkin.io.report.write_report`), so records know nothing of io.
 
-Imports: numpy and the standard library only at module level (records sit under io/ and
-tasks/; the one upward reference, ``Report.write``, is a function-level import of io).
+Imports: numpy and the standard library only (records sit under io/ and tasks/).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,7 +22,19 @@ from mechkin.records.motion import MotionRecord
 
 EXPECT_FAILED = "expect failed"
 
-__all__ = ["EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report"]
+__all__ = ["EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report",
+           "set_report_writer"]
+
+#: The function behind :meth:`Report.write`: ``write(report, out_dir, plots=...) -> summary``.
+_REPORT_WRITER: Callable[..., dict[str, Any]] | None = None
+
+
+def set_report_writer(write: Callable[..., dict[str, Any]]) -> None:
+    """Install the function that :meth:`Report.write` calls (``write(report, out_dir,
+    plots=...)`` returning the final summary). Importing :mod:`mechkin.tasks` installs
+    :func:`mechkin.tasks.write.write_report`; records themselves never import io."""
+    global _REPORT_WRITER
+    _REPORT_WRITER = write
 
 
 @dataclass
@@ -133,7 +147,8 @@ class Report:
     def write(self, out_dir: str | Path | None = None, *, plots: bool = True) -> dict[str, Any]:
         """Write every output into ``out_dir`` (default ``outputs/<scenario>``), atomically;
         return the final summary (with ``out_dir`` and ``files``)."""
-        from mechkin.io.report import write_report
-
+        if _REPORT_WRITER is None:
+            raise RuntimeError("Report.write: no report writer installed; import mechkin.tasks "
+                               "(mechkin.run does) or call mechkin.io.report.write_report")
         out = Path(out_dir) if out_dir is not None else Path("outputs") / self.scenario
-        return write_report(self, out, plots=plots)
+        return _REPORT_WRITER(self, out, plots=plots)

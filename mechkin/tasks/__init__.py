@@ -3,9 +3,11 @@
 One module per task: :mod:`~mechkin.tasks.fk`, :mod:`~mechkin.tasks.ik`,
 :mod:`~mechkin.tasks.track`, :mod:`~mechkin.tasks.workspace` and :mod:`~mechkin.tasks.biped`
 (an ``ik`` scenario with a ``biped:`` section). Each has ``run(scenario, **options) -> Report``
-and writes no file; ``Report.write`` (mechkin.io) does that.
+and writes no file; ``Report.write`` does that, through the writer this package installs
+(:mod:`mechkin.tasks.write`, the task layer's one door to io).
 
-Imports: config, model, solvers, spatial, records (never io/ or cli/).
+Imports: config, model, solvers, spatial, records; io only through :mod:`mechkin.tasks.write`;
+never cli/.
 """
 
 from __future__ import annotations
@@ -14,7 +16,10 @@ import importlib
 from pathlib import Path
 from typing import Any
 
-from mechkin.records import Report
+from mechkin.records import Report, set_report_writer
+from mechkin.tasks.write import write_report
+
+set_report_writer(write_report)
 
 TASKS = ("fk", "ik", "track", "workspace")
 
@@ -32,18 +37,17 @@ def run(scenario: Any, **options: Any) -> Report:
     ``options`` are the task's own run options (workspace: ``workers``, ``scheduler``,
     ``progress``).
     """
-    from mechkin.tasks.validate import validate_scenario
+    from mechkin.tasks.prepare import prepare
 
-    mech = None
-    if scenario.mechanism_path is not None:
-        from mechkin.model import load_mechanism
-
-        mech = load_mechanism(scenario.mechanism_path)
-    validate_scenario(scenario, mech)  # everything short of solving, as `mechkin check` does
+    # load and validate (everything short of solving, as `mechkin check` does), keeping what
+    # the checks computed that the run needs (the mechanism, its closed form, biped legs)
+    prepared = prepare(scenario)
     mod = importlib.import_module(f"mechkin.tasks.{task_module_name(scenario)}")
     import inspect
 
     accepted = inspect.signature(mod.run).parameters
+    if "prepared" in accepted:
+        options = {**options, "prepared": prepared}
     return mod.run(scenario, **{k: v for k, v in options.items() if k in accepted})
 
 

@@ -29,6 +29,15 @@ from mechkin.model.drawing import frame_tree
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.records import Report
 from mechkin.records.biped import BipedPlot, BipedRecord
+from mechkin.solvers.biped.leg import (
+    STATUS_OK,
+    InclinedPlane,
+    LegSolution,
+    LegTask,
+    biped_polylines,
+    body_transform,
+    psi_from_ee_rotation,
+)
 from mechkin.solvers.biped.sequence import (
     EE_FRAMES,
     SIDES,
@@ -39,15 +48,6 @@ from mechkin.solvers.biped.sequence import (
     StepResult,
     geometry_from_mechanism,
     solve_sequence,
-)
-from mechkin.solvers.biped.leg import (
-    STATUS_OK,
-    InclinedPlane,
-    LegSolution,
-    LegTask,
-    biped_polylines,
-    body_transform,
-    psi_from_ee_rotation,
 )
 from mechkin.spatial.euler_conventions import Side, contact_angles_from_matrix
 from mechkin.spatial.rotations import rot_x, rot_y, rot_z
@@ -226,15 +226,20 @@ def _step_record(mech: Mechanism, joints: Mapping[str, list[int]], k: int, step:
 # --------------------------------------------------------------------------- the run
 
 
-def run(scenario: Scenario, **_options: Any) -> Report:
+def run(scenario: Scenario, prepared: Any = None, **_options: Any) -> Report:
     """Solve the scenario's biped case or switching sequence; the report holds the summary,
-    the ``expect:`` results and the :class:`BipedRecord` of every output."""
+    the ``expect:`` results and the :class:`BipedRecord` of every output. ``prepared``
+    (:class:`mechkin.tasks.prepare.Prepared`, handed on by :func:`mechkin.tasks.run`): the
+    mechanism and the legs the validation read from it."""
     spec: BipedSpec = scenario.section
     units = scenario.spec.units
     if scenario.mechanism_path is None:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: required key is missing")
-    mech = load_mechanism(scenario.mechanism_path)
-    model = geometry_from_mechanism(mech)
+    if prepared is not None and prepared.biped_model is not None:
+        mech, model = prepared.mechanism, prepared.biped_model
+    else:
+        mech = load_mechanism(scenario.mechanism_path)
+        model = geometry_from_mechanism(mech)
     geometry, joints = model.geometry, model.joints
 
     pairs = [_step_si(s, spec, units, k) for k, s in enumerate(spec.steps())]

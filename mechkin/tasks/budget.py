@@ -21,6 +21,10 @@ from mechkin.errors import ConfigError
 
 _LIMIT: contextvars.ContextVar[int | None] = contextvars.ContextVar("mechkin_budget",
                                                                     default=None)
+#: The longest simulated time a table or CSV may reach (about 31 years).
+MAX_TIME_S = 1e9
+#: The largest size a budget may name (8 EiB: beyond it int(size) is meaningless).
+MAX_SIZE = 2**63 - 1
 _UNITS = {"": 1, "B": 1, "K": 1024, "M": 1024**2, "G": 1024**3, "T": 1024**4}
 
 
@@ -29,9 +33,10 @@ def parse_size(text: str) -> int:
     t = text.strip().upper().removesuffix("IB").removesuffix("B")
     unit = t[-1:] if t[-1:] in _UNITS and not t[-1:].isdigit() else ""
     num = float(t[: len(t) - len(unit)]) if unit else float(t)
-    if not num > 0 or num != num or num == float("inf"):
-        raise ValueError(f"expected a positive size, got {text!r}")
-    return int(num * _UNITS[unit])
+    size = num * _UNITS[unit]
+    if not 0 < size <= MAX_SIZE:  # NaN, inf, 1e308T
+        raise ValueError(f"expected a positive size of at most 8E, got {text[:40]!r}")
+    return int(size)
 
 
 def _meminfo() -> dict[str, int]:

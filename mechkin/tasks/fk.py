@@ -32,6 +32,7 @@ from mechkin.model.closure import ClosureStatus, solve_trajectory
 from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
+from mechkin.tasks.budget import MAX_TIME_S
 from mechkin.tasks.common import (
     UNIT_TO_SI,
     check_motion_budget,
@@ -138,6 +139,9 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
         raise ConfigError(f"{doc.where(('fk',))}: times must be non-decreasing")
     if t[0] < 0:
         raise ConfigError(f"{doc.where(('fk',))}: times must be >= 0")
+    if t[-1] > MAX_TIME_S:  # a spline over 1e308 s overflows (issue 28 item 9)
+        raise ConfigError(f"{doc.where(('fk',))}: times must be at most {MAX_TIME_S:g} s, got "
+                          f"{t[-1]:.3g}")
     if spec.motion is None:
         qd, qdd = sampled_rates(t, qv)
     return t, qv, qd, qdd

@@ -10,7 +10,10 @@ the guess first) and ``n_solutions``, and ik.csv gets one row per solution with 
 column (0, 1, ... in that order; -1 for a target without any verified solution, whose row is
 the method's answer) and ``primary`` (1 on the row that is the method's answer).
 
-Imports: config, model, solvers, records, tasks.common.
+How the targets are solved (in order, in chunks, on workers) is in :mod:`~mechkin.tasks.ik_solve`,
+``solutions: all`` in :mod:`~mechkin.tasks.ik_all`.
+
+Imports: config, model, solvers, records, tasks.common, tasks.ik_solve, tasks.ik_all.
 """
 
 from __future__ import annotations
@@ -30,20 +33,12 @@ from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
 from mechkin.solvers.ik import (
     IkOptions,
-    IkResult,
     IkStatus,
     pose_errors,
-    solve_ik,
-    solve_ik_batch,
 )
 from mechkin.solvers.ik.all_solutions import (
-    SAME_TOL,
     TOL_ORI_ALL,
     TOL_POS_ALL,
-    IkSolutions,
-    closed_form_all,
-    multistart_all,
-    wrapped,
 )
 from mechkin.tasks.common import (
     check_motion_budget,
@@ -53,18 +48,22 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
-from mechkin.tasks.distributed import Execution, map_jobs
 from mechkin.tasks.distributed import resolve as resolve_execution
+from mechkin.tasks.ik_all import _all_solutions, _clean, _solution_rows, _solutions_record
 from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
+from mechkin.tasks.ik_solve import _safe_norm, _solve_batch, _solve_split, solve_sequence
+from mechkin.tasks.prepare import Prepared
 
 
-def _closed_form_kind(scenario: Scenario, mech: Mechanism) -> str:
-    """The closed form of ``mech`` by structure; a declared one that does not fit, or none
-    that fits, is bad input naming the mismatch."""
-    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch, recognise_closed_form
+def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
+    """The closed form of the mechanism by structure (recognised once: by the validation
+    when it ran); a declared one that does not fit, or none that fits, is bad input naming
+    the mismatch."""
+    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch
 
+    mech = prepared.mechanism
     try:
-        kind = recognise_closed_form(mech)
+        kind = prepared.recognise_closed_form()
     except ClosedFormMismatch as exc:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: {exc}") from None
     if kind is None:
@@ -118,27 +117,6 @@ def _initial(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
     return qv, qw
 
 
-def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str) -> IkResult:
-    """The closed form the mechanism's structure admits (``closed_form:`` or recognised from
-    the geometry: Stewart leg lengths, kim1995's direct-drive appendix, lee's legs), then the
-    loop closure and verification by forward kinematics."""
-    from mechkin.solvers.closed_form.recognise import closed_form_ik
-
-    t0 = time.perf_counter()
-    qv, _ = closed_form_ik(mech, T[None], kind, tol=1e-4)
-    res = solve_closure(mech, qv, q_w0[None])
-    q = res.q[0]
-    T_E = forward_kinematics(mech, res.q).frames(mech, [mech.end_effector])[:, 0]
-    pe, oe = pose_errors(T_E, T[None])
-    ok = bool(res.ok[0]) and pe[0] < 1e-4 and oe[0] < 1e-4
-    return IkResult(q_v=q[mech.independent], q_w=q[mech.dependent], q=q,
-                    status=IkStatus.OK if ok else IkStatus.UNREACHABLE,
-                    position_error=float(pe[0]), orientation_error=float(oe[0]), f=0.0,
-                    grad_norm=0.0, iterations=0, evaluations=1,
-                    time_s=time.perf_counter() - t0, f_history=np.zeros(1),
-                    method="closed-form")
-
-
 def ik_options(spec: IkSpec, units: Any) -> IkOptions:
     """The solver options of an ``ik:`` section (tolerances converted to SI; the defaults of
     an IkSpec give the task's default solve: lm, restarts 50)."""
@@ -178,276 +156,6 @@ def beyond_reach(mech: Mechanism, T_P: np.ndarray, W: np.ndarray) -> np.ndarray:
     return dist > 1.1 * bound + 1e-9
 
 
-def _safe_norm(x: np.ndarray) -> np.ndarray:
-    """Row norms of x (k, 3) without overflow (scaled by the largest entry)."""
-    scale = np.max(np.abs(x), axis=1)
-    safe = np.where(scale > 0, scale, 1.0)
-    return scale * np.sqrt(((x / safe[:, None]) ** 2).sum(axis=1))
-
-
-def _out_of_reach(mech: Mechanism, qv: np.ndarray, qw: np.ndarray) -> IkResult:
-    q = np.asarray(mech.home, dtype=float).copy()
-    q[mech.independent], q[mech.dependent] = qv, qw
-    return IkResult(q_v=np.asarray(qv, float), q_w=np.asarray(qw, float), q=q,
-                    status=IkStatus.UNREACHABLE, position_error=float("inf"),
-                    orientation_error=0.0, f=0.0, grad_norm=0.0, iterations=0, evaluations=0,
-                    time_s=0.0, f_history=np.zeros(0), method="reach bound")
-
-
-def batch_results(br: Any, k: int) -> list[IkResult]:
-    """One IkResult per row of a batched solve (its time shared equally)."""
-    per = br.time_s / k
-    return [IkResult(
-        q_v=br.q_v[i], q_w=br.q_w[i], q=br.q[i], status=br.status[i],
-        position_error=float(br.position_error[i]),
-        orientation_error=float(br.orientation_error[i]), f=float(br.f[i]),
-        grad_norm=0.0, iterations=int(br.iterations[i]),
-        evaluations=int(br.iterations[i]) + 1, time_s=per,
-        f_history=np.array([br.f[i]]), method="lm") for i in range(k)]
-
-
-#: Targets per job of a batched solve (``batch: true``). The batch is solved in these chunks
-#: in one process too, so the result never depends on the executor; only seeded random
-#: restarts see the chunk (their draws follow the failed targets of a chunk).
-BATCH_CHUNK = 2000
-#: Most and fewest targets per job of a sequential (``batch: false``) solve split over
-#: workers (about four jobs per worker in between).
-SEQUENCE_CHUNK = 2000
-SEQUENCE_MIN_CHUNK = 25
-#: Targets a chunk of a warm-started chain solves before its own first target (from the
-#: initial guess), so that its first warm start is a solved configuration on the chain.
-WARM_OVERLAP = 8
-
-
-def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndarray,
-                   method: str, kind: str | None, opts: IkOptions, qv: np.ndarray,
-                   qw: np.ndarray, warm: bool, update: Any = None, offset: int = 0,
-                   total: int | None = None
-                   ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]],
-                              tuple[np.ndarray, np.ndarray]]:
-    """Solve the targets in order, each warm-started from the previous solution when
-    ``warm`` (kim1995 §5.2 Step 2; a singular solve does not move the start).
-
-    Returns
-    -------
-    results, guesses, (q_v, q_w)
-        One result and its start per target, and the start of the next target.
-    """
-    results: list[IkResult] = []
-    guesses: list[tuple[np.ndarray, np.ndarray]] = []
-    total = len(T_P) if total is None else total
-    for i, (T, w) in enumerate(zip(T_P, W, strict=False)):
-        guesses.append((qv, qw))
-        if far[i]:
-            results.append(_out_of_reach(mech, qv, qw))
-        else:
-            if method == "closed-form":
-                r = _closed_form(mech, T, qw, kind)
-            else:
-                r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
-            results.append(r)
-            if warm and r.status is not IkStatus.SINGULAR:
-                qv, qw = r.q_v, r.q_w
-        if update is not None and (i % 50 == 49 or i == len(T_P) - 1):
-            update(offset + i + 1, total)
-    return results, guesses, (qv, qw)
-
-
-def _sequence_job(job: dict[str, Any]) -> dict[str, Any]:
-    """One chunk of a sequential solve (a worker job): the ``overlap`` targets before the
-    chunk (warm-up of a warm-started chain, from the initial guess), then the chunk."""
-    from mechkin.solvers.workspace.sweeps import job_mechanism
-
-    mech = job_mechanism(job["mechanism"])
-    o = job["overlap"]
-    qv, qw = job["q_v0"], job["q_w0"]
-    if o:
-        _, _, (qv, qw) = solve_sequence(mech, job["T_P"][:o], job["W"][:o], job["far"][:o],
-                                        job["method"], job["kind"], job["options"], qv, qw,
-                                        job["warm"])
-    entry = (qv, qw)
-    res, guesses, last = solve_sequence(mech, job["T_P"][o:], job["W"][o:], job["far"][o:],
-                                        job["method"], job["kind"], job["options"], qv, qw,
-                                        job["warm"])
-    return {"results": res, "guesses": guesses, "entry": entry, "last": last}
-
-
-def _same_start(mech: Mechanism, a: tuple[np.ndarray, np.ndarray],
-                b: tuple[np.ndarray, np.ndarray]) -> bool:
-    """Two warm starts on the same solution branch (joints within SAME_TOL, revolute ones
-    wrapped)."""
-    dv = wrapped(mech, mech.independent, np.asarray(a[0]) - np.asarray(b[0]))
-    dw = wrapped(mech, mech.dependent, np.asarray(a[1]) - np.asarray(b[1]))
-    return bool(np.all(np.abs(dv) < SAME_TOL) and np.all(np.abs(dw) < SAME_TOL))
-
-
-def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
-                 far: np.ndarray, kind: str | None, opts: IkOptions, qv0: np.ndarray,
-                 qw0: np.ndarray, ex: Execution
-                 ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]],
-                            dict[str, Any]]:
-    """A sequential solve in chunks of targets on the run's executor.
-
-    Independent targets (``warm_start: false``) give bitwise the results of one process.
-    A warm-started chain: every chunk but the first solves the :data:`WARM_OVERLAP` targets
-    before it first (from the initial guess), so its first warm start is a solved
-    configuration; where that start is not on the branch the previous chunk ended on (joints
-    differ by more than SAME_TOL), the chunk is solved again here from the previous chunk's
-    end (``repaired_chunks``). Each target is then solved from a start equal to the one of a
-    single run within the solver's tolerance, so the solutions agree within the ik
-    tolerances (``tolerances.position`` / ``orientation``), on the same branch.
-    """
-    from mechkin.solvers.workspace.sweeps import mechanism_spec
-
-    spec: IkSpec = sc.section
-    k = len(T_P)
-    n = ex.n_workers(1) or 8
-    chunk = int(min(SEQUENCE_CHUNK, max(SEQUENCE_MIN_CHUNK, -(-k // (4 * n)))))
-    warm = bool(spec.warm_start)
-    mspec = mechanism_spec(sc.mechanism_path)
-    jobs = []
-    for a in range(0, k, chunk):
-        o = min(WARM_OVERLAP, a) if warm else 0
-        sl = slice(a - o, min(k, a + chunk))
-        jobs.append({"mechanism": mspec, "T_P": T_P[sl], "W": W[sl], "far": far[sl],
-                     "method": spec.method, "kind": kind, "options": opts, "q_v0": qv0,
-                     "q_w0": qw0, "warm": warm, "overlap": o, "start": a})
-    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex)
-    repaired = []
-    for j in range(1, len(parts)):
-        if warm and not _same_start(mech, parts[j]["entry"], parts[j - 1]["last"]):
-            job = jobs[j]
-            o = job["overlap"]
-            res, guesses, last = solve_sequence(
-                mech, job["T_P"][o:], job["W"][o:], job["far"][o:], spec.method, kind, opts,
-                *parts[j - 1]["last"], warm)
-            parts[j] = {"results": res, "guesses": guesses, "entry": parts[j - 1]["last"],
-                        "last": last}
-            repaired.append(j)
-    results = [r for p in parts for r in p["results"]]
-    guesses = [g for p in parts for g in p["guesses"]]
-    info = {**ex.describe(len(jobs)), "chunk": chunk,
-            "overlap": WARM_OVERLAP if warm else 0, "repaired_chunks": repaired}
-    return results, guesses, info
-
-
-def _batch_job(job: dict[str, Any]) -> list[IkResult]:
-    """One chunk of a batched solve (a worker job)."""
-    from mechkin.solvers.workspace.sweeps import job_mechanism
-
-    mech = job_mechanism(job["mechanism"])
-    br = solve_ik_batch(mech, job["T_P"], q_v0=job["q_v0"], q_w0=job["q_w0"],
-                        weights=job["W"], options=job["options"])
-    return batch_results(br, len(job["T_P"]))
-
-
-def _solve_batch(sc: Scenario, T_P: np.ndarray, W: np.ndarray, qv0: np.ndarray,
-                 qw0: np.ndarray, opts: IkOptions, ex: Execution
-                 ) -> tuple[list[IkResult], dict[str, Any] | None]:
-    """``batch: true``: the batched lm in chunks of :data:`BATCH_CHUNK` targets on the run's
-    executor (bitwise the same results in one process and on any number of workers)."""
-    from mechkin.solvers.workspace.sweeps import mechanism_spec
-
-    k = len(T_P)
-    mspec = mechanism_spec(sc.mechanism_path)
-    jobs = [{"mechanism": mspec, "T_P": T_P[a:a + BATCH_CHUNK], "W": W[a:a + BATCH_CHUNK],
-             "q_v0": qv0, "q_w0": qw0, "options": opts} for a in range(0, k, BATCH_CHUNK)]
-    parts = map_jobs(_batch_job, jobs, f"ik: {k} targets (batch)", ex)
-    info = ({**ex.describe(len(jobs)), "chunk": BATCH_CHUNK} if ex.split else None)
-    return [r for p in parts for r in p], info
-
-
-def _all_solutions(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
-                   results: list[IkResult], guesses: list[tuple[np.ndarray, np.ndarray]],
-                   far: np.ndarray, opts: IkOptions) -> list[IkSolutions]:
-    """Every distinct verified solution of each target: the closed form when the mechanism
-    has one (declared or recognised), else multi-start lm; the method's answer is a candidate."""
-    from mechkin.solvers.closed_form.recognise import ClosedFormMismatch, recognise_closed_form
-
-    spec: IkSpec = sc.section
-    try:
-        kind = recognise_closed_form(mech)
-    except ClosedFormMismatch:
-        kind = None
-    out: list[IkSolutions] = []
-    for i, (T, w) in enumerate(zip(T_P, W, strict=True)):
-        qv, qw = guesses[i]
-        extra = results[i].q[None] if np.all(np.isfinite(results[i].q)) else None
-        if far[i]:  # beyond the reach bound: no solution, nothing to search
-            n = mech.n
-            out.append(IkSolutions(q=np.zeros((0, n)), q_v=np.zeros((0, len(mech.independent))),
-                                   position_error=np.zeros(0), orientation_error=np.zeros(0),
-                                   distance=np.zeros(0), source="reach bound", starts=0,
-                                   time_s=0.0))
-        elif kind is not None:
-            out.append(closed_form_all(mech, T, kind, q_w0=qw, ref=qv, extra=extra,
-                                       weights=w))
-        else:
-            out.append(multistart_all(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts,
-                                      starts=spec.solution_starts, seed=spec.seed + i,
-                                      extra=extra))
-    return out
-
-
-def _solutions_record(mech: Mechanism, a: IkSolutions) -> dict[str, Any]:
-    sols = []
-    for k in range(a.count):
-        sols.append({
-            "q_v": {n: float(a.q[k, j]) for n, j in zip(mech.independent_names,
-                                                        mech.independent, strict=True)},
-            "q": {n: float(v) for n, v in zip(mech.joint_names, a.q[k], strict=True)},
-            "position_error": float(a.position_error[k]),
-            "orientation_error": float(a.orientation_error[k]),
-            "distance_from_guess": float(a.distance[k]),
-        })
-    return {"n_solutions": a.count, "solutions": sols, "solutions_source": a.source}
-
-
-def _solution_rows(mech: Mechanism, T_P: np.ndarray, labels: list[str],
-                   results: list[IkResult], all_sols: list[IkSolutions], kin: Any,
-                   pe: np.ndarray, oe: np.ndarray, phin: np.ndarray, status: list[str]):
-    """ik.csv rows for ``solutions: all``: one per solution of each target (the method's
-    answer alone, with solution -1, where a target has none)."""
-    rows_q, rows_t, sol_idx, primary, row_status, lab, iters = [], [], [], [], [], [], []
-    iv = mech.independent
-    for i, a in enumerate(all_sols):
-        if a.count == 0:
-            rows_q.append(kin.q[i])
-            rows_t.append(i)
-            sol_idx.append(-1)
-            primary.append(1)
-            row_status.append(status[i])
-            lab.append(labels[i])
-            iters.append(results[i].iterations)
-            continue
-        d = np.abs(wrapped(mech, iv, a.q_v - kin.q[i, iv][None])).max(axis=1)
-        prim = int(np.argmin(d)) if status[i] == "ok" and d.min() < SAME_TOL else -1
-        for k in range(a.count):
-            rows_q.append(a.q[k])
-            rows_t.append(i)
-            sol_idx.append(k)
-            primary.append(int(k == prim))
-            row_status.append("ok")
-            lab.append(labels[i])
-            iters.append(results[i].iterations if k == prim else 0)
-    q = np.array(rows_q)
-    idx = np.array(rows_t, dtype=int)
-    kin = forward_kinematics(mech, q)
-    T_E = kin.frames(mech, [mech.end_effector])[:, 0]
-    with np.errstate(over="ignore", invalid="ignore"):
-        pe, oe = pose_errors(T_E, T_P[idx])
-    pe = np.where(np.isfinite(pe), pe, _safe_norm(T_E[:, :3, 3] - T_P[idx, :3, 3]))
-    phi = closure_residual(mech, kin)
-    phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(q))
-    extra = {"solution": np.array(sol_idx), "primary": np.array(primary), "_T": T_P[idx],
-             "_iterations": iters}
-    return kin, T_E, pe, oe, phin, row_status, lab, extra
-
-
-def _clean(v: float) -> float:
-    return float(v) if np.isfinite(v) else 0.0
-
-
 def check_budget(scenario: Scenario) -> None:
     """The run's memory budget check (random targets), without solving."""
     rt = scenario.section.random_targets
@@ -462,21 +170,25 @@ def _check_targets(scenario: Scenario, mech: Mechanism, k: int) -> None:
                         extra_per_item=4000.0)
 
 
-def run(scenario: Scenario, progress: bool | None = None) -> Report:
+def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | None = None
+        ) -> Report:
     """Solve every precision point in order (each warm-started from the previous solution,
     kim1995 §5.2 Step 2), or all at once with ``batch: true``; verify each by forward
     kinematics. Returns the report (summary, expect results, motion record with the
-    convergence histories).
+    convergence histories). ``prepared``: what validation computed (:func:`mechkin.tasks.run`
+    hands it on: the mechanism and its closed form).
     """
     spec: IkSpec = scenario.section
-    mech = load_mechanism(scenario.mechanism_path)
+    if prepared is None or prepared.mechanism is None:
+        prepared = Prepared(mechanism=load_mechanism(scenario.mechanism_path))
+    mech = prepared.mechanism
     if has_target_sets(spec):  # targets naming their frames: solved together per set
         o = ik_options(spec, scenario.spec.units)
         return run_target_sets(scenario, mech, *_initial(scenario, mech), o.tol_pos, o.tol_ori)
     if mech.end_effector is None:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: mechanism {mech.name} has no "
                           "end_effector frame")
-    kind = _closed_form_kind(scenario, mech) if spec.method == "closed-form" else None
+    kind = _closed_form_kind(scenario, prepared) if spec.method == "closed-form" else None
     T_P, W, labels = _targets(scenario, mech)
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
@@ -500,7 +212,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
             results, guesses, _ = solve_sequence(mech, T_P, W, far, spec.method, kind, opts,
                                                  qv0, qw0, spec.warm_start, update)
     solve_s = time.perf_counter() - t0
-    all_sols = (_all_solutions(scenario, mech, T_P, W, results, guesses, far, opts)
+    all_sols = (_all_solutions(scenario, prepared, T_P, W, results, guesses, far, opts)
                 if spec.solutions == "all" else None)
     q = np.array([r.q for r in results])
     q = np.where(np.isfinite(q), q, mech.home)

@@ -37,16 +37,16 @@ from mechkin.model import Mechanism, load_mechanism
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.records import Report
 from mechkin.records.track import GridTrace, TrackRecord
+from mechkin.solvers.dynamics.from_mechanism import (
+    dynamics_from_mechanism,
+    planar_two_link_from_mechanism,
+)
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
     TrackResult,
     TrackStatus,
-)
-from mechkin.solvers.dynamics.open_chain import InverseDynamics
-from mechkin.solvers.dynamics.from_mechanism import (
-    dynamics_from_mechanism,
-    planar_two_link_from_mechanism,
 )
 from mechkin.solvers.track.path_geometry import (
     ArcGeometry,

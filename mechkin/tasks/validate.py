@@ -37,20 +37,23 @@ import numpy as np
 
 from mechkin.config.load import short, short_list, short_str
 from mechkin.errors import ConfigError, MechkinError
+from mechkin.tasks.budget import MAX_TIME_S
 
 MAX_STEPS = 1_000_000
 MAX_SWEEP_SAMPLES = 5_000_000
 MAX_CSV_BYTES = 256 * 1024 * 1024
 
 
-def validate_scenario(sc: Any, mech: Any | None) -> None:
-    """Raise ConfigError listing every problem of scenario ``sc`` with mechanism ``mech``."""
-    problems = scenario_problems(sc, mech)
+def validate_scenario(sc: Any, mech: Any | None, prepared: Any = None) -> None:
+    """Raise ConfigError listing every problem of scenario ``sc`` with mechanism ``mech``;
+    what the checks compute that the run needs goes into ``prepared``
+    (:class:`mechkin.tasks.prepare.Prepared`) when given."""
+    problems = scenario_problems(sc, mech, prepared)
     if problems:
         raise ConfigError(problems)
 
 
-def scenario_problems(sc: Any, mech: Any | None) -> list[str]:
+def scenario_problems(sc: Any, mech: Any | None, prepared: Any = None) -> list[str]:
     """Every pre-solve problem of ``sc`` with ``mech`` (empty if the run may start)."""
     task = sc.spec.task
     name = sc.section_name
@@ -61,9 +64,9 @@ def scenario_problems(sc: Any, mech: Any | None) -> list[str]:
     if name == "fk":
         out += fk_problems(sc, mech)
     elif name == "ik":
-        out += ik_problems(sc, mech)
+        out += ik_problems(sc, mech, prepared)
     elif name == "biped":
-        out += biped_problems(sc, mech)
+        out += biped_problems(sc, mech, prepared)
     elif name == "track":
         out += track_problems(sc, mech)
     elif name == "workspace":
@@ -153,6 +156,9 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
                 out.append(f"{doc.where(('fk', 'table', 't'))}: times must be non-decreasing")
             if t[0] < 0:
                 out.append(f"{doc.where(('fk', 'table', 't'))}: times must be >= 0")
+            if t[-1] > MAX_TIME_S:
+                out.append(f"{doc.where(('fk', 'table', 't'))}: times must be at most "
+                           f"{MAX_TIME_S:g} s, got {t[-1]:.3g}")
     elif spec.csv is not None:
         try:
             path = (doc.path.parent / spec.csv).resolve()
@@ -188,7 +194,7 @@ def _fk_base_problems(sc: Any, mech: Any) -> list[str]:
 # ---- ik ---------------------------------------------------------------------------------------
 
 
-def ik_problems(sc: Any, mech: Any) -> list[str]:
+def ik_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
     """What ``mechkin ik`` refuses before solving: no end effector, a closed form the mechanism
     has not, an initial guess of unknown joints, a target that is not a finite pose."""
     from mechkin.config.ik_spec import target_matrix
@@ -211,7 +217,9 @@ def ik_problems(sc: Any, mech: Any) -> list[str]:
         )
 
         try:
-            if recognise_closed_form(mech) is None:
+            kind = (recognise_closed_form(mech) if prepared is None
+                    else prepared.recognise_closed_form())
+            if kind is None:
                 out.append(f"{doc.where(('ik', 'method'))}: no closed form fits mechanism "
                            f"{short(mech.name)} (declare closed_form: stewart | direct_drive | "
                            "lee_spherical in the mechanism file, or use method: lm)")
@@ -233,18 +241,20 @@ def ik_problems(sc: Any, mech: Any) -> list[str]:
     return out
 
 
-def biped_problems(sc: Any, mech: Any) -> list[str]:
+def biped_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
     """The mechanism's legs must be the hwang2023 closed-form legs (what ``run_biped`` checks
     first)."""
     from mechkin.solvers.biped.sequence import geometry_from_mechanism
 
     try:
         with np.errstate(all="raise"):
-            geometry_from_mechanism(mech)
+            model = geometry_from_mechanism(mech)
     except FloatingPointError:
         return [f"{sc.doc.where(('mechanism',))}: the legs' kinematics is not finite"]
     except MechkinError as exc:
         return [f"{sc.doc.where(('mechanism',))}: {_strip_source(str(exc), mech)}"]
+    if prepared is not None:
+        prepared.biped_model = model
     return []
 
 

@@ -1,8 +1,10 @@
 """The package's import graph: no cycles, imports only downward (DESIGN.md: data flow).
 
 Every ``import`` in ``mechkin/`` is read from the source (module level and inside functions;
-``if TYPE_CHECKING:`` blocks are annotations only and skipped). The one upward edge allowed is
-``Report.write`` (mechkin.records) handing a report to ``mechkin.io.report``.
+``if TYPE_CHECKING:`` blocks are annotations only and skipped). No edge is exempt: records know
+nothing of io (``Report.write`` calls the writer that ``mechkin.tasks`` installs), and the task
+layer reaches io only through ``mechkin.tasks.write``. Inside ``solvers/`` each room
+(sub-package) imports only the rooms docs/ARCHITECTURE.md allows (:mod:`test_rooms`).
 """
 
 from __future__ import annotations
@@ -22,11 +24,13 @@ FORBIDDEN = {
     "solvers": {"tasks", "io", "cli", "api"},
     "records": {"config", "model", "solvers", "tasks", "cli", "api"},
     "io": {"config", "model", "solvers", "tasks", "cli", "api"},
-    "tasks": {"io", "cli", "api"},
+    "tasks": {"cli", "api"},  # io: only mechkin.tasks.write (test_tasks_reach_io_through_write)
     "api": {"cli", "io"},
+    "solver": {"cli", "io", "api"},
     "errors": {"config", "model", "solvers", "tasks", "io", "records", "cli", "api", "spatial"},
 }
-ALLOWED_EDGES = {("mechkin.records", "mechkin.io.report")}
+#: the task layer's one door to io (Report.write's writer)
+TASKS_WRITE = "mechkin.tasks.write"
 
 
 def _module_name(path: Path) -> str:
@@ -104,8 +108,6 @@ def test_graph_covers_the_package():
 def test_no_forbidden_direction(mod):
     bad = []
     for dep in GRAPH[mod]:
-        if (mod, dep) in ALLOWED_EDGES:
-            continue
         if _layer(dep) in FORBIDDEN.get(_layer(mod), set()):
             bad.append(dep)
         if _layer(dep) == "cli" and _layer(mod) != "cli" and mod != "mechkin.__main__":
@@ -114,7 +116,7 @@ def test_no_forbidden_direction(mod):
 
 
 def test_no_import_cycle():
-    graph = {m: {d for d in deps if (m, d) not in ALLOWED_EDGES} for m, deps in GRAPH.items()}
+    graph = {m: set(deps) for m, deps in GRAPH.items()}
     # package __init__ re-exporting its own submodules is not a cycle of behaviour
     for m, deps in graph.items():
         graph[m] = {d for d in deps if not (d.startswith(m + ".") or m.startswith(d + ".")
@@ -139,3 +141,83 @@ def test_no_import_cycle():
         if m not in state:
             dfs(m)
     assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles[:5])
+
+
+def test_tasks_reach_io_through_write():
+    """Tasks write no files; the one task module that imports io is the writer behind
+    ``Report.write`` (mechkin.tasks.write), and it imports only io's entry point."""
+    bad = {m: sorted(d for d in deps if _layer(d) == "io")
+           for m, deps in GRAPH.items() if _layer(m) == "tasks"}
+    assert {m: d for m, d in bad.items() if d and m != TASKS_WRITE} == {}
+    assert bad[TASKS_WRITE] == ["mechkin.io.report"]
+
+
+def test_records_know_nothing_of_io():
+    assert not [d for m, deps in GRAPH.items() if _layer(m) == "records"
+                for d in deps if _layer(d) == "io"]
+
+
+# ---- the rooms of solvers/ (docs/ARCHITECTURE.md keeps the table; this test keeps it true) ----
+
+ARCH = PKG.parent / "docs" / "ARCHITECTURE.md"
+
+
+def _table(marker: str) -> list[list[str]]:
+    """The rows of the markdown table after the ``<!-- marker: ...`` comment, cells stripped
+    of backticks."""
+    lines = ARCH.read_text(encoding="utf-8").splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith(f"<!-- {marker}:"))
+    rows = []
+    for ln in lines[start + 3:]:  # comment, header, separator
+        if not ln.startswith("|"):
+            break
+        rows.append([c.strip().replace("`", "") for c in ln.strip().strip("|").split("|")])
+    return rows
+
+
+ROOMS = {row[0]: {r.strip() for r in row[2].split(",") if r.strip()} for row in _table("rooms")}
+
+
+def _room(mod: str) -> str | None:
+    parts = mod.split(".")
+    return parts[2] if len(parts) > 2 and parts[1] == "solvers" else None
+
+
+def test_every_room_has_a_row():
+    have = {p.stem if p.is_file() else p.name for p in (PKG / "solvers").iterdir()
+            if (p.suffix == ".py" and p.stem != "__init__") or (p / "__init__.py").is_file()}
+    assert have == set(ROOMS), (f"docs/ARCHITECTURE.md rooms: missing "
+                                f"{sorted(have - set(ROOMS))}, stale {sorted(set(ROOMS) - have)}")
+    for room, allowed in ROOMS.items():
+        assert allowed <= set(ROOMS) - {room}, (room, allowed)
+
+
+@pytest.mark.parametrize("room", sorted(ROOMS))
+def test_room_imports_only_the_rooms_it_may(room):
+    bad = sorted({f"{m} -> {d}" for m, deps in GRAPH.items() if _room(m) == room
+                  for d in deps if _room(d) not in (None, room) and _room(d) not in ROOMS[room]})
+    assert not bad, f"room {room} may import {sorted(ROOMS[room])} only: {bad}"
+
+
+def test_rooms_form_no_cycle():
+    import graphlib
+
+    order = graphlib.TopologicalSorter({r: set(a) for r, a in ROOMS.items()})
+    order.prepare()  # raises CycleError on a cycle of allowed imports
+
+
+PAPERS = _table("papers")
+
+
+def test_papers_table_names_real_functions():
+    assert {row[0] for row in PAPERS} >= {"kim1995", "hwang2023", "park", "lee"}
+    missing = []
+    for _paper, _eqs, module, name in PAPERS:
+        path = PKG.parent / Path(*module.split("."))
+        path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+        tree = ast.parse(path.read_text(encoding="utf-8")) if path.is_file() else None
+        names = {n.name for n in (tree.body if tree else [])
+                 if isinstance(n, ast.FunctionDef | ast.ClassDef)}
+        if name not in names:
+            missing.append(f"{module}.{name}")
+    assert not missing, f"docs/ARCHITECTURE.md names what does not exist: {missing}"

@@ -147,3 +147,55 @@ def test_output_dir_sweeps_stale_staging_of_dead_runs(tmp_path: Path) -> None:
     with OutputDir(out) as od:
         od.write_text("a.csv", "1\n")
     assert not stale.exists() and mine.exists()
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "symlink", "folder"])
+def test_atomic_write_never_replaces_a_special_file(tmp_path: Path, kind: str) -> None:
+    """``import -o`` / ``export -o`` at a device, FIFO, symlink or folder: refused (exit 2),
+    the thing itself left as it was (issue 28 item 1: ``-o /dev/null`` replaced it)."""
+    from mechkin.errors import OutputDirError
+
+    target = tmp_path / "t"
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep")
+    if kind == "fifo":
+        os.mkfifo(target)
+    elif kind == "device":
+        try:
+            os.mknod(target, 0o600 | __import__("stat").S_IFCHR, os.makedev(1, 3))
+        except PermissionError:
+            pytest.skip("mknod needs CAP_MKNOD")
+    elif kind == "symlink":
+        target.symlink_to(victim)
+    else:
+        target.mkdir()
+    before = os.lstat(target)
+    with pytest.raises(OutputDirError, match="exists and is a") as e:
+        atomic_write_text(target, "new")
+    assert e.value.exit_code == 2
+    after = os.lstat(target)
+    assert (after.st_ino, after.st_mode) == (before.st_ino, before.st_mode)
+    assert victim.read_text() == "keep"
+    assert _names(tmp_path) == ["t", "victim.txt"]
+
+
+def test_disk_full_while_staging_is_exit_4_and_keeps_the_previous_run(tmp_path: Path,
+                                                                       monkeypatch) -> None:
+    """ENOSPC from a writer inside the output folder -> OutputError (exit 4), the previous
+    files untouched, no staging left (issue 28 item 6)."""
+    import errno
+
+    out = tmp_path / "o"
+    with OutputDir(out) as od:
+        od.write_text("a.csv", "old")
+    real = Path.write_bytes
+
+    def full(self, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Path, "write_bytes", full)
+    with pytest.raises(OutputError, match="No space left") as e, OutputDir(out) as od:
+        od.write_text("a.csv", "new")
+    monkeypatch.setattr(Path, "write_bytes", real)
+    assert e.value.exit_code == 4
+    assert _names(out) == ["a.csv"] and (out / "a.csv").read_text() == "old"

@@ -147,3 +147,52 @@ def test_cli_wrong_scheduler_is_one_line(tmp_path):
     assert r.returncode == 2, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "no Dask scheduler" in r.stderr
     assert not (tmp_path / "o").exists()
+
+
+WORKER = """
+import sys
+from distributed.cli.dask_worker import main
+sys.argv = ["dask-worker", sys.argv[1], "--nthreads", "1", "--no-dashboard", "--host",
+            "127.0.0.1", "--no-nanny"]
+main()
+"""
+
+
+def test_a_stopped_worker_fails_fast():
+    """A worker stopped with SIGSTOP still counts for the scheduler; the version probe must
+    not wait for it for ever (issue 28 item 7: --scheduler hung with no output)."""
+    import signal
+
+    with _cluster(0) as cluster:
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        worker = subprocess.Popen([sys.executable, "-c", WORKER, cluster.scheduler_address],
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with distributed.Client(cluster.scheduler_address, set_as_default=False) as c:
+                c.wait_for_workers(1, timeout=60)
+            os.kill(worker.pid, signal.SIGSTOP)
+            msg = _timed(lambda: connect_cluster(cluster.scheduler_address))
+            assert "did not answer within 3 s" in msg
+        finally:
+            os.kill(worker.pid, signal.SIGCONT)
+            worker.terminate()
+            try:
+                worker.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                worker.kill()
+                worker.wait()
+
+
+@pytest.mark.parametrize("value", ["1e308", "inf", "nan", "-1", "0", "soon"])
+def test_the_timeout_from_the_environment_is_bounded(monkeypatch, value):
+    monkeypatch.setenv("MECHKIN_DASK_TIMEOUT", value)
+    msg = _timed(lambda: connect_cluster(f"tcp://127.0.0.1:{_free_port()}"))
+    assert msg.startswith("MECHKIN_DASK_TIMEOUT: expected seconds in (0, 600]")
+
+
+def test_a_closed_port_is_refused_at_once(monkeypatch):
+    monkeypatch.setenv("MECHKIN_DASK_TIMEOUT", "10")
+    t0 = time.perf_counter()
+    msg = _timed(lambda: connect_cluster(f"tcp://127.0.0.1:{_free_port()}"))
+    assert time.perf_counter() - t0 < 5  # was 10.5 s: the comm retried until its timeout
+    assert "ConnectionRefusedError" in msg

@@ -20,8 +20,9 @@ import pytest
 from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import forward_kinematics
+from mechkin.solvers.closed_form.all_solutions import closed_form_all
 from mechkin.solvers.closed_form.direct_drive import direct_drive_branches
-from mechkin.solvers.ik.all_solutions import closed_form_all, multistart_all
+from mechkin.solvers.ik.all_solutions import multistart_all
 
 ROOT = Path(__file__).resolve().parents[2]
 MECH = ROOT / "mechanisms"

@@ -20,6 +20,7 @@ from mechkin.solvers.ik import (
     objective,
     pose_errors,
     reduced_jacobian,
+    seeds,
     solve_ik,
     solve_ik_batch,
 )
@@ -172,7 +173,7 @@ def test_compiled_lm_takes_the_numpy_lm_steps(root, name, monkeypatch):
     Ts = _random_poses(mech, 50, seed=3)
     kern = IkKernel(mech)
     w = np.ones((50, 6))
-    q0 = kern.seed_starts(Ts, w)[:, 0]
+    q0 = seeds.seed_starts(kern, Ts, w)[:, 0]
     opts = IkOptions()
     runs = {}
     for backend in ("compiled", "numpy"):

@@ -9,7 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from mechkin.errors import ModelError
-from mechkin.solvers.closed_form import lee_spherical as lee
+from mechkin.solvers.closed_form import lee_forward
 from mechkin.solvers.closed_form.lee_spherical import (
     LeeGeometry,
     euler_xyz_from_matrix,
@@ -226,7 +226,7 @@ def test_forward_misses_no_mode_found_by_multistart_newton(seed):
     res = forward_position(g, lengths)
     b = g.leg_offsets
     c = 0.5 * (lengths**2 - np.sum(b * b, -1) - g.r**2)
-    R, resid = lee._polish(
+    R, resid = lee_forward._polish(
         g, matrix_from_quat(rng.standard_normal((2000, 4))), np.broadcast_to(c, (2000, 3))
     )
     found = R[resid < 1e-10]

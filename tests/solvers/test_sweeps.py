@@ -163,7 +163,7 @@ def test_task_space_jobs_carry_the_mechanism_not_its_path(tmp_path, monkeypatch)
     they still run after the file is gone."""
     import shutil
 
-    import mechkin.solvers.workspace.sweeps as sw
+    import mechkin.solvers.workspace.task_space as sw
     from mechkin.model import load_mechanism
     from mechkin.model.kinematics import forward_kinematics
 

@@ -121,9 +121,9 @@ def test_execution_context_is_scoped_and_checked():
 
 @pytest.fixture
 def small_chunks(monkeypatch):
-    from mechkin.tasks import ik
+    from mechkin.tasks import ik_solve
 
-    monkeypatch.setattr(ik, "SEQUENCE_MIN_CHUNK", 6)
+    monkeypatch.setattr(ik_solve, "SEQUENCE_MIN_CHUNK", 6)
 
 
 def _puma_random(tmp_path: Path, count: int, seed: int, **kw) -> Path:
@@ -143,9 +143,9 @@ def test_ik_independent_targets_bitwise(tmp_path, cluster, small_chunks):
 
 
 def test_ik_batch_chunks_bitwise(tmp_path, cluster, monkeypatch):
-    from mechkin.tasks import ik
+    from mechkin.tasks import ik_solve
 
-    monkeypatch.setattr(ik, "BATCH_CHUNK", 8)  # 3 jobs (in one process too)
+    monkeypatch.setattr(ik_solve, "BATCH_CHUNK", 8)  # 3 jobs (in one process too)
     one, two, dask = _runs(_puma_random(tmp_path, 24, 2, batch=True, restarts=3), "ik",
                            cluster)
     assert two.summary["execution"]["jobs"] == 3

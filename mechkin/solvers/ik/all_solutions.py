@@ -4,10 +4,9 @@ A 6R arm such as the PUMA 560 has up to eight solutions of a generic pose (shoul
 right, elbow up / down, wrist flip); the kim1995 direct-drive arm two (elbow up / down; its
 q1 is fixed by the orientation); a Stewart platform one (the leg lengths). Two ways:
 
-* closed form (:func:`closed_form_all`): every branch of
-  :func:`mechkin.solvers.closed_form.recognise.closed_form_solutions` (direct drive: every
-  sign of kim1995's appendix; Stewart and lee: the leg lengths), each closed by the loop
-  closure and verified;
+* closed form (:func:`mechkin.solvers.closed_form.all_solutions.closed_form_all`, in the
+  closed-form room, which builds on this module): every branch of a recognised closed form,
+  each closed by the loop closure and verified the same way;
 * numerical (:func:`multistart_all`): Levenberg-Marquardt
   (:func:`mechkin.solvers.ik.solve_ik_batch`, no restarts) from many seeded starts at once:
   the nearest poses of the seeded codebook (open chains), then seeded random independent joints
@@ -24,9 +23,9 @@ distance from the guess (revolute modulo 2 pi), then lexicographically by q_v.
 
 Design
 ------
-Part of the IK solver family :mod:`mechkin.solvers.ik`; may import the family,
-:mod:`mechkin.model` and :mod:`mechkin.solvers.closed_form`; never ``io/``, ``cli/``,
-``tasks/`` or ``config/``.
+Part of the IK solver family :mod:`mechkin.solvers.ik`; may import the family and
+:mod:`mechkin.model`; never :mod:`mechkin.solvers.closed_form` (which imports ik), ``io/``,
+``cli/``, ``tasks/`` or ``config/``.
 
 References
 ----------
@@ -148,33 +147,6 @@ def _finish(mech: Mechanism, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, ref:
     return IkSolutions(q=q[idx], q_v=q[idx][:, iv], position_error=pe[idx],
                        orientation_error=oe[idx], distance=dist[idx], source=source,
                        starts=starts, time_s=time.perf_counter() - t0)
-
-
-def closed_form_all(mech: Mechanism, T_P: np.ndarray, kind: str, *,
-                    q_w0: np.ndarray | None = None, ref: np.ndarray | None = None,
-                    extra: np.ndarray | None = None, weights: np.ndarray | None = None,
-                    tol_pos: float = TOL_POS_ALL, tol_ori: float = TOL_ORI_ALL,
-                    same_tol: float = SAME_TOL) -> IkSolutions:
-    """Every closed-form solution of T_P (4, 4) (closed form ``kind``), loops closed from
-    ``q_w0`` (default home), verified, merged and ordered from ``ref`` (default home);
-    ``extra`` (k, n) are further candidates (e.g. the primary solution)."""
-    from mechkin.solvers.closed_form.recognise import closed_form_solutions
-
-    t0 = time.perf_counter()
-    iv, iw = mech.independent, mech.dependent
-    T_P = np.asarray(T_P, dtype=np.float64).reshape(4, 4)
-    qw0 = mech.home[iw] if q_w0 is None else np.asarray(q_w0, float)
-    ref = mech.home[iv] if ref is None else np.asarray(ref, float)
-    w = np.ones(6) if weights is None else np.asarray(weights, float)
-    qv = closed_form_solutions(mech, T_P[None], kind, tol=1e-6)[0]
-    cands = [np.zeros((0, mech.n))]
-    if len(qv):
-        res = solve_closure(mech, qv, np.broadcast_to(qw0, (len(qv), iw.size)))
-        cands.append(res.q)
-    if extra is not None:
-        cands.append(np.asarray(extra, float).reshape(-1, mech.n))
-    q = np.vstack(cands)
-    return _finish(mech, q, T_P, w, ref, tol_pos, tol_ori, same_tol, "closed-form", len(q), t0)
 
 
 def assembled_starts(mech: Mechanism, k: int, qw0: np.ndarray, rng: np.random.Generator

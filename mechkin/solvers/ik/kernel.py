@@ -23,8 +23,8 @@ pose). The kinematics (forward kinematics, the residual Jacobian, the loop closu
 Design
 ------
 Part of the IK solver family :mod:`mechkin.solvers.ik`. May import :mod:`mechkin.model`,
-:mod:`mechkin.spatial` and, lazily, :mod:`mechkin.solvers.ik.seeds`; never ``io/``, ``cli/`` or
-``tasks/``.
+:mod:`mechkin.spatial`; never :mod:`mechkin.solvers.ik.seeds` (which builds on the kernel:
+call :func:`~mechkin.solvers.ik.seeds.seed_starts` with a kernel), ``io/``, ``cli/`` or ``tasks/``.
 
 References
 ----------
@@ -158,14 +158,6 @@ class IkKernel:
         t = q_v + two_pi * np.round((ref - q_v) / two_pi)
         t = wrap_into(t, self.lower_v, self.upper_v)
         return np.where(self.cont_v, t, q_v)
-
-    def seed_starts(self, T_P: np.ndarray, w: np.ndarray, ranks=(0,),
-                    size: int | None = None) -> np.ndarray | None:
-        """Nearest codebook poses for targets T_P (m, 4, 4):
-        :func:`mechkin.solvers.ik.seeds.seed_starts`."""
-        from mechkin.solvers.ik.seeds import SEED_CODEBOOK, seed_starts
-
-        return seed_starts(self, T_P, w, ranks, SEED_CODEBOOK if size is None else size)
 
     def kinematics(self, q: np.ndarray) -> Kinematics:
         """Forward kinematics of configurations q (m, n) (mechkin.model)."""

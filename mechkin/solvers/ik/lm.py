@@ -199,6 +199,10 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     n_rows = 1 if stop_on_first else m
     if (not (closed_chain and kern.mech.couplings)
             and accel.use_compiled("closed" if closed_chain else "open", n_rows)):
+        # writable C arrays: a read-only start (a broadcast, a view of a frozen array) is
+        # another numba signature, compiled at first use after `mechkin warmup` (issue 29)
+        q_v0, q_w0, T_P, w = (np.require(a, np.float64, ("C", "W"))
+                              for a in (q_v0, q_w0, T_P, w))
         if not closed_chain:
             return _lm_open_compiled(kern, q_v0, q_w0, T_P, w, opts, history, stop_on_first)
         from mechkin.solvers.ik import tree_jit

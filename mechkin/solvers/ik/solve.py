@@ -428,6 +428,20 @@ def solve_ik_sequence(mech: Mechanism, targets: list[np.ndarray] | np.ndarray, *
     return out
 
 
+def _batch_of_one(mech: Mechanism, kern: IkKernel, T: np.ndarray, q_v0, weights,
+                  opts: IkOptions, t0: float) -> IkBatchResult:
+    """One target of :func:`solve_ik_batch` on an open chain: :func:`solve_ik` (one compiled
+    call per attempt, restarts at once), as a one-row batch record."""
+    qv = None if q_v0 is None else np.asarray(q_v0, dtype=np.float64).reshape(-1)
+    w = None if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1, 6)[0]
+    r = solve_ik(mech, T, q_v0=qv, weights=w, options=opts, kernel=kern)
+    return IkBatchResult(q_v=r.q_v[None], q_w=r.q_w[None], q=r.q[None],
+                         status=np.array([r.status], dtype=object),
+                         position_error=np.array([r.position_error]),
+                         orientation_error=np.array([r.orientation_error]),
+                         f=np.array([r.f]), iterations=np.array([r.iterations]),
+                         time_s=time.perf_counter() - t0)
+
 
 def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
                    q_w0: np.ndarray | None = None, weights: np.ndarray | None = None,
@@ -463,6 +477,8 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     t0 = time.perf_counter()
     T_P = np.asarray(T_P, dtype=np.float64).reshape(-1, 4, 4)
     m = T_P.shape[0]
+    if m == 1 and _fast_open(kern) and (q_w0 is None or np.size(q_w0) == 0):
+        return _batch_of_one(mech, kern, T_P[0], q_v0, weights, opts, t0)
     if m < SMALL_BATCH and _fast_open(kern) and (q_w0 is None or np.size(q_w0) == 0) \
             and accel.compiled_next("open", m):
         return _batch_open_compiled(kern, T_P, q_v0, weights, opts, t0)

@@ -2,11 +2,14 @@
 
 The compiled kernels are specialised on argument types, not on a mechanism: compiling them
 once for any open chain (``serial_jit.lm``, the single-solve path ``serial_jit.solve_rows``,
-the batch verification ``serial_jit.verify_rows`` and the small-batch attempt
-``serial_jit.lm_verify``) and any closed chain (``tree_jit.lm_closed``; the cg-golden point
-evaluator ``tree_jit.evaluate_one`` serves both) covers every mechanism. Each kernel is run
-once on a one-row problem at the mechanism's home pose, through the same wrappers the solvers
-call.
+the batch verification ``serial_jit.verify_rows``, the small-batch attempt
+``serial_jit.lm_verify`` and the batch's whole-turn step ``serial_jit.nearest_turn_rows``)
+and any closed chain (``tree_jit.lm_closed``; the cg-golden point evaluator
+``tree_jit.evaluate_one`` serves both) covers every mechanism. Each kernel is run once on a
+one-row problem at the mechanism's home pose, through the same wrappers the solvers call; the
+solvers hand the kernels writable C arrays (:func:`mechkin.solvers.ik.lm.lm_batch`), so a run
+never meets a second signature (a read-only start compiled ``lm_closed`` again: the first
+Stewart IK after ``mechkin warmup`` took 3-6 s, issue 29).
 
 Design
 ------
@@ -84,7 +87,8 @@ def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
         lms = [("serial_jit.lm", "open-chain lm"),
                ("serial_jit.solve_rows", "open-chain single solve"),
                ("serial_jit.verify_rows", "open-chain batch verification"),
-               ("serial_jit.lm_verify", "open-chain small batch")]
+               ("serial_jit.lm_verify", "open-chain small batch"),
+               ("serial_jit.nearest_turn_rows", "open-chain batch whole turns")]
     return [*lms, ("tree_jit.evaluate_one", "cg-golden point evaluation")]
 
 
@@ -108,7 +112,8 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
     opts = IkOptions()
     if name == "serial_jit.lm":
         return lambda: lm._lm_open_compiled(kern, qv, qw, T, w, opts, False)
-    if name in ("serial_jit.solve_rows", "serial_jit.verify_rows", "serial_jit.lm_verify"):
+    if name in ("serial_jit.solve_rows", "serial_jit.verify_rows", "serial_jit.lm_verify",
+                "serial_jit.nearest_turn_rows"):
         from mechkin.solvers.ik import serial_jit
         from mechkin.solvers.ik.solve import _solve_consts
 
@@ -122,6 +127,10 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
                     np.zeros(1, dtype=np.bool_), np.zeros(1), np.empty((1, 4)))
             return lambda: serial_jit.lm_verify(qv, F0, w, *c[:11], 1e-30, 0.0, 5, 0,
                                                 lm.LM_MU, T, *outs)
+        if name == "serial_jit.nearest_turn_rows":  # as solve_ik_batch calls it
+            ref = np.empty_like(qv)
+            ref[:] = qv
+            return lambda: serial_jit.nearest_turn_rows(qv.copy(), ref, c[8], c[9], c[10])
         if name == "serial_jit.verify_rows":
             return lambda: serial_jit.verify_rows(qv, c[5], *c[:5], T, w, np.empty((1, 4)))
         return lambda: serial_jit.solve_rows(

@@ -98,6 +98,9 @@ class ClosedHandPathIK(HandPathIK):
         :class:`HandPathIK`.
     """
 
+    #: one table point at a time (each continuation step adds an anchor of the loop closure)
+    BLOCK = 1
+
     def __init__(self, mech: Mechanism, frame: int, geometry: PathGeometry, q0: np.ndarray,
                  tol: float, branch: dict[int, int] | None = None,
                  mask: Sequence[str] | None = None, tol_rot: float | None = None,

@@ -57,7 +57,8 @@ and ``_task(q, r=None)`` / ``_task_jacobian(q, r=None)``; ``r`` is passed only w
 orientation varies along the path (slerp), so a subclass written for held orientations may keep
 ``_task_jacobian(q)``.
 
-Imports: numpy, model.kinematics, spatial.rotations, solvers.path_geometry, errors.
+Imports: numpy, model.kinematics, spatial.rotations, solvers.track.path_geometry and
+path_blocks, errors.
 """
 
 from __future__ import annotations
@@ -68,6 +69,7 @@ import numpy as np
 
 from mechkin.errors import ConfigError
 from mechkin.model.kinematics import forward_kinematics, frame_jacobian
+from mechkin.solvers.track.path_blocks import continue_blocks, newton_rows
 from mechkin.solvers.track.path_geometry import LineGeometry, PathGeometry, SlerpOrientation
 from mechkin.spatial.rotations import rotation_log
 
@@ -90,6 +92,11 @@ FD_D = 1e-6
 FD_F2 = 1e-5
 FD_F2_REDUNDANT = 1e-4
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
+#: Table points solved at once by the continuation (:meth:`HandPathIK._continue_blocks`).
+IK_BLOCK = 16
+#: Largest distance [rad | m] of a block's solution from its prediction along the tangent
+#: (farther: the point is solved alone, from its neighbour).
+BLOCK_DRIFT = 0.1
 
 
 class PathIKError(ConfigError):
@@ -166,6 +173,9 @@ class HandPathIK:
         or a branch sign is violated.
     """
 
+    #: Table points per continuation block (1: one at a time, from the previous point).
+    BLOCK = IK_BLOCK
+
     def __init__(self, mech, frame: int, geometry: PathGeometry, q0: np.ndarray, tol: float,
                  branch: dict[int, int] | None = None, mask: Sequence[str] | None = None,
                  tol_rot: float | None = None,
@@ -234,31 +244,15 @@ class HandPathIK:
         i0 = int(np.argmin(np.abs(self.r_tab)))
         tab = np.empty((len(self.r_tab), self.n))
         tab[i0] = q_start[0]
-        for rng in (range(i0 + 1, len(self.r_tab)), range(i0 - 1, -1, -1)):
-            prev = i0
-            for i in rng:
-                r = self.r_tab[i]
-                # Euler predictor along the tangent f' (Eq. (10)), then Newton's corrector
-                r_prev = self.r_tab[prev:prev + 1]
-                guess = tab[prev] + (r - self.r_tab[prev]) * self.dq_of(tab[prev][None, :],
-                                                                        r_prev)[0]
-                if not np.all(np.isfinite(guess)):
-                    guess = tab[prev]
-                q, ok, err = self._newton(guess[None, :], np.array([r]), IK_MAX_ITER)
-                point = np.round(geometry.position(np.array([r]))[0], 6).tolist()
-                if not ok or np.max(np.abs(q[0] - tab[prev])) > IK_MAX_JUMP:
-                    raise PathIKError(
-                        "path", f"the hand {noun} leaves the reachable workspace or meets a "
-                        f"singularity near r = {r:.3g} (point {point} m, IK error {err:.3g})",
-                        r=float(r), point=np.asarray(point))
-                sig = self._sigma_ratio(q, np.array([r]))[0]
-                if sig < SINGULAR_RTOL:
-                    raise PathIKError(
-                        "path", f"the hand {noun} meets a singularity near r = {r:.3g} (point "
-                        f"{point} m, sigma_min / sigma_max of the task Jacobian {sig:.3g})",
-                        r=float(r), point=np.asarray(point))
-                tab[i] = q[0]
-                prev = i
+        for idx in (range(i0 + 1, len(self.r_tab)), range(i0 - 1, -1, -1)):
+            if self.BLOCK > 1 and not self.redundancy:  # redundant: the posture term's
+                # tolerance (NULL_TOL) makes q(r) depend on the start at 1e-10: one at a time
+                self._continue_blocks(tab, i0, list(idx), noun)
+            else:
+                prev = i0
+                for i in idx:
+                    self._step(tab, prev, i, noun)
+                    prev = i
         for j, sgn in (branch or {}).items():
             name = mech.joint_names[j]
             sign = "positive" if sgn > 0 else "negative"
@@ -272,6 +266,43 @@ class HandPathIK:
                     f"{tab[k, j]:.6g} {mech.joint_unit(j)}); change ik.initial_guess to start "
                     "on that branch", joint=name)
         self.tab = tab
+
+    # ---- continuation along the table ---------------------------------------------------------
+
+    def _step(self, tab: np.ndarray, prev: int, i: int, noun: str) -> None:
+        """Solve table point ``i`` from its solved neighbour ``prev``: an Euler predictor along
+        the tangent f' (Eq. (10)), then Newton's corrector; raises :class:`PathIKError` where
+        the path leaves the workspace, jumps or meets a singularity."""
+        r = self.r_tab[i]
+        r_prev = self.r_tab[prev:prev + 1]
+        guess = tab[prev] + (r - self.r_tab[prev]) * self.dq_of(tab[prev][None, :], r_prev)[0]
+        if not np.all(np.isfinite(guess)):
+            guess = tab[prev]
+        q, ok, err = self._newton(guess[None, :], np.array([r]), IK_MAX_ITER)
+        point = np.round(self.geometry.position(np.array([r]))[0], 6).tolist()
+        if not ok or np.max(np.abs(q[0] - tab[prev])) > IK_MAX_JUMP:
+            raise PathIKError(
+                "path", f"the hand {noun} leaves the reachable workspace or meets a "
+                f"singularity near r = {r:.3g} (point {point} m, IK error {err:.3g})",
+                r=float(r), point=np.asarray(point))
+        sig = self._sigma_ratio(q, np.array([r]))[0]
+        if sig < SINGULAR_RTOL:
+            raise PathIKError(
+                "path", f"the hand {noun} meets a singularity near r = {r:.3g} (point "
+                f"{point} m, sigma_min / sigma_max of the task Jacobian {sig:.3g})",
+                r=float(r), point=np.asarray(point))
+        tab[i] = q[0]
+
+    def _continue_blocks(self, tab: np.ndarray, i0: int, idx: list[int], noun: str) -> None:
+        """Continuation in blocks (:func:`mechkin.solvers.track.path_blocks.continue_blocks`),
+        falling back to :meth:`_step` at a point a block does not pass."""
+        continue_blocks(self, tab, i0, idx, lambda prev, i: self._step(tab, prev, i, noun),
+                        max_iter=IK_MAX_ITER, max_jump=IK_MAX_JUMP, drift=BLOCK_DRIFT,
+                        singular_rtol=SINGULAR_RTOL, null_tol=NULL_TOL)
+
+    def _newton_rows(self, q: np.ndarray, r: np.ndarray, max_iter: int):
+        """Row-by-row Newton (:func:`mechkin.solvers.track.path_blocks.newton_rows`)."""
+        return newton_rows(self, q, r, max_iter, NULL_TOL)
 
     # ---- kinematics of the task ---------------------------------------------------------------
 

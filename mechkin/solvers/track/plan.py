@@ -7,7 +7,7 @@ default) plans ``objective: time`` and ``objective: intercept`` by TOPP-RA
 (:func:`mechkin.solvers.track.intercept.plan_track_topp`, O(N1)) when torque, velocity or
 acceleration limits bound the speed and no jerk limit is set, and everything else by the DP.
 With the DP, an intercept whose part starts ahead of the hand or rides an accelerating belt
-goes through :func:`mechkin.solvers.track.intercept.plan_intercept_dp` (dpct reading 11: the
+goes through :func:`mechkin.solvers.track.intercept_dp.plan_intercept_dp` (dpct reading 11: the
 single backward pass of reading 10 keeps one time per node and no grid state holds an
 accelerating part's speed); the rest is :func:`~mechkin.solvers.track.dpct.solve_conveyor_tracking`.
 This module exists so that dpct and intercept do not import each other.
@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from typing import Literal
 
 from mechkin.errors import ConfigError
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
 from mechkin.solvers.track.dpct import (
     DEFAULT_DP,
     NT_FRACTION,
@@ -31,8 +32,8 @@ from mechkin.solvers.track.dpct import (
     resolve_planner,
     solve_conveyor_tracking,
 )
-from mechkin.solvers.dynamics.open_chain import InverseDynamics
-from mechkin.solvers.track.intercept import plan_intercept_dp, plan_track_topp
+from mechkin.solvers.track.intercept import plan_track_topp
+from mechkin.solvers.track.intercept_dp import plan_intercept_dp
 from mechkin.solvers.track.path import JointPath
 
 
