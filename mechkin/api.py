@@ -75,7 +75,7 @@ def fk(
         All joints ``q`` (m, n), per-row ``status`` and ``residual``, and ``poses[name]``
         (m, 4, 4) in the base frame.
     """
-    if not mech.cuts:  # open chain: no loop closure, only the frames asked for (issue 29)
+    if not mech.is_closed:  # open chain (no cuts, no couplings): only the frames asked for
         return open_fk(mech, q_v, q_w0, frames)
     import numpy as np
 

@@ -196,7 +196,7 @@ class Mechanism:
         return -1 if j < 0 else int(self.joint_parent_frame[j])
 
 
-def end_effector_hint(mech: Mechanism, limit: int = 6) -> str:
+def end_effector_hint(mech: Mechanism, limit: int = 4) -> str:
     """What to write when ``mech`` has no end effector: the key, where it goes (the sidecar
     ``ROBOT.mechkin.yaml`` beside a URDF/MJCF file, else the mechanism file), an example and the
     candidate frames (frames on links that carry no joint, tool-like names first)."""
@@ -215,10 +215,10 @@ def end_effector_hint(mech: Mechanism, limit: int = 6) -> str:
         return 1 if re.search(r"(^|_)(ee|eef|tip|flange|gripper)(_|$)", low) else 2
 
     names = sorted(names, key=rank)
-    more = f", ... ({len(names)} in all)" if len(names) > limit else ""
+    more = f", ... {len(names)} in all" if len(names) > limit else ""
     src = mech.source
     if src is not None and src.suffix.lower() in (".urdf", ".xml", ".mjcf"):
-        where = f"in the sidecar {src.with_name(src.stem + '.mechkin.yaml')}"
+        where = f"in the sidecar {src.stem}.mechkin.yaml beside it"
     else:
         where = "in the mechanism file"
     return (f"fix: set end_effector {where}, e.g. 'end_effector: {names[0]}' (candidate "

@@ -311,7 +311,7 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
             from mechkin.model.mechanism import end_effector_hint
 
             out.append(f"{doc.where(('track', 'path'))}: the mechanism has no end_effector; "
-                       f"name the hand frame in path.frame; {end_effector_hint(mech, 5)}")
+                       f"name the hand frame in path.frame; {end_effector_hint(mech, 3)}")
     elif spec.path.frame not in mech.frame_names:
         out.append(_unknown_joint(sc, ("track", "path", "frame"), spec.path.frame,
                                   list(mech.frame_names), "a frame"))
@@ -347,7 +347,7 @@ def _frame_problems(sc: Any, mech: Any) -> list[str]:
         from mechkin.model.mechanism import end_effector_hint
 
         return [f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; give "
-                f"workspace.frame; {end_effector_hint(mech, 5)}"]
+                f"workspace.frame; {end_effector_hint(mech, 3)}"]
     return []
 
 

@@ -91,7 +91,7 @@ def test_ik_without_end_effector_lists_candidates_and_the_sidecar(tmp_path):
     lines = [ln for ln in run.stderr.splitlines() if "end_effector" in ln]
     assert len(lines) == 1, run.stderr
     assert lines[0].startswith(f"{sc}:3: mechanism: mechanism 'solo12.urdf' has no end_effector"
-                               f" frame; fix: set end_effector in the sidecar "
-                               f"{tmp_path / 'solo12.mechkin.yaml'}, e.g. 'end_effector: FL_FOOT'")
+                               " frame; fix: set end_effector in the sidecar solo12.mechkin.yaml "
+                               "beside it, e.g. 'end_effector: FL_FOOT'")
     assert "candidate frames: FL_FOOT, FR_FOOT, HL_FOOT, HR_FOOT" in lines[0]
     assert "Traceback" not in run.stderr
