@@ -194,9 +194,15 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
         eline = line_of(tag, ename) if named else els.pick(els.equality, e)
         label = f"equality/{tag}[{ename}]" if named else f"equality/{tag} (unnamed, {e + 1}.)"
         where = f"{path}:{eline}: {label}"
+        if tag == "tendon" and m.eq_active0[e]:
+            c = _tendon_coupling(mujoco, m, e, name)
+            if c is not None:  # a fixed tendon of two joints held at a length: linear
+                couplings.append(c | {"_line": eline, "_file": str(path), "_label": label})
+                continue
         if tag in ("tendon", "flex"):
             problems.append(f"{where}: {tag} equalities are not supported (mechkin reads "
-                            "<connect>, <weld> and linear <joint> equalities); fix: write the "
+                            "<connect>, <weld>, linear <joint> equalities and a fixed tendon of "
+                            "two joints without tendon2); fix: write the "
                             "coupling as <joint joint1=... joint2=... polycoef=\"c0 c1 0 0 0\"/>, "
                             "or list it in the sidecar (ROBOT.mechkin.yaml: couplings: [{joint: "
                             "J, master: M, multiplier: 1.0, offset: 0.0}])")
@@ -371,3 +377,23 @@ def _rpy(quat) -> list[float]:
     return [float(np.arctan2(R[2, 1], R[2, 2])),
             float(np.arctan2(-R[2, 0], np.hypot(R[2, 1], R[2, 2]))),
             float(np.arctan2(R[1, 0], R[0, 0]))]
+
+
+def _tendon_coupling(mujoco, m, e: int, name) -> dict | None:
+    """A tendon equality that is a linear joint coupling, or None: a ``<fixed>`` tendon of two
+    joints, ``a q_1 + b q_2``, held at ``L0 + c0`` (MuJoCo: ``L - L0 = c0`` without tendon2, L0
+    the length at qpos0) gives ``q_2 = -a/b q_1 + (L0 + c0)/b``."""
+    t = int(m.eq_obj1id[e])
+    if int(m.eq_obj2id[e]) >= 0 or int(m.tendon_num[t]) != 2:
+        return None
+    adr = int(m.tendon_adr[t])
+    if any(int(m.wrap_type[adr + k]) != int(mujoco.mjtWrap.mjWRAP_JOINT) for k in (0, 1)):
+        return None
+    a, b = float(m.wrap_prm[adr]), float(m.wrap_prm[adr + 1])
+    if b == 0.0:
+        return None
+    ja, jb = int(m.wrap_objid[adr]), int(m.wrap_objid[adr + 1])
+    obj = mujoco.mjtObj.mjOBJ_JOINT
+    return {"joint": name(obj, jb, f"joint{jb}"), "master": name(obj, ja, f"joint{ja}"),
+            "multiplier": -a / b,
+            "offset": (float(m.tendon_length0[t]) + float(m.eq_data[e][0])) / b}

@@ -274,3 +274,33 @@ def test_sidecar_names_ball_joint_components(tmp_path):
     j = mech.joint_index("left_hip_1")  # the other components keep the keyframe's values
     assert mech.home[j] == plain.home[j]
     assert mech.frame_names[mech.end_effector] == "left_sole"
+
+
+TENDON = """<mujoco>
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="a"><joint name="ja" axis="0 0 1" ref="0.1"/><geom size="0.1"/>
+      <body name="b" pos="0.2 0 0"><joint name="jb" axis="0 0 1"/><geom size="0.1"/>
+        <site name="tip" pos="0.2 0 0"/></body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="t"><joint joint="ja" coef="1"/><joint joint="jb" coef="-2"/></fixed>
+  </tendon>
+  <equality><tendon tendon1="t" polycoef="0.05 0 0 0 0"/></equality>
+</mujoco>
+"""
+
+
+def test_fixed_tendon_of_two_joints_is_a_coupling(tmp_path):
+    path = tmp_path / "tendon.xml"
+    path.write_text(TENDON)
+    mech = load_mechanism(path)
+    (c,) = mech.couplings
+    assert (mech.joint_names[c.joint], mech.joint_names[c.master]) == ("jb", "ja")
+    m = mujoco.MjModel.from_xml_path(str(path))
+    worst = worst_viol = 0.0
+    for qa in np.linspace(-1.0, 1.0, 7):
+        q = fk(mech, [[qa]], frames=[]).q[0]
+        err, viol = _compare(m, mech, q)  # MuJoCo's tendon-equality residual at mechkin's q
+        worst, worst_viol = max(worst, err), max(worst_viol, viol)
+    assert worst <= TOL and worst_viol <= TOL, (worst, worst_viol)

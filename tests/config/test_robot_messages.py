@@ -61,8 +61,8 @@ def test_unnamed_tendon_equality_real_line_and_fix(tmp_path):
       <body name="b" pos="0.2 0 0"><joint name="jb" axis="0 0 1"/><geom size="0.1"/></body>
     </body>
   </worldbody>
-  <tendon><fixed name="t"><joint joint="ja" coef="1"/><joint joint="jb" coef="-1"/></fixed>
-  </tendon>
+  <tendon><fixed name="t"><joint joint="ja" coef="1"/><joint joint="jb" coef="-1"/>
+    <joint joint="ja" coef="0.5"/></fixed></tendon>
   <equality>
     <tendon tendon1="t"/>
   </equality>
