@@ -58,11 +58,12 @@ def test_unnamed_tendon_equality_real_line_and_fix(tmp_path):
     p.write_text("""<mujoco>
   <worldbody>
     <body name="a"><joint name="ja" axis="0 0 1"/><geom size="0.1"/>
-      <body name="b" pos="0.2 0 0"><joint name="jb" axis="0 0 1"/><geom size="0.1"/></body>
+      <body name="b" pos="0.2 0 0"><joint name="jb" axis="0 0 1"/><joint name="jc"/>
+        <geom size="0.1"/></body>
     </body>
   </worldbody>
   <tendon><fixed name="t"><joint joint="ja" coef="1"/><joint joint="jb" coef="-1"/>
-    <joint joint="ja" coef="0.5"/></fixed></tendon>
+    <joint joint="jc" coef="0.5"/></fixed></tendon>
   <equality>
     <tendon tendon1="t"/>
   </equality>
@@ -71,7 +72,7 @@ def test_unnamed_tendon_equality_real_line_and_fix(tmp_path):
     with pytest.raises(ConfigError) as exc:
         load_mechanism(p)
     msg = _one_line(exc)
-    assert msg.startswith(f"{p}:10: equality/tendon (unnamed, 1.): tendon equalities are not "
+    assert msg.startswith(f"{p}:11: equality/tendon (unnamed, 1.): tendon equalities are not "
                           "supported")
     assert "fix:" in msg and "couplings: [{joint:" in msg
 
