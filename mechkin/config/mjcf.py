@@ -200,12 +200,10 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
                 couplings.append(c | {"_line": eline, "_file": str(path), "_label": label})
                 continue
         if tag in ("tendon", "flex"):
-            problems.append(f"{where}: {tag} equalities are not supported (mechkin reads "
-                            "<connect>, <weld>, linear <joint> equalities and a fixed tendon of "
-                            "two joints without tendon2); fix: write the "
-                            "coupling as <joint joint1=... joint2=... polycoef=\"c0 c1 0 0 0\"/>, "
-                            "or list it in the sidecar (ROBOT.mechkin.yaml: couplings: [{joint: "
-                            "J, master: M, multiplier: 1.0, offset: 0.0}])")
+            problems.append(f"{where}: {tag} equalities are not supported (only a fixed "
+                            "tendon of two joints); fix: <joint joint1=\"J\" joint2=\"M\" "
+                            "polycoef=\"c0 c1 0 0 0\"/>, or in the sidecar couplings: [{joint: "
+                            "J, master: M, multiplier: 1.0, offset: 0.0}]")
             continue
         if not m.eq_active0[e]:
             continue
