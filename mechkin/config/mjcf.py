@@ -203,7 +203,7 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
             problems.append(f"{where}: {tag} equalities are not supported (only a fixed "
                             "tendon of two joints); fix: <joint joint1=\"J\" joint2=\"M\" "
                             "polycoef=\"c0 c1 0 0 0\"/>, or in the sidecar couplings: [{joint: "
-                            "J, master: M, multiplier: 1.0, offset: 0.0}]")
+                            "J, master: M, multiplier: 1.0}]")
             continue
         if not m.eq_active0[e]:
             continue
