@@ -200,10 +200,10 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
                 couplings.append(c | {"_line": eline, "_file": str(path), "_label": label})
                 continue
         if tag in ("tendon", "flex"):
-            problems.append(f"{where}: {tag} equalities are not supported (only a fixed "
+            problems.append(f"{where}: {tag} equalities are not supported (but a fixed "
                             "tendon of two joints); fix: <joint joint1=\"J\" joint2=\"M\" "
-                            "polycoef=\"c0 c1 0 0 0\"/>, or in the sidecar couplings: [{joint: "
-                            "J, master: M, multiplier: 1.0}]")
+                            "polycoef=\"c0 c1 0 0 0\"/> or sidecar couplings: [{joint: J, "
+                            "master: M}]")
             continue
         if not m.eq_active0[e]:
             continue
