@@ -9,6 +9,10 @@ machine) and the total.
     PYTHONPATH=. MPLBACKEND=Agg python benchmarks/bench_plots.py [SCENARIO.yaml ...]
         [--repeat N]
 
+``--cli``: the plots' share of one CLI call instead: ``python -m mechkin <task> FILE --out DIR``
+with and without ``--no-plots``, interleaved, ``--repeat`` times each (default 5), medians of
+the wall time and of the children's CPU time (issue 29: the plots' fixed cost per run).
+
 Default scenarios: the kim1995 fk scenarios (Stewart platform, direct-drive arm), the PUMA 560
 random ik (50 targets), a joint-sweep workspace (PUMA 560), the task-space reachability and the
 lee Fig. 2 / Fig. 4 maps.
@@ -58,11 +62,59 @@ def _instrument(log: list[tuple[str, float, float]]) -> None:
             setattr(mod, name, functools.wraps(fn)(timed))
 
 
+def _task(path: Path) -> str:
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if line.startswith("task:"):
+            return line.split(":", 1)[1].strip()
+    raise SystemExit(f"{path}: no 'task:' line")
+
+
+def cli_share(scenarios: list[str], repeat: int) -> int:
+    """Median wall and CPU time of ``python -m mechkin`` with plots and with ``--no-plots``."""
+    import os
+    import statistics
+    import subprocess
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    with tempfile.TemporaryDirectory() as tmp:
+        for sc in scenarios:
+            path = Path(sc) if Path(sc).is_absolute() else ROOT / sc
+            times: dict[str, list[tuple[float, float]]] = {"plots": [], "--no-plots": []}
+            for r in range(repeat):
+                for mode in times:
+                    cmd = [sys.executable, "-m", "mechkin", _task(path), str(path), "--out",
+                           str(Path(tmp) / f"{path.stem}-{r}-{mode}")]
+                    if mode != "plots":
+                        cmd.append(mode)
+                    c0 = os.times()
+                    t0 = time.perf_counter()
+                    subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, check=False)
+                    wall = time.perf_counter() - t0
+                    c1 = os.times()
+                    cpu = (c1.children_user - c0.children_user) + (c1.children_system
+                                                                   - c0.children_system)
+                    times[mode].append((wall, cpu))
+            med = {m: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
+                   for m, v in times.items()}
+            (pw, pc), (nw, nc) = med["plots"], med["--no-plots"]
+            print(f"{path.name}: with plots wall {pw:.2f} s cpu {pc:.2f} s; --no-plots wall "
+                  f"{nw:.2f} s cpu {nc:.2f} s; plots add wall {pw - nw:.2f} s, cpu {pc - nc:.2f} s"
+                  f" (medians of {repeat}, interleaved)")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenarios", nargs="*", default=DEFAULT)
-    ap.add_argument("--repeat", type=int, default=2, help="writes per scenario; best is shown")
+    ap.add_argument("--repeat", type=int, default=None,
+                    help="writes per scenario, best shown (default 2); --cli: runs per mode "
+                         "(default 5)")
+    ap.add_argument("--cli", action="store_true",
+                    help="time whole CLI calls with and without --no-plots")
     args = ap.parse_args(argv)
+    if args.cli:
+        return cli_share(args.scenarios, args.repeat or 5)
+    args.repeat = args.repeat or 2
 
     import matplotlib
 

@@ -144,12 +144,30 @@ class SolverBase:
             np.empty
         self._shape_v, self._shape_1, self._stride1 = (self.n_v,), (1, n), (8,)
         self._p = len(self._plan.steps) if self._plan is not None else 0
+        self._jit = None if self._plan is None else self._plan.jit
+        self._shape_out = None if self._plan is None else self._plan.shape1
         if compiled and self._plan is not None and fk_accel.compiled_fk_available():
             fk_accel.load()
         if method not in ("lm", "cg-golden"):
             raise ConfigError(f"method: expected 'lm' or 'cg-golden', got {method!r}")
         self._ik_args = (method, weights, restarts, seed)
         self._ik_opts: Any = None
+
+    _RUNTIME = ("_accel", "_np", "_ndarray", "_f64", "_empty")
+
+    def __getstate__(self) -> dict:
+        """Pickled without its module references (a mechanism carries its cached solvers to
+        distributed workers); :meth:`__setstate__` restores them."""
+        return {k: v for k, v in self.__dict__.items() if k not in self._RUNTIME}
+
+    def __setstate__(self, state: dict) -> None:
+        import numpy as np
+
+        from mechkin.model import fk_accel
+
+        self.__dict__.update(state)
+        self._accel, self._np, self._ndarray = fk_accel, np, np.ndarray
+        self._f64, self._empty = np.dtype(np.float64), np.empty
 
     # ---- forward kinematics --------------------------------------------------------------
     def _q(self, qv: Any, q_w0: Any):
@@ -235,8 +253,8 @@ class SolverBase:
                     q = self._check(q_v)
             entry = self._accel.ENTRY
             if entry is not None:  # the hot path: allocation and the kernel call
-                out = self._empty(self._plan.shape1)
-                entry(q, self._plan.jit, out)
+                out = self._empty(self._shape_out)
+                entry(q, self._jit, out)
                 return out[0, 0]
             return self._one(q)[0, 0]
         import numpy as np

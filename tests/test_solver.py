@@ -131,3 +131,17 @@ def test_solver_on_a_closed_chain_calls_the_loop_closure():
     np.testing.assert_array_equal(sol.poses(qv)[:, 0], ref.poses["end_effector"])
     sols = sol.ik(ref.poses["end_effector"][0])
     assert sols.ok
+
+
+def test_a_mechanism_with_cached_solvers_pickles():
+    """mechkin.fk caches a solver on the mechanism; mechanisms travel to distributed workers."""
+    import pickle
+
+    mech = mechkin.load_mechanism(ROOT / "mechanisms/ur5.yaml")
+    q = np.full(mech.n, 0.3)
+    ref = mechkin.fk(mech, q).poses["end_effector"]
+    sol = mechkin.Solver(mech)
+    back, sol2 = pickle.loads(pickle.dumps((mech, sol)))
+    np.testing.assert_array_equal(mechkin.fk(back, q).poses["end_effector"], ref)
+    np.testing.assert_array_equal(sol2.pose(q), ref[0])
+    assert sol2.ik(ref[0]).ok

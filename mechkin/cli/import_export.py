@@ -65,16 +65,18 @@ def export_cli(
     out: Path | None = typer.Option(None, "--out", "-o",
                                     help="URDF to write [default: stdout]"),
 ) -> None:
-    """Export a mechanism's spanning tree as URDF; cuts as mechkin:cut extension elements."""
+    """Export a mechanism's spanning tree as URDF with visuals; cuts as mechkin:cut elements."""
     _export(mechanism, out)
 
 
 @handle_errors
 def _export(mechanism: Path, out: Path | None) -> None:
-    from mechkin.io.urdf_out import mechanism_to_urdf
+    from mechkin.io.urdf_out import robot_urdf
     from mechkin.model import load_mechanism
+    from mechkin.tasks.robot import robot_description
 
-    text = mechanism_to_urdf(load_mechanism(mechanism))
+    # the same generated visuals as the MCAP logs' URDF (mechkin.tasks.robot)
+    text = robot_urdf(robot_description(load_mechanism(mechanism)))
     if out is None:
         typer.echo(text, nl=False)
         return

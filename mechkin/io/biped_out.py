@@ -14,6 +14,7 @@ import numpy as np
 
 from mechkin.io.foxglove_layout import layout, state_path
 from mechkin.io.mcap_out import Box, Label, Lines, MotionLog, Scene, Spheres, write_mcap
+from mechkin.io.motion_out import robot_text
 from mechkin.io.output_dir import OutputDir
 from mechkin.records import Report
 from mechkin.records.biped import BipedRecord
@@ -46,7 +47,8 @@ def biped_layout(rec: BipedRecord) -> dict:
 
     return layout("world", list(rec.joint_names),
                   [("legs: FK position error [m]", series("position_error_{s}_m", "error")),
-                   ("legs: foot angle beta [deg]", series("beta_{s}_deg", "beta"))])
+                   ("legs: foot angle beta [deg]", series("beta_{s}_deg", "beta"))],
+                  robot=rec.robot is not None, title="biped")
 
 
 def plot_biped(path, rec: BipedRecord) -> None:
@@ -125,4 +127,4 @@ def biped_log(rec: BipedRecord) -> MotionLog:
         frame_parents=all_parents, T_parent_child=T_all, joint_names=list(rec.joint_names),
         q=rec.q, qd=rec.qd if rec.qd.shape == rec.q.shape else None, scene=scene,
         state=rec.state, state_schema=rec.state_schema,
-        metadata=rec.metadata)
+        metadata=rec.metadata, robot_description=robot_text(rec.robot))

@@ -25,9 +25,31 @@ if TYPE_CHECKING:
     from mechkin.io.mcap_out import MotionLog, Scene
 
 
+#: Targets drawn as spheres all at once in an ik log's /scene, at most (each costs every step).
+MAX_TARGET_SPHERES = 200
+TARGET_FRAME = "target"
+_AXIS_RGBA = ((0.9, 0.15, 0.15, 1.0), (0.15, 0.75, 0.2, 1.0), (0.15, 0.3, 0.95, 1.0))
+
+
+def target_items(T: np.ndarray, size: float) -> tuple[list[Any], list[Any]]:
+    """(lines, spheres) of ik targets ``T`` (m, 4, 4): at each step the axes of that step's
+    target (x red, y green, z blue), and every target's position as a sphere (up to
+    ``MAX_TARGET_SPHERES``)."""
+    from mechkin.io.mcap_out import Lines, Spheres
+
+    length = 0.12 * size
+    o = T[:, :3, 3]
+    lines = [Lines(np.stack([o, o + length * T[:, :3, i]], axis=1), kind="list",
+                   thickness=0.006 * size, rgba=_AXIS_RGBA[i]) for i in range(3)]
+    spheres = []
+    if len(T) <= MAX_TARGET_SPHERES:
+        spheres.append(Spheres(o, radius=0.012 * size, rgba=(0.95, 0.2, 0.6, 0.8)))
+    return lines, spheres
+
+
 def motion_scene(rec: MotionRecord) -> Scene:
     """/scene of a motion: the stick segments and plate outlines as lines and the joint-axis
-    points as spheres."""
+    points as spheres; for ik, the axes of the current target and every target's position."""
     from mechkin.io.mcap_out import Lines, Scene, Spheres
 
     seg = rec.segments
@@ -37,11 +59,22 @@ def motion_scene(rec: MotionRecord) -> Scene:
     m = seg.shape[0]
     size = float(np.ptp(seg.reshape(-1, 3), axis=0).max()) if seg.size else 1.0
     size = size if size > 0 else 1.0
-    return Scene(
-        lines=(Lines(seg.reshape(m, -1, 3), kind="list", thickness=0.01 * size,
-                     rgba=(0.2, 0.5, 0.9, 1.0)),) if seg.shape[1] else (),
-        spheres=(Spheres(rec.axis_points, radius=0.015 * size),),
-    )
+    lines = [Lines(seg.reshape(m, -1, 3), kind="list", thickness=0.01 * size,
+                   rgba=(0.2, 0.5, 0.9, 1.0))] if seg.shape[1] else []
+    spheres = [Spheres(rec.axis_points, radius=0.015 * size)]
+    T_t = _finite_targets(rec)
+    if T_t is not None:
+        t_lines, t_spheres = target_items(T_t, size)
+        lines += t_lines
+        spheres += t_spheres
+    return Scene(lines=tuple(lines), spheres=tuple(spheres))
+
+
+def _finite_targets(rec: MotionRecord) -> np.ndarray | None:
+    T = rec.target_poses
+    if T is None or rec.task != "ik" or T.shape != (len(rec.times), 4, 4):
+        return None
+    return T if np.isfinite(T).all() else None
 
 
 _NUM, _STR = {"type": "number"}, {"type": "string"}
@@ -78,7 +111,8 @@ def motion_layout(rec: MotionRecord) -> dict[str, Any]:
     if rec.task == "ik":
         key.append((state_path("position_error"), "position error [m]"))
     return layout(rec.world_frame or rec.frame_root or "world", list(rec.joint_names),
-                  [(f"{rec.task}: residuals", key)])
+                  [(f"{rec.task}: residuals [m | rad]", key)], motors=rec.motors,
+                  robot=rec.robot is not None, title=f"{rec.title} ({rec.mechanism})")
 
 
 def frame_tree_of(rec: MotionRecord) -> tuple[str | None, list[str], list[str], Any]:
@@ -94,18 +128,34 @@ def frame_tree_of(rec: MotionRecord) -> tuple[str | None, list[str], list[str], 
             [rec.world_frame, *rec.frame_parents], T_pc)
 
 
+def robot_text(robot: Any) -> str | None:
+    """The URDF of a record's robot model (None without one)."""
+    if robot is None:
+        return None
+    from mechkin.io.urdf_out import robot_urdf
+
+    return robot_urdf(robot)
+
+
 def motion_log(rec: MotionRecord, effort: np.ndarray | None = None) -> MotionLog:
     from mechkin.io.mcap_out import MotionLog
 
     times = rec.times
     root, names, parents, T_pc = frame_tree_of(rec)
+    T_t = _finite_targets(rec)
+    if T_t is not None and root is not None:  # the current target as a /tf frame
+        name = TARGET_FRAME
+        while name in names or name == root:
+            name += "_"
+        names, parents = [*names, name], [*parents, root]
+        T_pc = np.concatenate([T_pc, T_t[:, None]], axis=1)
     return MotionLog(
         times=times - min(0.0, float(times[0])), root_frame=root,
         frame_names=names, frame_parents=parents,
         T_parent_child=T_pc, joint_names=list(rec.joint_names), q=rec.q, qd=rec.qd,
         effort=effort, scene=motion_scene(rec), state=rec.state,
         state_schema=state_schema(rec.task) if rec.task in STATE_FIELDS else None,
-        metadata=rec.metadata,
+        metadata=rec.metadata, robot_description=robot_text(rec.robot),
     )
 
 

@@ -79,14 +79,21 @@ def track_layout(rec: TrackRecord) -> dict[str, Any]:
     """Foxglove layout of ``track.mcap``: 3D, joint positions, torques vs limits, error."""
     from mechkin.io.foxglove_layout import joint_path, layout, state_path
 
-    key = [(joint_path(j, "effort"), f"u {j}") for j in rec.joint_names[:6]]
-    for j, _, _ in _torque_limits(rec)[:6]:
+    motors = set(rec.joint_names if rec.motors is None else rec.motors)
+    # the motors' torques (up to 6) on; the passive joints' (zero) torques listed but off
+    shown = [j for j in rec.joint_names if j in motors][:6]
+    passive = [j for j in rec.joint_names if j not in motors][:max(0, 12 - 3 * len(shown))]
+    key: list[Any] = [(joint_path(j, "effort"), f"u {j}") for j in shown]
+    key += [(joint_path(j, "effort"), f"u {j} (passive)", False) for j in passive]
+    for j, _, _ in [lim for lim in _torque_limits(rec) if lim[0] in shown]:
         key += [(state_path(f"torque_max_{j}"), f"max {j}"),
                 (state_path(f"torque_min_{j}"), f"min {j}")]
     err = ([(state_path("tracking_error_m"), "|hand - part| [m]")]
            if rec.trajectory.tracking_error is not None else [])
     return layout(rec.frame_root, list(rec.joint_names),
-                  [("torques [N m | N] vs limits", key), ("tracking error [m]", err)])
+                  [("torques [N m | N] vs limits", key), ("tracking error [m]", err)],
+                  motors=rec.motors, robot=rec.robot is not None,
+                  title=f"{rec.title} ({rec.mechanism})")
 
 
 # ---- CSV --------------------------------------------------------------------------------------
@@ -162,6 +169,7 @@ def _belt_stripes(t: np.ndarray, v: np.ndarray, R: np.ndarray, centre: np.ndarra
 
 def _write_mcap(od: OutputDir, rec: TrackRecord) -> None:
     from mechkin.io.mcap_out import Box, Lines, MotionLog, Scene, Spheres, write_mcap
+    from mechkin.io.motion_out import robot_text
 
     traj = rec.trajectory
     seg = rec.segments
@@ -210,7 +218,7 @@ def _write_mcap(od: OutputDir, rec: TrackRecord) -> None:
         scene=Scene(lines=tuple(lines), spheres=(Spheres(rec.axis_points, radius=0.015 * size),),
                     boxes=tuple(boxes), entity_id="track"),
         state=state, state_schema=state_schema(rec),
-        metadata=dict(rec.metadata),
+        metadata=dict(rec.metadata), robot_description=robot_text(rec.robot),
     )
     write_mcap(od.path_for("track.mcap"), log)
 

@@ -13,7 +13,15 @@ revolute joints ``<name>_1..3`` with their inner links ``<name>_link1..2``:
 - named frames become massless links on fixed joints ``<frame>_fixed``; inertials are written
   with the com as origin and the tensor in the link axes (rpy 0);
 - unlimited revolute joints are ``continuous``; an unlimited prismatic joint gets limits
-  +-1e6 m (URDF requires them) and ``unlimited="true"`` in its extension element.
+  +-1e6 m (URDF requires them) and ``unlimited="true"`` in its extension element;
+- ``<limit>`` carries the position limits of the mechanism file; URDF requires ``effort`` and
+  ``velocity`` too (urdfdom refuses a limit without them) and a mechanism file has neither, so
+  they are the run's rate limits where it has them (a track scenario's ``limits:``) and
+  otherwise ``0``, which the ``<!-- -->`` comment at the top says means "not given";
+- with ``visuals`` (:func:`robot_urdf`, :mod:`mechkin.tasks.robot`) every link carries the
+  generated ``<visual>`` elements (cylinders, spheres, boxes, meshes by URI, plates as
+  COLLADA meshes in ``data:`` URIs: :mod:`mechkin.io.collada`) and the robot the
+  ``<material>`` colours they name (``mechkin_<name>``).
 
 Cuts (and the independent joints, end effector, home values) do not exist in URDF: they are
 written twice, as an XML comment for the reader and as elements in the namespace
@@ -23,15 +31,18 @@ May import: spatial, numpy (duck-typed Mechanism; io sees no model code).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from mechkin.io.collada import prism_data_uri
 from mechkin.spatial.rotations import rpy_of
 
 if TYPE_CHECKING:
     from mechkin.model import Mechanism
+    from mechkin.records.robot import RobotDescription
 
 NS = "urn:mechkin:urdf"
 AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
@@ -50,8 +61,45 @@ def _origin(T: np.ndarray) -> str:
     return f'<origin xyz="{_vec(T[:3, 3])}" rpy="{_vec(rpy_of(T[:3, :3]))}"/>'
 
 
-def mechanism_to_urdf(mech: Mechanism) -> str:
-    """The URDF text of ``mech`` (SI: m, rad, kg); see the module docstring for the mapping."""
+def _visual_xml(visuals: Sequence[Any]) -> str:
+    """``<visual>`` elements of one link (records.robot.Visual, duck-typed)."""
+    out = []
+    for v in visuals:
+        size = [float(x) for x in v.size]
+        if v.shape == "cylinder":
+            geo = f'<cylinder radius="{_num(size[0])}" length="{_num(size[1])}"/>'
+        elif v.shape == "sphere":
+            geo = f'<sphere radius="{_num(size[0])}"/>'
+        elif v.shape == "box":
+            geo = f'<box size="{_vec(size)}"/>'
+        elif v.shape == "prism":  # a plate: an extruded polygon as an embedded mesh
+            uri = prism_data_uri(np.asarray(v.polygon, dtype=float), size[0])
+            geo = f"<mesh filename={quoteattr(uri)}/>"
+        else:
+            geo = f"<mesh filename={quoteattr(v.uri)} scale=\"{_vec(size)}\"/>"
+        out.append(f"<visual>{_origin(np.asarray(v.T, dtype=float))}<geometry>{geo}</geometry>"
+                   f"<material name={quoteattr('mechkin_' + v.material)}/></visual>")
+    return "".join(out)
+
+
+def robot_urdf(desc: RobotDescription) -> str:
+    """The URDF text of a run's robot model: :func:`mechanism_to_urdf` with its visuals."""
+    return mechanism_to_urdf(desc.mechanism, visuals=desc.visuals, materials=desc.materials,
+                             rate_limits=desc.rate_limits)
+
+
+def mechanism_to_urdf(mech: Mechanism, *, visuals: Sequence[Any] = (),
+                      materials: Mapping[str, Sequence[float]] | None = None,
+                      rate_limits: Mapping[str, tuple[float, float]] | None = None) -> str:
+    """The URDF text of ``mech`` (SI: m, rad, kg); see the module docstring for the mapping.
+
+    ``visuals`` (records.robot.Visual) go into their links, ``materials`` (name -> rgba) are
+    declared once, ``rate_limits`` (joint -> (velocity, effort)) fill ``<limit>``.
+    """
+    by_link: dict[str, list[Any]] = {}
+    for v in visuals:
+        by_link.setdefault(v.link, []).append(v)
+    rates = dict(rate_limits or {})
     used: set[str] = set(mech.link_names) | set(mech.frame_names) | set(mech.joint_names)
 
     def fresh(base: str) -> str:
@@ -64,7 +112,11 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
     out = ['<?xml version="1.0"?>',
            f'<robot name={quoteattr(mech.name)} xmlns:mechkin="{NS}">',
            f"  <!-- written by mechkin export from {mech.source.name if mech.source else 'a'}"
-           " mechanism: the spanning tree; loop closures below -->"]
+           " mechanism: the spanning tree; loop closures below; effort=\"0\" velocity=\"0\" in"
+           " a limit: not given (URDF requires the attributes) -->"]
+    for name, rgba in (materials or {}).items():
+        out.append(f"  <material name={quoteattr('mechkin_' + name)}><color "
+                   f'rgba="{_vec(rgba)}"/></material>')
     nl = len(mech.link_names)
     link_xml: list[str] = []
     joint_xml: list[str] = []
@@ -77,6 +129,7 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
                      f"<mass value=\"{_num(m)}\"/><inertia ixx=\"{_num(Ii[0, 0])}\" "
                      f"ixy=\"{_num(Ii[0, 1])}\" ixz=\"{_num(Ii[0, 2])}\" iyy=\"{_num(Ii[1, 1])}\" "
                      f"iyz=\"{_num(Ii[1, 2])}\" izz=\"{_num(Ii[2, 2])}\"/></inertial>")
+        inert += _visual_xml(by_link.get(name, ()))
         link_xml.append(f"  <link name={quoteattr(name)}>{inert}</link>" if inert
                         else f"  <link name={quoteattr(name)}/>")
     ext: list[str] = []
@@ -103,8 +156,9 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
         else:
             typ = "continuous" if unlimited else "revolute"
             lim = None if unlimited else (lo, hi)
-        limit = (f'<limit lower="{_num(lim[0])}" upper="{_num(lim[1])}" effort="0" '
-                 'velocity="0"/>') if lim else ""
+        vel, eff = rates.get(jname, (0.0, 0.0))
+        limit = (f'<limit lower="{_num(lim[0])}" upper="{_num(lim[1])}" effort="{_num(eff)}" '
+                 f'velocity="{_num(vel)}"/>') if lim else ""
         joint_pos[k] = len(joint_xml)
         joint_xml.append(
             f'  <joint name={quoteattr(jname)} type="{typ}"><parent link={quoteattr(parent)}/>'
@@ -127,7 +181,9 @@ def mechanism_to_urdf(mech: Mechanism) -> str:
         joint_xml[i] = joint_xml[i][: -len("</joint>")] + mimic + "</joint>"
     for f in range(nl, len(mech.frame_names)):
         fname = mech.frame_names[f]
-        link_xml.append(f"  <link name={quoteattr(fname)}/>")
+        vis = _visual_xml(by_link.get(fname, ()))
+        link_xml.append(f"  <link name={quoteattr(fname)}>{vis}</link>" if vis
+                        else f"  <link name={quoteattr(fname)}/>")
         joint_xml.append(
             f'  <joint name={quoteattr(fresh(fname + "_fixed"))} type="fixed">'
             f"<parent link={quoteattr(mech.link_names[mech.frame_link[f]])}/>"

@@ -21,7 +21,11 @@
   within_limits, reachable, seed_sample (the solved neighbour its loop closure started from,
   -1: home), mode_change, reseeded, dexterity) and ``workspace_slices.png``.
 
-Imports: records, io.atomic, io.report, io.workspace_plots (lazily, for the PNGs).
+Task-space and joint-sweep runs also write ``workspace.mcap`` and ``workspace.layout.json``
+(:mod:`mechkin.io.workspace_mcap`: the robot at home and the map as a point cloud coloured by
+isotropy); lee_spherical and design maps are over orientation angles and write none.
+
+Imports: records, io.atomic, io.report, io.workspace_plots and io.workspace_mcap (lazily).
 """
 
 from __future__ import annotations
@@ -65,6 +69,10 @@ def write(od: OutputDir, report: Report, plots: bool) -> None:
         _write_joint_sweep(od, out, plots=plots, csv=csv)
     else:
         raise ValueError(f"unknown workspace output kind {out.kind!r}")
+    if report.outputs.mcap and out.kind in ("task_space", "joint_sweep"):
+        from mechkin.io.workspace_mcap import write_workspace_mcap
+
+        write_workspace_mcap(od, out)
 
 
 def write_lee_workspace(record: LeeWorkspaceRecord, out_dir: str | os.PathLike[str], *,

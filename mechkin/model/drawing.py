@@ -31,10 +31,9 @@ import numpy as np
 
 from mechkin.model.kinematics import Kinematics, forward_kinematics
 from mechkin.model.mechanism import Mechanism
-from mechkin.spatial.transforms import invert
 
-__all__ = ["PlateLayout", "StickDrawing", "frame_tree", "plate_polygons", "resolve_plates",
-           "skeleton_segments", "stick_drawing"]
+__all__ = ["PlateLayout", "StickDrawing", "frame_tree", "plate_layouts", "plate_polygons",
+           "resolve_plates", "skeleton_segments", "stick_drawing"]
 
 Ref = tuple[str, int]  # ("frame", frame index), ("joint", joint index), ("centroid", plate)
 _REL = 1e-6  # relative tolerance (of the link's size) for coplanar / collinear / coincident
@@ -382,6 +381,11 @@ def stick_drawing(mech: Mechanism, kin: Kinematics) -> StickDrawing:
     return StickDrawing(segments=seg, plates=polys, joints=kin.axes()[1], frames=T_f)
 
 
+def plate_layouts(mech: Mechanism) -> tuple[PlateLayout, ...]:
+    """The plates of ``mech`` (declared, then convex hulls), each on its link."""
+    return _layout(mech)[0]
+
+
 def plate_polygons(mech: Mechanism, kin: Kinematics) -> dict[str, np.ndarray]:
     """Plate name -> vertices (m, p, 3) in drawing order (declared plates, then hulls)."""
     plates, _ = _layout(mech)
@@ -403,19 +407,11 @@ def skeleton_segments(mech: Mechanism, kin: Kinematics) -> np.ndarray:
 
 
 def frame_tree(mech: Mechanism, kin: Kinematics) -> tuple[str, list[str], list[str], np.ndarray]:
-    """(root, names, parents, T_parent_child (m, k, 4, 4)) of every link and named frame, for /tf.
-
-    A link hangs from the frame its joint is placed on; a named frame from its link.
+    """(root, names, parents, T_parent_child (m, k, 4, 4)) of every link and named frame, for /tf:
+    the URDF's spanning tree (:func:`mechkin.model.urdf_tree.urdf_frame_tree`), so the URDF
+    in the MCAP and /tf agree link by link (a link hangs from its joint's parent link, through
+    ``<link>_dh`` where the URDF has one; a named frame from its link).
     """
-    T_f = kin.frames(mech)
-    nf = len(mech.frame_names)
-    parents = [mech.frame_parent_frame(f) for f in range(nf)]
-    idx = [f for f in range(nf) if parents[f] >= 0]
-    par = [parents[f] for f in idx]
-    T_pc = invert(T_f[:, par]) @ T_f[:, idx]
-    return (
-        mech.frame_names[0],
-        [mech.frame_names[f] for f in idx],
-        [mech.frame_names[p] for p in par],
-        T_pc,
-    )
+    from mechkin.model.urdf_tree import urdf_frame_tree
+
+    return urdf_frame_tree(mech, kin)

@@ -93,6 +93,7 @@ class BipedRecord:
     frame_names: list[str] = field(default_factory=list)
     frame_parents: list[str] = field(default_factory=list)
     T_parent_child: np.ndarray | None = None
+    robot: Any = None  # records.robot.RobotDescription: the MCAP's URDF
     joint_names: list[str] = field(default_factory=list)
     q: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     qd: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))

@@ -60,6 +60,13 @@ class MotionRecord:
     table : str
         Format of the ``<task>`` table: ``csv`` (``<task>.csv``), ``npz`` or ``parquet``
         (``outputs.table``; :mod:`mechkin.io.table_out`).
+    robot : RobotDescription, optional
+        The robot model for the MCAP's URDF (:mod:`mechkin.records.robot`); None without MCAP.
+    motors : list of str, optional
+        The actuated (independent) joints; the layout switches the others' series off.
+    target_poses : array (m, 4, 4), optional
+        ik: the target pose of each row in the base frame (MCAP: the ``/tf`` frame ``target``
+        and its axes in ``/scene``).
     """
 
     task: str
@@ -89,3 +96,6 @@ class MotionRecord:
     world_frame: str | None = None
     T_world_base: np.ndarray | None = None
     table: str = "csv"
+    robot: Any = None
+    motors: list[str] | None = None
+    target_poses: np.ndarray | None = None

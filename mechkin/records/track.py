@@ -165,6 +165,8 @@ class TrackRecord:
     frame_names: list[str] = field(default_factory=list)
     frame_parents: list[str] = field(default_factory=list)
     T_parent_child: np.ndarray | None = None
+    robot: Any = None  # records.robot.RobotDescription: the MCAP's URDF
+    motors: list[str] | None = None  # actuated joints (the layout plots their torques)
     metadata: dict[str, Any] = field(default_factory=dict)
     cases: list[CaseTrace] = field(default_factory=list)
     hand_T: np.ndarray | None = None

@@ -196,8 +196,8 @@ class TaskSpaceRecord:
         Verified by forward kinematics [m], [rad].
     iterations : ndarray of int, shape (m,)
     isotropy, isotropy_position, condition_number, manipulability : ndarray, shape (m,)
-        Dexterity at the solutions (see :mod:`mechkin.solvers.workspace.sweeps`); 0 (condition number: 0
-        too) where not reachable.
+        Dexterity at the solutions (see :mod:`mechkin.solvers.workspace.sweeps`); 0
+        (condition number: 0 too) where not reachable.
     isotropy_normalized : ndarray, shape (m,) or None
         The dimensionally honest isotropy (translational rows / ``characteristic_length``);
         0 where not reachable.
@@ -292,3 +292,4 @@ class WorkspaceOutput:
     title: str = ""
     joint_columns: list[str] = field(default_factory=list)
     slices: dict[str, Any] | None = None
+    robot: Any = None  # records.robot.RobotSnapshot: the mechanism in workspace.mcap

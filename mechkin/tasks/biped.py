@@ -512,6 +512,9 @@ def _record(scenario: Scenario, mech: Mechanism, model: BipedModel, steps: list[
     rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child = frame_tree(
         mech, kin)  # rooted at the body frame
     rec.frame_names, rec.frame_parents = list(rec.frame_names), list(rec.frame_parents)
+    from mechkin.tasks.robot import robot_description
+
+    rec.robot = robot_description(mech)
     rec.joint_names = list(mech.joint_names)
     rec.polylines = polys
     rec.T_0_G = np.stack([_body(f, steps) for f in frames])

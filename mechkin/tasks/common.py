@@ -211,9 +211,13 @@ def motion_record(
         rec.snapshots = list(idx)
         rec.snapshot_labels = snapshot_labels or [f"t = {times[k]:.3g} s" for k in idx]
     if outs.mcap:
+        from mechkin.tasks.robot import robot_description
+
         rec.axis_points = kin.axes()[1]
         rec.frame_root, rec.frame_names, rec.frame_parents, rec.T_parent_child = frame_tree(
             mech, kin)
+        rec.robot = robot_description(mech)
+        rec.motors = [mech.joint_names[i] for i in mech.independent]
         state = []
         for k in range(m):
             st: dict[str, Any] = {"status": step_status[k],

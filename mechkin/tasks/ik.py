@@ -316,6 +316,7 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     rec.convergence = {labels[i]: np.maximum(r.f_history, 0.0)
                        for i, r in enumerate(results) if len(r.f_history)}
     rec.targets = np.asarray(T_rows[:, :3, 3], dtype=float)
+    rec.target_poses = np.asarray(T_rows, dtype=float)
     rec.convergence_ylabel = "f = 1/2 x^T W x"
     rec.convergence_title = f"{scenario.name}: {spec.method} (kim1995 Eq. (9))"
     return Report(task="ik", scenario=scenario.name, summary=summary, checks=checks,

@@ -370,4 +370,9 @@ def _record(scenario: Scenario, mech: Mechanism, res: TrackResult, others: list[
             frame_tree(mech, kin)
         rec.segments = skeleton_segments(mech, kin)
         rec.axis_points = kin.axes()[1]
+    if scenario.spec.outputs.mcap:
+        from mechkin.tasks.robot import rate_limits, robot_description
+
+        rec.robot = robot_description(mech, rate_limits(mech, rec.limits))
+        rec.motors = [mech.joint_names[i] for i in mech.independent]
     return rec

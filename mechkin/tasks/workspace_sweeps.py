@@ -132,7 +132,8 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
              f"({int(rec.reachable.sum())}/{rec.reachable.size} poses reached, "
              f"{spec.method or 'listed poses'})")
     return _report(sc, summary, WorkspaceOutput("task_space", rec, title=title,
-                                                joint_columns=_joint_columns(mech)))
+                                                joint_columns=_joint_columns(mech),
+                                                robot=_snapshot(sc, mech)))
 
 
 # --------------------------------------------------------------------------- joint sweep
@@ -295,4 +296,11 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
              f"({reach.sum()}/{m} samples, {spec.method})")
     return _report(sc, summary, WorkspaceOutput("joint_sweep", rec, title=title,
                                                 joint_columns=_joint_columns(mech),
-                                                slices=slices))
+                                                slices=slices, robot=_snapshot(sc, mech)))
+
+
+def _snapshot(sc: Scenario, mech: Any) -> Any:
+    """The robot at home for workspace.mcap (None when no MCAP is asked)."""
+    from mechkin.tasks.robot import robot_snapshot
+
+    return robot_snapshot(mech) if sc.spec.outputs.mcap else None

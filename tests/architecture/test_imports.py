@@ -221,3 +221,10 @@ def test_papers_table_names_real_functions():
         if name not in names:
             missing.append(f"{module}.{name}")
     assert not missing, f"docs/ARCHITECTURE.md names what does not exist: {missing}"
+
+
+@pytest.mark.parametrize("room", sorted(r for r in ROOMS if (PKG / "solvers" / r).is_dir()))
+def test_room_docstring_says_what_it_may_import(room):
+    doc = ast.get_docstring(ast.parse((PKG / "solvers" / room / "__init__.py").read_text()))
+    assert doc and "import" in doc, f"mechkin/solvers/{room}/__init__.py: no docstring saying " \
+                                    "what it owns and may import"

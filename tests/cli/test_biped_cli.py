@@ -55,7 +55,7 @@ def _mcap(path: Path) -> tuple[dict, dict, list]:
         counts = {summ.channels[cid].topic: n
                   for cid, n in summ.statistics.channel_message_counts.items()}
         times = (summ.statistics.message_start_time, summ.statistics.message_end_time)
-        proto = [t for t in topics if t != "/mechkin/state"]
+        proto = [t for t in topics if t not in ("/mechkin/state", "/robot_description")]
         msgs = [(ch.topic, dec) for _s, ch, _m, dec in reader.iter_decoded_messages(topics=proto)]
         msgs += [(ch.topic, json.loads(m.data)) for _s, ch, m in
                  reader.iter_messages(topics=["/mechkin/state"])]
@@ -103,7 +103,8 @@ def test_single_case_is_a_one_step_log(tmp_path: Path):
     assert code == 0 and (tmp_path / "o" / "biped.png").stat().st_size > 10_000
     topics, st, msgs = _mcap(tmp_path / "o" / "biped.mcap")
     assert topics == {"/tf": "foxglove.FrameTransforms", "/scene": "foxglove.SceneUpdate",
-                      "/joint_states": "foxglove.JointStates", "/mechkin/state": "mechkin.State"}
+                      "/joint_states": "foxglove.JointStates", "/mechkin/state": "mechkin.State",
+                      "/robot_description": "std_msgs/msg/String"}  # the URDF, once
     assert set(st["counts"].values()) == {1} and st["times"] == (0, 0)
 
 
@@ -114,7 +115,9 @@ def test_walk_to_skate_mcap_animates_the_sequence(tmp_path: Path):
     assert [s["mode"] for s in summary["steps"]] == ["walk", "skate", "roll", "roll"]
     assert "biped.png" not in summary["files"]
     topics, st, msgs = _mcap(tmp_path / "o" / "biped.mcap")
-    assert set(topics) == {"/tf", "/scene", "/joint_states", "/mechkin/state"}
+    assert set(topics) == {"/tf", "/scene", "/joint_states", "/mechkin/state",
+                           "/robot_description"}
+    assert st["counts"].pop("/robot_description") == 1  # the URDF, once
     assert all(n == 42 for n in st["counts"].values()), st["counts"]
     assert st["times"] == (0, 5_000_000_000)
     tf = [d for t, d in msgs if t == "/tf"]

@@ -43,12 +43,15 @@ def test_fk_puma_outputs_and_mcap(tmp_path):
         assert "/mechkin/state" in topics
         counts = {summ.channels[cid].topic: n
                   for cid, n in summ.statistics.channel_message_counts.items()}
+        assert counts.pop("/robot_description") == 1  # the URDF, once
         assert all(n == 201 for n in counts.values()), counts
         assert summ.statistics.message_start_time == 0
         assert summ.statistics.message_end_time == 4_000_000_000
         n_tf = 0
         for _schema, _channel, _message, decoded in reader.iter_decoded_messages(topics=["/tf"]):
-            assert len(decoded.transforms) == 7  # 6 links + the tool frame
+            # 6 links + the tool frame + link2_dh, link3_dh: the URDF's tree (standard D-H
+            # joints with a != 0 move an intermediate link)
+            assert len(decoded.transforms) == 9
             n_tf += 1
             last = decoded
         assert n_tf == 201

@@ -33,7 +33,7 @@ def _mcap(path: Path):
         counts = {summ.channels[cid].topic: n
                   for cid, n in summ.statistics.channel_message_counts.items()}
         decoded: dict[str, list] = {}
-        proto = [t for t in topics if t != "/mechkin/state"]
+        proto = [t for t in topics if t not in ("/mechkin/state", "/robot_description")]
         for _s, ch, _m, msg in reader.iter_decoded_messages(topics=proto):
             decoded.setdefault(ch.topic, []).append(msg)
         for _s, ch, m in reader.iter_messages(topics=["/mechkin/state"]):
@@ -91,6 +91,7 @@ def test_full_case_outputs_csv_and_mcap(tmp_path: Path) -> None:
     assert topics["/scene"] == "foxglove.SceneUpdate"
     assert topics["/joint_states"] == "foxglove.JointStates"
     assert "/mechkin/state" in topics
+    assert counts.pop("/robot_description") == 1  # the URDF, once
     assert all(n == K for n in counts.values()), counts
     assert stats.message_start_time == 0
     assert stats.message_end_time == round(summary["duration_s"] * 1e9)

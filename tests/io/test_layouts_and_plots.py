@@ -60,12 +60,14 @@ def _mcap_name(task: str) -> str:
 
 def _read_mcap(path: Path) -> dict[str, Any]:
     """Channels, the state schema, decoded state documents, joint names, /tf parent->child."""
-    info: dict[str, Any] = {"topics": set(), "state": [], "joints": set(), "edges": set()}
+    info: dict[str, Any] = {"topics": set(), "state": [], "joints": set(), "edges": set(),
+                            "schemas": {}}
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
         for ch in summary.channels.values():
             info["topics"].add(ch.topic)
+            info["schemas"][ch.topic] = summary.schemas[ch.schema_id].name
             if ch.topic == "/mechkin/state":
                 info["schema"] = json.loads(summary.schemas[ch.schema_id].data)
         f.seek(0)
@@ -81,6 +83,60 @@ def _read_mcap(path: Path) -> dict[str, Any]:
                 info["edges"].update((t.parent_frame_id, t.child_frame_id)
                                      for t in msg.transforms)
     return info
+
+
+# Keys the apps read from a panel's entry in configById, typed in from their sources:
+# - the title: PANEL_TITLE_CONFIG_KEY = "foxglovePanelTitle" (Lichtblick
+#   packages/suite-base/src/util/layout.ts; Foxglove the same), "lichtblickPanelTitle" in newer
+#   Lichtblick releases; a "title" inside the Plot config is read by neither.
+# - Plot: foxglove-sdk 0.30.3 foxglove.layouts.PlotConfig._to_dict / PlotSeries._to_dict.
+# - 3D: foxglove.layouts.ThreeDeeConfig / BaseRendererConfig; the URDF layer:
+#   BaseRendererUrdfLayerSettings (layerId "foxglove.Urdf", sourceType url | filePath | param |
+#   topic, controlMode transforms | jointStates, jointStatesTopic) and Lichtblick
+#   renderables/Urdfs.ts LayerSettingsCustomUrdf (layerId, sourceType, url, filePath, parameter,
+#   topic, framePrefix, displayMode, fallbackColor; BaseSettings visible, frameLocked;
+#   CustomLayerSettings instanceId, label, order).
+TITLE_KEYS = {"foxglovePanelTitle", "lichtblickPanelTitle"}
+PLOT_KEYS = {"paths", "minXValue", "maxXValue", "minYValue", "maxYValue", "showLegend",
+             "legendDisplay", "floatingLegendPosition", "showPlotValuesInLegend",
+             "showXAxisLabels", "showYAxisLabels", "isSynced", "xAxisVal", "xAxisPath",
+             "xAxisLabel", "yAxisLabel", "timeWindowMode", "followingViewWidth"}
+SERIES_KEYS = {"value", "label", "enabled", "timestampMethod", "color", "lineSize",
+               "showLine", "timestampPath", "xValuePath", "id"}
+THREE_D_KEYS = {"cameraState", "followTf", "fixedFrame", "followMode", "scene", "transforms",
+                "topics", "layers", "publish", "imageMode"}
+URDF_LAYER_KEYS = {"visible", "frameLocked", "instanceId", "layerId", "label", "order",
+                   "sourceType", "url", "filePath", "parameter", "topic", "framePrefix",
+                   "displayMode", "fallbackColor", "controlMode", "jointStatesTopic", "showAxis",
+                   "axisScale", "showOutlines", "opacity", "links"}
+GRID_LAYER_KEYS = {"visible", "frameLocked", "instanceId", "layerId", "label", "order",
+                   "frameId", "size", "divisions", "lineWidth", "color", "position", "rotation"}
+
+
+def _check_panel_keys(lay: dict[str, Any]) -> None:
+    for pid, cfg in lay["configById"].items():
+        kind = pid.split("!", 1)[0]
+        titles = {cfg.get(k) for k in TITLE_KEYS}
+        assert len(titles) == 1 and isinstance(titles.pop(), str) and cfg["foxglovePanelTitle"]
+        keys = set(cfg) - TITLE_KEYS
+        assert "title" not in keys, pid
+        if kind == "Plot":
+            assert keys <= PLOT_KEYS, (pid, keys - PLOT_KEYS)
+            for series in cfg["paths"]:
+                assert set(series) <= SERIES_KEYS, series
+                assert series["label"] and isinstance(series["enabled"], bool)
+        else:
+            assert kind == "3D"
+            assert keys <= THREE_D_KEYS, (pid, keys - THREE_D_KEYS)
+            for iid, layer in cfg["layers"].items():
+                allowed = URDF_LAYER_KEYS if layer["layerId"] == "foxglove.Urdf" else \
+                    GRID_LAYER_KEYS
+                assert layer["instanceId"] == iid
+                assert set(layer) <= allowed, (iid, set(layer) - allowed)
+    # unit-bearing titles on the plots
+    plot_titles = [c["foxglovePanelTitle"] for p, c in lay["configById"].items()
+                   if p.startswith("Plot!")]
+    assert plot_titles and all("[" in t and "]" in t for t in plot_titles), plot_titles
 
 
 def _leaves(tree: Any) -> list[str]:
@@ -112,7 +168,19 @@ def test_layout_beside_the_mcap_names_only_what_the_mcap_has(runs, task):
     assert len(roots) == 1
     three_d = next(c for pid, c in lay["configById"].items() if pid.startswith("3D!"))
     assert three_d["followTf"] == roots.pop()
-    assert set(three_d["topics"]) == {"/scene", "/tf"}
+    visible = {t for t, c in three_d["topics"].items() if c.get("visible", True)}
+    assert visible == {"/scene", "/tf"}
+    # ... and the robot from /robot_description through a URDF layer driven by /joint_states
+    # (the built-in /robot_description entry off, so the model is drawn once)
+    assert three_d["topics"]["/robot_description"] == {"visible": False}
+    urdf = [c for c in three_d["layers"].values() if c["layerId"] == "foxglove.Urdf"]
+    assert len(urdf) == 1
+    assert urdf[0]["sourceType"] == "topic" and urdf[0]["topic"] == "/robot_description"
+    assert urdf[0]["controlMode"] == "jointStates"
+    assert urdf[0]["jointStatesTopic"] == "/joint_states"
+    assert {"/robot_description", "/joint_states"} <= mc["topics"]
+    assert mc["schemas"]["/robot_description"] == "std_msgs/msg/String"
+    _check_panel_keys(lay)
 
     # every topic named exists, and so does every field a plot reads
     assert layout_topics(lay) <= mc["topics"]
@@ -137,6 +205,13 @@ def test_layout_beside_the_mcap_names_only_what_the_mcap_has(runs, task):
     if task == "track":
         assert any(p.endswith(".effort") for p in paths)
         assert any("torque_max_" in p for p in paths)
+        # torques of the motors only are on (the passive joints' are listed but off)
+        report = runs[task][0]
+        motors = set(report.data.motors)
+        for c in lay["configById"].values():
+            for p in c.get("paths", ()):
+                if m := _JOINT_PATH.match(p["value"]):
+                    assert p["enabled"] == (m.group(1) in motors), p
     assert plotted_state >= 1
 
 

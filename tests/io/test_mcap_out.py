@@ -263,3 +263,28 @@ def test_bad_rotation_and_nan_pose() -> None:
     T_bad[1, 0, 0, 3] = np.nan
     with pytest.raises(OutputError, match=r"T_parent_child\[1, 0, 0, 3\]"):
         _log(T_parent_child=T_bad)
+
+
+def test_robot_description_and_point_cloud_pass_the_strict_check(tmp_path: Path) -> None:
+    """/robot_description (std_msgs/msg/String as JSON) once, the same text as the attachment
+    robot.urdf, and a static point cloud once; every channel passes the strict check."""
+    from mechkin.io.mcap_out import Points
+    from tests.io.mcap_checks import point_cloud_arrays, strict_check
+
+    urdf = '<?xml version="1.0"?>\n<robot name="r"><link name="world"/></robot>\n'
+    pts = np.array([[0.0, 0.1, 0.2], [1.0, 1.5, -2.0]])
+    path = write_mcap(tmp_path / "r.mcap", _log(
+        robot_description=urdf,
+        point_clouds={"/cloud": Points("base", pts, {"isotropy": np.array([0.25, 1.0])})}))
+    data = strict_check(path)
+    assert data["msgs"]["/robot_description"] == [(0, {"data": urdf})]
+    assert data["attachments"]["robot.urdf"].media_type == "application/xml"
+    (t, msg), = data["msgs"]["/cloud"]
+    assert t == 0 and msg.frame_id == "base"
+    cols = point_cloud_arrays(msg)
+    np.testing.assert_allclose(np.stack([cols["x"], cols["y"], cols["z"]], 1), pts, atol=1e-7)
+    np.testing.assert_allclose(cols["isotropy"], [0.25, 1.0])
+    with pytest.raises(OutputError, match="frame_id"):
+        _log(point_clouds={"/c": Points("nowhere", pts)})
+    with pytest.raises(OutputError, match="robot_description"):
+        _log(robot_description="  ")

@@ -18,7 +18,6 @@ Design
 ------
 One solver family in several modules, each doing one thing:
 
-============== ===================================================================
 ``kernel``     IkKernel (per-mechanism constants), the objective, evaluate, pose_errors
 ``results``    IkOptions, IkResult, IkBatchResult, IkStatus; verification and status
 ``seeds``      the seeded codebook (KD-tree of reachable poses), restart starts
@@ -30,10 +29,28 @@ One solver family in several modules, each doing one thing:
 ``tree_jit``   compiled lm and evaluation for closed chains (numba, optional)
 ``multi_frame`` several frames' targets solved together (a biped's feet; closure, couplings)
 ============== ===================================================================
+=======
+==================== ===============================================================================
+``kernel``           IkKernel (per-mechanism constants), the objective, evaluate, pose_errors
+``results``          IkOptions, IkResult, IkBatchResult, IkStatus; verification and status
+``seeds``            the seeded codebook (KD-tree of reachable poses), restart starts
+``lm``               Levenberg-Marquardt, batched (numpy; dispatches to the compiled kernels)
+``cg_golden``        kim1995 §5.2: conjugate gradient with golden-section line search
+``solve``            solve_ik, solve_ik_sequence, solve_ik_batch (starts, restarts, results)
+``accel``            whether the compiled kernels can be used
+``serial_jit``       compiled lm for open chains (numba, optional)
+``tree_jit``         compiled lm and evaluation for closed chains (numba, optional)
+``tree_closure_jit`` its tree kinematics and loop closure of one configuration
+``all_solutions``    every solution of a target by multi-start lm
+``warm``             the kernels ``mechkin warmup`` compiles
+``multi_frame``      several frames' targets solved together (a biped's feet; closure, couplings)
+==================== ===============================================================================
 
 Imports go down this table's dependency order (kernel <- results <- seeds, lm, cg_golden <-
-solve); the family imports :mod:`mechkin.model`, :mod:`mechkin.spatial` and
-:mod:`mechkin.solvers.result`, never ``io/``, ``cli/`` or ``tasks/``.
+solve); the family imports :mod:`mechkin.model`, :mod:`mechkin.spatial`,
+:mod:`mechkin.solvers.result` and :mod:`mechkin.solvers.assembly`; no other solver room
+(``closed_form`` builds on ``ik``, not the other way), never ``io/``, ``cli/`` or ``tasks/``
+(docs/ARCHITECTURE.md).
 
 References
 ----------

@@ -8,8 +8,9 @@ job never depends on how many workers there are, so every executor gives identic
 A ``progress(done, total)`` callback reports completed jobs. :func:`connect_cluster` checks a
 scheduler before any work, every probe bounded by ``MECHKIN_DASK_TIMEOUT`` (in (0, 600] s): a
 refused port answers at once, a stopped worker's silence times out. Local workers leave as soon
-as mechkin's process is gone (:func:`die_with_parent`). Split out of ``sweeps.py`` (issue 23: modules that fit in a head);
-the names stay importable from :mod:`mechkin.solvers.workspace.sweeps`.
+as mechkin's process is gone (:func:`die_with_parent`). Split out of ``sweeps.py`` (issue 23:
+modules that fit in a head); the names stay importable from
+:mod:`mechkin.solvers.workspace.sweeps`.
 
 Imports: the standard library (dask lazily), mechkin.errors.
 """
