@@ -160,3 +160,20 @@ def test_humanoid_feet_and_hands(tmp_path):
             assert abs(r.q[c.joint] - c.multiplier * r.q[c.master] - c.offset) < 1e-12
         ok += bool(r.ok and np.all(pe <= TOL_POS) and np.all(oe <= TOL_ORI))
     assert ok == n_sets, f"{ok} of {n_sets} target sets verified"
+
+
+def test_python_api_ik_frames(tmp_path):
+    import mechkin
+
+    path = tmp_path / "biped.xml"
+    path.write_text(_biped(SPHERE_GEOM).replace('<asset><mesh name="part" file="part.stl"/>'
+                                                '</asset>', ""))
+    mech = mechkin.load_mechanism(path)
+    q = mech.home.copy()
+    q[mech.joint_index("left_knee")] = 0.7
+    T = fk(mech, q[mech.independent][None], frames=["left_sole", "right_sole"]).poses
+    r = mechkin.ik_frames(mech, [{"frame": "left_sole", "T": T["left_sole"][0]},
+                                 {"frame": "right_sole", "T": T["right_sole"][0]}])
+    assert r.ok and r.position_error.max() < TOL_POS and r.orientation_error.max() < TOL_ORI
+    with pytest.raises(mechkin.ConfigError, match=r"targets\[0\]\.frame: unknown frame 'nope'"):
+        mechkin.ik_frames(mech, [{"frame": "nope", "T": np.eye(4)}])
