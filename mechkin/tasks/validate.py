@@ -131,7 +131,8 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
                 out.append(_unknown_joint(sc, ("fk", "motion", k), k, names,
                                           "an independent joint"))
         for n in names:
-            if n not in spec.motion:
+            if n not in spec.motion and not (getattr(mech, "floating", False)
+                                             and n.startswith("base_")):
                 out.append(f"{doc.where(('fk', 'motion'))}: no motion for independent joint "
                            f"{short(n)}")
     elif spec.table is not None:
