@@ -49,6 +49,7 @@ def commands(root: Path, out: Path, plots: bool) -> dict[str, list[str]]:
         "fk --no-plots": ["fk", str(sc / "kim1995_direct_drive_fk.yaml"), "--no-plots", "-o",
                           str(out / "fk"), "--force"],
         "--help": ["--help"],
+        "--version": ["--version"],
         "info": ["info", str(me / "kim1995_direct_drive.yaml")],
         "check": ["check", str(sc / "puma560_random_ik.yaml")],
     }

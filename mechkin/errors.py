@@ -2,6 +2,26 @@
 
 from __future__ import annotations
 
+#: Exit codes of every command (the errors' ``exit_code``, a report's result; shown by
+#: ``mechkin --help``, the README and the JUnit output of ``mechkin run``).
+EXIT_OK, EXIT_SOLVER, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_OUTPUT, EXIT_EXPECT = 0, 1, 2, 3, 4, 5
+EXIT_CODES = {
+    EXIT_OK: "ok: every solve reached its goal and every expect: held",
+    EXIT_SOLVER: "a solver did not reach a target (outputs written, status says which)",
+    EXIT_BAD_INPUT: "bad input or an unusable output folder (nothing written)",
+    EXIT_INTERNAL: "internal error (a bug: please report it)",
+    EXIT_OUTPUT: "an output file could not be written (previous outputs intact)",
+    EXIT_EXPECT: "an expect: entry did not hold (outputs written, summary says which)",
+    130: "interrupted (SIGINT)",
+    143: "terminated (SIGTERM)",
+}
+
+
+def exit_codes_text() -> str:
+    """The exit codes, one per line (``mechkin --help``)."""
+    return "\n".join(f"{c}  {what}" for c, what in EXIT_CODES.items())
+
+
 #: Longest problem line kept (messages cut the strings they echo; this is the backstop).
 MAX_LINE = 400
 

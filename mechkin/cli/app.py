@@ -1,11 +1,11 @@
 """The ``mechkin`` command (entry point :func:`main`): one module per subcommand (DESIGN.md:
-cli/); the typer app itself is :mod:`mechkin.cli.commands` (``mechkin.cli.app.app`` loads it).
+cli/); the typer app itself, the one argument reader, is :mod:`mechkin.cli.commands`
+(``mechkin.cli.app.app`` loads it).
 
-Start-up is cheap: this module imports nothing; a plain run command (``mechkin ik
-SCENARIO.yaml --no-plots``) is read by :mod:`mechkin.cli.fast` and runs without importing
-typer, every other call goes through the typer app. Numpy, the model, the solvers, plotting
-and MCAP code are imported inside the commands that use them, so ``mechkin --help``,
-``mechkin --version`` and ``mechkin schema`` import none of them.
+Start-up is cheap: this module imports nothing; :func:`mechkin.cli.commands.run_app` registers
+only the subcommand a call names. Numpy, the model, the solvers, plotting and MCAP code are
+imported inside the commands that use them, so ``mechkin --help``, ``mechkin --version`` and
+``mechkin schema`` import none of them.
 """
 
 from __future__ import annotations
@@ -15,25 +15,19 @@ from typing import Any, NoReturn
 
 
 def main() -> None:
-    """``mechkin ...``: a plain run command directly, anything else through the typer app;
-    then :func:`leave`."""
+    """``mechkin ...`` through the typer app; then :func:`leave`."""
     try:
-        from mechkin.cli import fast
-
-        code = fast.main(sys.argv[1:])
+        from mechkin.cli.commands import run_app
     except KeyboardInterrupt:  # before the command's own handler took over
         sys.stderr.write("mechkin: interrupted (SIGINT); no output was changed\n")
         raise SystemExit(130) from None
-    if code is None:
-        from mechkin.cli.commands import run_app
-
-        try:
-            run_app()
-            code = 0
-        except SystemExit as exc:
-            if exc.code is not None and not isinstance(exc.code, int):
-                raise  # a message to print: Python's own exit
-            code = exc.code or 0
+    try:
+        run_app()
+        code = 0
+    except SystemExit as exc:
+        if exc.code is not None and not isinstance(exc.code, int):
+            raise  # a message to print: Python's own exit
+        code = exc.code or 0
     leave(code)
 
 

@@ -1,6 +1,5 @@
 """The work of ``mechkin check FILE...``: validate mechanism and scenario files, reporting every
-problem (no typer: :mod:`mechkin.cli.fast` runs it directly; :mod:`mechkin.cli.check` is the
-typer command).
+problem (no typer: :mod:`mechkin.cli.check` is the typer command).
 
 A scenario gets every validation its run does short of solving: the scenario schema, its
 mechanism file (parsed and built), and :func:`mechkin.tasks.validate.validate_scenario` (the

@@ -1,32 +1,43 @@
-"""The typer app of ``mechkin``: one module per subcommand (DESIGN.md: cli/).
+"""The typer app of ``mechkin`` (the one argument reader): one module per subcommand (DESIGN.md:
+cli/).
 
-Start-up is cheap: the subcommand modules import typer and ``mechkin.cli.common`` only; numpy,
-the model, the solvers, plotting and MCAP code are imported inside the commands that use them,
-so ``mechkin --help``, ``mechkin --version`` and ``mechkin schema`` import none of them. The
-entry point is :func:`mechkin.cli.app.main`, which runs the plain run commands without
-building this app (:mod:`mechkin.cli.fast`).
+Start-up is cheap: :func:`build_app` registers only the subcommand a call names (``mechkin ik
+...`` imports and converts the ``ik`` command alone; ``--help`` and unknown names get them all),
+typer's rich help is off unless ``MECHKIN_RICH_HELP=1`` (rich costs ~0.1 s to import), and the
+subcommand modules import typer and ``mechkin.cli.common`` only: numpy, the model, the solvers,
+plotting and MCAP code are imported inside the commands that use them, so ``mechkin --help``,
+``mechkin --version`` and ``mechkin schema`` import none of them. ``app`` (every command, for
+tests and typer's runner) is built on first use.
 """
 
 from __future__ import annotations
 
+import importlib
+import os
+from typing import Any
+
 import typer
 
 from mechkin import __version__
-from mechkin.cli.check import check_cli
-from mechkin.cli.fk import fk_cli
-from mechkin.cli.ik import ik_cli
-from mechkin.cli.import_export import export_cli, import_cli
-from mechkin.cli.info import info_cli
-from mechkin.cli.track import track_cli
-from mechkin.cli.warmup import warmup_cli
-from mechkin.cli.workspace import workspace_cli
+from mechkin.errors import EXIT_CODES
 
-app = typer.Typer(
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-    help="Kinematics of open, closed and complex-chain robot mechanisms described in YAML.",
-)
+#: subcommand -> (module, function), registered in this order
+COMMANDS: dict[str, tuple[str, str]] = {
+    "fk": ("mechkin.cli.fk", "fk_cli"),
+    "ik": ("mechkin.cli.ik", "ik_cli"),
+    "track": ("mechkin.cli.track", "track_cli"),
+    "workspace": ("mechkin.cli.workspace", "workspace_cli"),
+    "run": ("mechkin.cli.run", "run_cli"),
+    "info": ("mechkin.cli.info", "info_cli"),
+    "check": ("mechkin.cli.check", "check_cli"),
+    "import": ("mechkin.cli.import_export", "import_cli"),
+    "export": ("mechkin.cli.import_export", "export_cli"),
+    "warmup": ("mechkin.cli.warmup", "warmup_cli"),
+    "schema": ("mechkin.cli.commands", "schema_cli"),
+    "version": ("mechkin.cli.commands", "version_cli"),
+}
+HELP = "Kinematics of open, closed and complex-chain robot mechanisms described in YAML."
+EPILOG = "Exit codes: " + "; ".join(f"{c} {what}" for c, what in EXIT_CODES.items()) + "."
 
 
 def _version(value: bool) -> None:
@@ -35,7 +46,6 @@ def _version(value: bool) -> None:
         raise typer.Exit()
 
 
-@app.callback()
 def _main(
     version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
                                  help="Print the version and exit."),
@@ -43,18 +53,19 @@ def _main(
     """Kinematics of open, closed and complex-chain robot mechanisms described in YAML."""
 
 
-app.command("fk")(fk_cli)
-app.command("ik")(ik_cli)
-app.command("track")(track_cli)
-app.command("workspace")(workspace_cli)
-app.command("info")(info_cli)
-app.command("check")(check_cli)
-app.command("import")(import_cli)
-app.command("export")(export_cli)
-app.command("warmup")(warmup_cli)
+def build_app(only: str | None = None) -> typer.Typer:
+    """The typer app with every subcommand, or with subcommand ``only`` alone (the one a call
+    runs: nothing else is imported or converted)."""
+    rich = os.environ.get("MECHKIN_RICH_HELP", "") not in ("", "0")
+    app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+                      rich_markup_mode="rich" if rich else None, help=HELP, epilog=EPILOG)
+    app.callback()(_main)
+    for name in COMMANDS if only is None else [only]:
+        module, attr = COMMANDS[name]
+        app.command(name)(getattr(importlib.import_module(module), attr))
+    return app
 
 
-@app.command("schema")
 def schema_cli(
     kind: str = typer.Argument(None, help="mechanism or scenario (omit with --write)"),
     write: str = typer.Option(None, "--write", metavar="DIR",
@@ -84,44 +95,55 @@ def schema_cli(
     typer.echo(schema_text(kind), nl=False)
 
 
-@app.command("version")
 def version_cli() -> None:
     """Print the version."""
     typer.echo(__version__)
 
 
-def run_app() -> None:
-    """Run the typer app on ``sys.argv`` (Ctrl-C outside a command: one line, exit 130)."""
-    _one_line_usage_errors()
+def run_app(argv: list[str] | None = None) -> None:
+    """Run the typer app on ``argv`` (default ``sys.argv[1:]``), built with the named
+    subcommand only when there is one; a bad option or argument (``--workers 0``) is one line
+    ``mechkin fk: error: ... (see --help)`` (exit 2); Ctrl-C outside a command: one line, exit
+    130. Leaves with SystemExit(code)."""
+    import sys
+
+    try:  # typer >= 0.22 carries its own copy of click
+        from typer._click import exceptions as click_exc
+    except ImportError:  # pragma: no cover - older typer: click itself
+        from click import exceptions as click_exc
+
+    args = sys.argv[1:] if argv is None else argv
+    name = args[0] if args and args[0] in COMMANDS else None
     try:
-        app()
+        code = build_app(name)(args=args, standalone_mode=False)
+    except click_exc.NoArgsIsHelpError as exc:  # plain `mechkin`: the help
+        exc.show()
+        raise SystemExit(exc.exit_code) from None
+    except click_exc.UsageError as exc:
+        ctx = exc.ctx
+        where = ctx.command_path if ctx is not None else "mechkin"
+        msg = " ".join(str(exc.format_message()).split())
+        msg = msg if len(msg) <= 200 else msg[:197] + "..."
+        sys.stderr.write(f"{where}: error: {msg} (see --help)\n")
+        raise SystemExit(exc.exit_code) from None
+    except click_exc.ClickException as exc:
+        exc.show()
+        raise SystemExit(exc.exit_code) from None
+    except typer.Abort:
+        typer.echo("Aborted!", err=True)
+        raise SystemExit(1) from None
     except KeyboardInterrupt:  # outside a command's own handler (argument parsing, start-up)
         typer.echo("mechkin: interrupted (SIGINT); no output was changed", err=True)
         raise SystemExit(130) from None
+    raise SystemExit(code if isinstance(code, int) else 0)
 
 
-def _one_line_usage_errors() -> None:
-    """A bad option or argument (``--workers 0``): one line ``mechkin fk: error: ...`` on
-    stderr instead of typer's usage text and box (exit 2 as before)."""
-    import sys
+_APP: list[typer.Typer] = []
 
-    try:
-        from typer import rich_utils
-    except ImportError:  # pragma: no cover - typer without rich: click's plain lines
-        return
-    original = rich_utils.rich_format_error
-    if getattr(original, "_mechkin", False):
-        return
 
-    def one_line(exc: object) -> None:
-        if type(exc).__name__ == "NoArgsIsHelpError":  # plain `mechkin`: the help
-            original(exc)
-            return
-        ctx = getattr(exc, "ctx", None)
-        where = ctx.command_path if ctx is not None else "mechkin"
-        msg = " ".join(str(exc.format_message()).split())  # type: ignore[attr-defined]
-        msg = msg if len(msg) <= 200 else msg[:197] + "..."
-        sys.stderr.write(f"{where}: error: {msg} (see --help)\n")
-
-    one_line._mechkin = True  # type: ignore[attr-defined]
-    rich_utils.rich_format_error = one_line
+def __getattr__(name: str) -> Any:
+    if name == "app":  # every command (tests, typer's runner), built once on first use
+        if not _APP:
+            _APP.append(build_app())
+        return _APP[0]
+    raise AttributeError(f"module 'mechkin.cli.commands' has no attribute {name!r}")

@@ -1,6 +1,5 @@
 """The work of ``mechkin info MECH.yaml``: coordinates, cuts, equations, degrees of freedom,
-mobility (no typer: :mod:`mechkin.cli.fast` runs it directly; :mod:`mechkin.cli.info` is the
-typer command)."""
+mobility (no typer: :mod:`mechkin.cli.info` is the typer command)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """The one-line summary each run command prints (``mechkin fk|ik|track|workspace``), from the
-run's summary.json. No typer, no numpy: :mod:`mechkin.cli.fast` and the typer commands share
-these."""
+run's summary.json (no typer, no numpy; ``mechkin run`` prints them too)."""
 
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
-"""The shell of every run command without typer: run one scenario, handle errors, report.
+"""The shell of every run command: run one scenario, handle errors, report.
 
-``mechkin fk|ik|track|workspace SCENARIO`` spend most of a short call starting up, so this
-module and :mod:`mechkin.cli.fast` (the argument parser of the run commands) import neither
-typer nor numpy; :mod:`mechkin.cli.common` wraps the same functions for the typer commands
-(:class:`Exit` -> ``typer.Exit``). Output goes through :func:`echo`, which writes what
-``typer.echo`` writes (typer's own when typer is loaded).
+No typer and no numpy at module level; :mod:`mechkin.cli.common` wraps these functions for the
+typer commands (:class:`Exit` -> ``typer.Exit``). Output goes through :func:`echo`, which
+writes what ``typer.echo`` writes (typer's own when typer is loaded).
 """
 
 from __future__ import annotations
@@ -38,8 +36,7 @@ _ANSI: Any = None
 def echo(message: str, err: bool = False) -> None:
     """``echo(message, err=err)``: the line and a newline, ANSI styles removed unless the
     stream is a terminal, flushed. typer's own echo when typer is loaded (the typer commands,
-    its test runner); else the same steps for the text streams :mod:`mechkin.cli.fast`
-    accepts (not ASCII-encoded)."""
+    its test runner); else the same steps."""
     typer = sys.modules.get("typer")
     if typer is not None:
         typer.echo(message, err=err)

@@ -22,8 +22,9 @@ ORTHO_TOL = 2e-3
 
 
 class EulerSpec(Spec):
-    """Intrinsic Euler angles: ``convention`` is a sequence of body axes such as ``ZYX`` or
-    ``XYZ`` (signed axes as in ``X-Y+Z`` allowed), ``angles`` one per axis."""
+    """Euler angles as scipy's ``Rotation.from_euler``: ``convention`` upper case is intrinsic
+    (body axes, ``ZYX``), lower case extrinsic (fixed axes, ``xyz``); signed axes as in
+    ``X-Y+Z`` allowed; ``angles`` one per axis."""
 
     convention: Annotated[str, Field(min_length=1, max_length=16)]
     angles: Annotated[list[Num], Field(min_length=1, max_length=6)]
@@ -40,13 +41,15 @@ class EulerSpec(Spec):
 
 
 class TargetSpec(Spec):
-    """One precision point {P}: a 4x4 ``matrix``, or ``xyz`` with ``euler`` or ``quaternion``
+    """One precision point {P}: a 4x4 ``matrix``, or ``xyz`` with ``rpy`` (URDF roll, pitch,
+    yaw: Rz(y) Ry(p) Rx(r), as in the mechanism and track files), ``euler`` or ``quaternion``
     (w, x, y, z); optional ``weights`` (6: position x, y, z, then orientation) and ``name``."""
 
     name: str | None = None
     frame: Name | None = None  # the frame that meets this pose (default: the end effector)
     matrix: Annotated[list[Row4], Field(min_length=4, max_length=4)] | None = None
     xyz: Annotated[list[Num], Field(min_length=3, max_length=3)] | None = None
+    rpy: Annotated[list[Num], Field(min_length=3, max_length=3)] | None = None
     euler: EulerSpec | None = None
     quaternion: Annotated[list[Num], Field(min_length=4, max_length=4)] | None = None
     weights: Weights | None = None
@@ -54,8 +57,9 @@ class TargetSpec(Spec):
     @model_validator(mode="after")
     def _check(self) -> TargetSpec:
         if self.matrix is not None:
-            if any(v is not None for v in (self.xyz, self.euler, self.quaternion)):
-                raise ValueError("give either matrix, or xyz with euler or quaternion, not both")
+            if any(v is not None for v in (self.xyz, self.rpy, self.euler, self.quaternion)):
+                raise ValueError("give either matrix, or xyz with rpy, euler or quaternion, "
+                                 "not both")
             M = np.asarray(self.matrix, dtype=float)
             if np.abs(M[:3, :3]).max() > 1.0 + ORTHO_TOL:
                 raise ValueError("matrix: expected a rotation in the upper-left 3x3 (entries "
@@ -70,9 +74,9 @@ class TargetSpec(Spec):
                                  f"{err:.3g}")
             return self
         if self.xyz is None:
-            raise ValueError("give a matrix, or xyz with euler or quaternion")
-        if (self.euler is None) == (self.quaternion is None):
-            raise ValueError("with xyz give exactly one of euler or quaternion")
+            raise ValueError("give a matrix, or xyz with rpy, euler or quaternion")
+        if sum(v is not None for v in (self.rpy, self.euler, self.quaternion)) != 1:
+            raise ValueError("with xyz give exactly one of rpy, euler or quaternion")
         if self.quaternion is not None:
             q = np.abs(np.asarray(self.quaternion, dtype=float))
             if q.max() < 1e-9 or q.max() > 1e9:
@@ -192,7 +196,7 @@ class IkSpec(Spec):
 def target_matrix(t: TargetSpec, units: Units) -> np.ndarray:
     """T_0_P (4, 4) in SI; the rotation of a matrix is projected onto SO(3) (polar)."""
     from mechkin.spatial.euler_conventions import euler_matrix
-    from mechkin.spatial.rotations import matrix_from_quat
+    from mechkin.spatial.rotations import matrix_from_quat, matrix_from_rpy
 
     L = length_factor(units.length)
     T = np.eye(4)
@@ -204,7 +208,9 @@ def target_matrix(t: TargetSpec, units: Units) -> np.ndarray:
         return T
     assert t.xyz is not None
     T[:3, 3] = np.asarray(t.xyz, dtype=float) * L
-    if t.euler is not None:
+    if t.rpy is not None:  # URDF: Rz(yaw) Ry(pitch) Rx(roll), the extrinsic xyz
+        T[:3, :3] = matrix_from_rpy(np.asarray(t.rpy, dtype=float) * angle_factor(units.angle))
+    elif t.euler is not None:
         T[:3, :3] = euler_matrix(t.euler.convention,
                                  np.asarray(t.euler.angles) * angle_factor(units.angle))
     else:

@@ -178,10 +178,12 @@ class OutputsSpec(Spec):
 class ExpectSpec(Spec):
     """A reference value checked after the run: ``key`` is a dot path into summary.json
     (``targets.0.q_v.q1``). Either ``value`` (a number or list) with an absolute ``tol``, or
-    bounds ``min`` and/or ``max``; ``unit`` is the unit of the numbers when not SI (deg, mm)."""
+    bounds ``min`` and/or ``max``; ``unit`` is the unit of the numbers when not SI (deg, mm).
+    A key ending in ``status`` takes a word as ``value`` (``{key: status, value: unreachable}``):
+    a scenario that asserts a failure passes when it fails that way."""
 
     key: Annotated[str, Field(min_length=1)]
-    value: Num | list[Num] | None = None
+    value: Num | list[Num] | Annotated[str, Field(min_length=1, max_length=64)] | None = None
     tol: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)] = 0.0
     min: Num | None = None
     max: Num | None = None
@@ -194,6 +196,18 @@ class ExpectSpec(Spec):
             raise ValueError("give value (with tol) or min/max")
         if self.value is not None and (self.min is not None or self.max is not None):
             raise ValueError("give value (with tol) or min/max, not both")
+        if isinstance(self.value, str):
+            from mechkin.config.schema import number_hint
+
+            hint = number_hint(self.value)
+            if hint:
+                raise ValueError(f"value: {hint}")
+            if self.key.split(".")[-1] != "status":
+                raise ValueError(f"value: a word ({self.value[:40]!r}) is compared only with a "
+                                 "status key (key: status or key: targets.0.status); give a "
+                                 "number here")
+            if self.tol or self.unit is not None:
+                raise ValueError("a status value takes no tol or unit")
         return self
 
 

@@ -7,10 +7,18 @@ converts them to SI once. ``mechkin schema mechanism|scenario`` prints their JSO
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from mechkin.config.drawing_spec import DrawingSpec
 from mechkin.config.load import YamlDoc, format_key_path
@@ -51,17 +59,37 @@ class FrameSpec(Spec):
     rpy: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
+class InertiaByName(Spec):
+    """The inertia tensor by URDF's names (``<inertia ixx= ixy= ixz= iyy= iyz= izz=/>``)."""
+
+    ixx: Num
+    ixy: Num
+    ixz: Num
+    iyy: Num
+    iyz: Num
+    izz: Num
+
+
 class InertialSpec(Spec):
     """Rigid-body parameters of a link, in the link frame.
 
-    ``inertia`` is [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the centre of mass, in kg (length unit)^2.
+    ``inertia`` about the centre of mass, in kg (length unit)^2: six numbers in the order
+    [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] (MuJoCo's fullinertia order), or by URDF's names
+    ``{ixx, ixy, ixz, iyy, iyz, izz}`` (stored in the positional order).
     """
 
     mass: NonNegNum
     com: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
-    inertia: Annotated[list[Num], Field(min_length=6, max_length=6)] = Field(
+    inertia: Annotated[list[Num], Field(min_length=6, max_length=6)] | InertiaByName = Field(
         default_factory=lambda: [0.0] * 6
     )
+
+    @field_validator("inertia", mode="after")
+    @classmethod
+    def _positional(cls, v: Any) -> Any:
+        if isinstance(v, InertiaByName):  # URDF names -> [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]
+            return [v.ixx, v.iyy, v.izz, v.ixy, v.ixz, v.iyz]
+        return v
 
 
 class LinkSpec(Spec):
@@ -240,10 +268,32 @@ def pydantic_problems(
             if len(s) > 60:
                 s = s[:57] + "..."
             msg = f"{msg}, got {s}"
+            hint = number_hint(err["input"])
+            if hint:
+                msg = f"{msg}; {hint}"
         if msg.startswith("Value error, "):
             msg = msg[len("Value error, "):]
         out.append(f"{doc.path}:{doc.line_of(loc)}: {format_key_path(loc)}: {msg}")
     return list(dict.fromkeys(out))
+
+
+def number_hint(value: Any) -> str | None:
+    """``did you mean the number 1e-6? write 1.0e-6`` for a string YAML read from a number
+    written without a decimal point before its exponent (YAML 1.1), else None."""
+    if not isinstance(value, str) or len(value) > 40:
+        return None
+    text = value.strip()
+    try:
+        x = float(text)
+    except ValueError:
+        return None
+    if not math.isfinite(x) or text.lower() in ("nan", "inf", "infinity"):
+        return None
+    mant, e, exp = text.lower().partition("e")
+    if e and exp[:1] not in "+-":
+        exp = "+" + exp  # YAML 1.1 reads 1.0e6 as a string too
+    fixed = (mant if "." in mant else f"{mant}.0") + (f"e{exp}" if e else "")
+    return f"did you mean the number {text}? write {fixed}"
 
 
 def _is_union_tag(x: Any) -> bool:

@@ -79,9 +79,12 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
     "InertialSpec": {
         "mass": "Mass [kg].",
         "com": f"Centre of mass in the link frame {_L}.",
-        "inertia": "[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the centre of mass, in kg (length "
-                   "unit)^2.",
+        "inertia": "About the centre of mass, in kg (length unit)^2: [Ixx, Iyy, Izz, Ixy, "
+                   "Ixz, Iyz] (MuJoCo's fullinertia order, not URDF's), or by URDF's names "
+                   "{ixx, ixy, ixz, iyy, iyz, izz}.",
     },
+    "InertiaByName": {k: f"I{k[1:]} (URDF <inertia {k}=...>)." for k in
+                      ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
     "LinkSpec": {
         "name": "Name of the link (unique in the mechanism).",
         "description": "Free text about the link.",
@@ -218,7 +221,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "rpy": f"Base orientation, URDF roll-pitch-yaw (fixed axes x, y, z) {_A}.",
     },
     "EulerSpec": {
-        "convention": "Sequence of intrinsic body axes, e.g. ZYX, XYZ or signed X-Y+Z.",
+        "convention": "Axis sequence as scipy Rotation.from_euler: upper case intrinsic (body "
+                      "axes, e.g. ZYX), lower case extrinsic (fixed axes, e.g. xyz); signed "
+                      "axes such as X-Y+Z allowed.",
         "angles": f"One angle per axis of convention {_A}.",
     },
     "TargetSpec": {
@@ -226,8 +231,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "frame": "The frame that meets this pose (default: the end effector). Targets that "
                  "name their frame are solved together, as one target set.",
         "matrix": f"Pose of the hand as a 4x4 homogeneous matrix (translation {_L}).",
-        "xyz": f"Position of the hand {_L} (with euler or quaternion).",
-        "euler": "Orientation as intrinsic Euler angles (with xyz).",
+        "xyz": f"Position of the hand {_L} (with rpy, euler or quaternion).",
+        "rpy": f"Orientation, URDF roll-pitch-yaw: Rz(yaw) Ry(pitch) Rx(roll) {_A} (with xyz).",
+        "euler": "Orientation as Euler angles (convention, angles) (with xyz).",
         "quaternion": "Orientation as a quaternion (w, x, y, z) (with xyz).",
         "weights": "Weights of this point (6: position x, y, z, then orientation); default "
                    "the section's weights.",
@@ -395,7 +401,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "n": "Grid points (method grid; 1 = midpoint).",
     },
     "OrientationSpec": {
-        "euler": "Intrinsic Euler angles (convention, angles).",
+        "euler": "Euler angles (convention, angles): upper case intrinsic, lower case "
+                 "extrinsic, as scipy.",
         "quaternion": "Quaternion (w, x, y, z).",
         "random": "Uniform random orientations (monte_carlo only).",
     },

@@ -18,11 +18,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mechkin.errors import EXIT_CODES, EXIT_EXPECT, EXIT_OK, EXIT_SOLVER
 from mechkin.records.motion import MotionRecord
 
 EXPECT_FAILED = "expect failed"
 
-__all__ = ["EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report",
+__all__ = ["EXIT_CODES", "EXPECT_FAILED", "FkResult", "MotionRecord", "OutputFlags", "Report",
            "set_report_writer"]
 
 #: The function behind :meth:`Report.write`: ``write(report, out_dir, plots=...) -> summary``.
@@ -135,14 +136,24 @@ class Report:
         return all(c.get("ok", False) for c in self.checks)
 
     @property
+    def failure_asserted(self) -> bool:
+        """An ``expect:`` entry states a status word (``{key: status, value: unreachable}``):
+        the scenario says how the solver ends, so its expects alone judge the run."""
+        return any(c.get("unit") == "word" for c in self.checks)
+
+    @property
     def ok(self) -> bool:
-        """Solver succeeded and every expect held."""
-        return self.solver_ok and self.expect_ok
+        """Every expect held, and the solver succeeded or an expect states its status."""
+        return self.expect_ok and (self.solver_ok or self.failure_asserted)
 
     @property
     def exit_code(self) -> int:
-        """0 all good, 1 a solver did not reach its goal or an expect failed."""
-        return 0 if self.ok else 1
+        """0 all good; 1 a solver did not reach its goal (unasserted); 5 an expect failed."""
+        if self.ok:
+            return EXIT_OK
+        if not self.solver_ok and not self.failure_asserted:
+            return EXIT_SOLVER
+        return EXIT_EXPECT
 
     def write(self, out_dir: str | Path | None = None, *, plots: bool = True) -> dict[str, Any]:
         """Write every output into ``out_dir`` (default ``outputs/<scenario>``), atomically;

@@ -11,6 +11,13 @@ and ``Rot(-a, t) = Rot(a, -t)``. Two spellings are accepted:
 * the paper's compact name, signs written after the letter (the paper's superscripts):
   ``"XYXYZ-X+"`` is X Y X Y Z\ :sup:`-` X\ :sup:`+`.
 
+The case of the letters follows scipy's ``Rotation.from_euler``: **upper case is intrinsic**
+(axes of the moving frame, the product above), **lower case is extrinsic** (axes of the fixed
+frame: ``"xyz"`` with angles (a, b, c) is ``Rz(c) Ry(b) Rx(a)``, the intrinsic ``"ZYX"`` with the
+angles reversed); one sequence does not mix the two. For 1 to 3 axes every string scipy accepts
+gives scipy's matrix (tests/spatial/test_euler_scipy.py); mechkin also takes longer sequences
+and signs.
+
 hwang2023 Table 1 (lam = lambda, gam = gamma, bet = beta; side ``"right"`` is leg 1, ``"left"``
 leg 2):
 
@@ -56,6 +63,7 @@ __all__ = [
     "euler_angles_from_matrix",
     "euler_matrix",
     "foot_matrix",
+    "is_extrinsic",
     "parse_sequence",
     "plane_angles_from_matrix",
     "plane_matrix",
@@ -87,8 +95,10 @@ def parse_sequence(sequence: str) -> tuple[tuple[int, int], ...]:
     Raises
     ------
     ValueError
-        On anything but the letters X, Y, Z (either case) and signs in the stated places.
+        On anything but the letters X, Y, Z (either case, not mixed) and signs in the stated
+        places.
     """
+    is_extrinsic(sequence)  # mixed case is an error
     text = sequence.strip().upper()
     out: list[tuple[int, int]] = []
     if not text:
@@ -115,10 +125,23 @@ def parse_sequence(sequence: str) -> tuple[tuple[int, int], ...]:
     return tuple(out)
 
 
-def euler_matrix(sequence: str, angles: ArrayLike) -> np.ndarray:
-    r"""Rotation matrix of intrinsic Euler angles with signed axes.
+def is_extrinsic(sequence: str) -> bool:
+    """True for a lower-case (extrinsic, fixed-axes) sequence, False for upper case (intrinsic),
+    as scipy's ``Rotation.from_euler``; ValueError if the letters mix the two cases."""
+    letters = [c for c in sequence if c.isalpha()]
+    lower = [c.islower() for c in letters]
+    if letters and any(lower) and not all(lower):
+        raise ValueError(f"expected axes all upper case (intrinsic, e.g. 'XYZ') or all lower "
+                         f"case (extrinsic, e.g. 'xyz'), got {sequence!r}")
+    return bool(letters) and all(lower)
 
-    .. math:: R = \prod_k \mathrm{Rot}(s_k a_k, t_k)
+
+def euler_matrix(sequence: str, angles: ArrayLike) -> np.ndarray:
+    r"""Rotation matrix of Euler angles with signed axes (intrinsic for upper case, extrinsic
+    for lower case, as scipy).
+
+    .. math:: R = \prod_k \mathrm{Rot}(s_k a_k, t_k) \quad\text{(intrinsic)}, \qquad
+              R = \prod_{k = n}^{1} \mathrm{Rot}(s_k a_k, t_k) \quad\text{(extrinsic)}
 
     Parameters
     ----------
@@ -137,7 +160,9 @@ def euler_matrix(sequence: str, angles: ArrayLike) -> np.ndarray:
         raise ValueError(
             f"expected angles of shape (..., {len(axes)}) for {sequence!r}, got {t.shape}")
     R = np.broadcast_to(np.eye(3), t.shape[:-1] + (3, 3))
-    for k, (a, s) in enumerate(axes):
+    order = range(len(axes) - 1, -1, -1) if is_extrinsic(sequence) else range(len(axes))
+    for k in order:
+        a, s = axes[k]
         R = R @ _ROT[a](s * t[..., k])
     return np.array(R)
 
@@ -157,8 +182,13 @@ def euler_angles_from_matrix(sequence: str, R: ArrayLike) -> np.ndarray:
     Returns
     -------
     array, shape (..., 3)
-        Angles [rad] with ``euler_matrix(sequence, angles) == R``.
+        Angles [rad] with ``euler_matrix(sequence, angles) == R`` (for a lower-case,
+        extrinsic sequence: those of the reversed intrinsic sequence, reversed).
     """
+    if is_extrinsic(sequence):
+        rev = " ".join(("-" if s < 0 else "+") + "XYZ"[a]
+                       for a, s in reversed(parse_sequence(sequence)))
+        return euler_angles_from_matrix(rev, R)[..., ::-1]
     axes = parse_sequence(sequence)
     if len(axes) != 3 or axes[0][0] == axes[1][0] or axes[1][0] == axes[2][0]:
         raise ValueError(f"expected three axes with consecutive axes distinct, got {sequence!r}")

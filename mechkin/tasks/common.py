@@ -63,6 +63,9 @@ def evaluate_expect(summary: dict[str, Any], expects: list[Any]) -> list[dict[st
     """Check each ``expect:`` entry against the summary; values compared in SI."""
     out = []
     for e in expects:
+        if isinstance(e.value, str):  # a status word: {key: status, value: unreachable}
+            out.append(_status_check(summary, e))
+            continue
         f = UNIT_TO_SI[e.unit] if e.unit else 1.0
         rec: dict[str, Any] = {"key": e.key, "unit": e.unit or "SI"}
         if e.value is not None:
@@ -98,12 +101,28 @@ def evaluate_expect(summary: dict[str, Any], expects: list[Any]) -> list[dict[st
     return out
 
 
+def _status_check(summary: dict[str, Any], e: Any) -> dict[str, Any]:
+    rec: dict[str, Any] = {"key": e.key, "unit": "word", "expected": e.value, "tol": 0}
+    if e.source:
+        rec["source"] = e.source
+    try:
+        actual = lookup(summary, e.key)
+    except KeyError:
+        actual = None
+    if not isinstance(actual, str):
+        rec.update(ok=False, actual=actual, message=f"no status at {e.key!r} in the summary")
+    else:
+        rec.update(ok=actual == e.value, actual=actual)
+    return rec
+
+
 def expect_messages(checks: list[dict[str, Any]], scenario_path: Path | None) -> list[str]:
     """One stderr line per failed ``expect:`` entry."""
     lines = []
     for c in checks:
         if not c["ok"]:
-            want = (f"{c['expected']} +- {c['tol']}" if "expected" in c
+            want = (repr(c["expected"]) if c["unit"] == "word"
+                    else f"{c['expected']} +- {c['tol']}" if "expected" in c
                     else f"in [{c.get('min')}, {c.get('max')}]")
             msg = c.get("message") or f"expected {want} ({c['unit']}), got {c['actual']}"
             lines.append(f"{scenario_path}: expect {c['key']}: {msg}")

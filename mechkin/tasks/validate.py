@@ -321,6 +321,10 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
         for k in (getattr(spec.ik, key) or {}):
             if k not in names:
                 out.append(_unknown_joint(sc, ("track", "ik", key, k), k, names, "a joint"))
+    if not out:  # the hand path's start pose and the conveyor, as the run computes them
+        from mechkin.tasks.track_preflight import preflight_problems
+
+        out += preflight_problems(sc, mech)
     return out
 
 
@@ -500,6 +504,10 @@ def expect_problems(sc: Any, mech: Any | None) -> list[str]:
                        f"{short(parts[0])} (keys: {short_list(sorted(top), 80)})")
             continue
         msg = _deep_key_problem(sc, mech, parts)
+        if not msg:  # the keys below the top, at any depth (tasks/expect_keys.py)
+            from mechkin.tasks.expect_keys import deep_key_problem
+
+            msg = deep_key_problem(sc, mech, parts, word=isinstance(e.value, str))
         if msg:
             out.append(f"{sc.doc.where(kp)}: {msg}")
     return out

@@ -165,12 +165,12 @@ def test_unreachable_leg_exits_1_and_still_writes_without_nan(tmp_path: Path):
     assert "nan" not in text.lower() and "unreachable" in text
 
 
-def test_failed_expect_exits_1(tmp_path: Path):
+def test_failed_expect_exits_5(tmp_path: Path):
     p = _write(tmp_path, "  mode: walk\nexpect:\n"
                          "  - {key: steps.0.legs.right.q.r_theta3, value: 6.0, tol: 0.05, "
                          "unit: deg}\n")
     summary, code = run_biped(scenario=load_scenario(p), out_dir=tmp_path / "o", plots=False)
-    assert code == 1 and summary["expect"][0]["ok"] is False
+    assert code == 5 and summary["expect"][0]["ok"] is False  # 5: an expect failed
     assert summary["expect"][0]["actual"] == pytest.approx(5.63, abs=0.05)
 
 

@@ -66,7 +66,7 @@ def test_failed_expect_is_the_status(tmp_path):
     doc["mechanism"] = str(ROOT / "mechanisms/kim1995_direct_drive.yaml")
     doc["expect"] = [{"key": "n_steps", "value": 12, "tol": 0}]
     r, out = _run(tmp_path, "fk", doc)
-    assert r.returncode == 1
+    assert r.returncode == 5  # an expect failed
     assert r.stdout.startswith(f"{doc['name']}: expect failed")
     assert "expect n_steps" in r.stderr
     assert json.loads((out / "summary.json").read_text())["status"] == "expect failed"

@@ -92,5 +92,5 @@ ik:
 """)
     res = runner.invoke(app, ["ik", str(sc), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2
-    assert "euler or quaternion" in res.output
+    assert "rpy, euler or quaternion" in res.output
     assert not (tmp_path / "o").exists()

@@ -129,10 +129,10 @@ def test_infeasible_limits_exit_1_naming_the_limit(tmp_path: Path) -> None:
     assert summary["files"] == ["summary.json"]
 
 
-def test_expect_failure_exits_1(tmp_path: Path) -> None:
+def test_expect_failure_exits_5(tmp_path: Path) -> None:
     p = _local(tmp_path, "park_conveyor_none", ("max: 0.650000001", "max: 0.61"))
     res = runner.invoke(app, ["track", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
-    assert res.exit_code == 1
+    assert res.exit_code == 5  # an expect failed
     assert "expect t_a_s" in res.stderr
 
 

@@ -91,7 +91,7 @@ def test_bundled_fig3_unmodified_sigma_at_origin(tmp_path):
     _no_nan_in_csvs(out)
 
 
-def test_failed_expect_exits_1_with_outputs(tmp_path):
+def test_failed_expect_exits_5_with_outputs(tmp_path):
     d = yaml.safe_load(_coarse_copy(tmp_path, "lee_fig5_isotropy_r075.yaml").read_text())
     d["expect"] = [{"key": "isotropy.text.per_gamma.0.sigma_ki_at_origin", "value": 0.5,
                     "tol": 1e-6}]
@@ -99,7 +99,7 @@ def test_failed_expect_exits_1_with_outputs(tmp_path):
     p.write_text(yaml.safe_dump(d, sort_keys=False))
     out = tmp_path / "o"
     res = _run(p, out, "--no-plots")
-    assert res.exit_code == 1
+    assert res.exit_code == 5  # an expect failed
     s = json.loads((out / "summary.json").read_text())
     assert s["expect"][0]["ok"] is False
     assert "expect isotropy.text.per_gamma.0.sigma_ki_at_origin" in res.output
