@@ -116,12 +116,13 @@ def ik(
     targets: Any,
     *,
     weights: Any = None,
-    method: str = "lm",
+    method: str = "auto",
     q_v0: Any = None,
     q_w0: Any = None,
     restarts: int | None = None,
     batch: bool = False,
     seed: int = 0,
+    fixed: dict[str, float] | None = None,
 ) -> list[IkResult]:
     """Inverse kinematics of precision points (kim1995 §3-5), each verified by FK.
 
@@ -132,20 +133,33 @@ def ik(
         Poses of {E} in the base frame [m].
     weights : array_like, shape (6,), optional
         Diagonal of W (position, orientation); default ones.
-    method : {"lm", "cg-golden"}
+    method : {"auto", "analytic", "lm", "cg-golden"}
+        ``auto`` (default): every branch by subproblem decomposition where the mechanism's
+        axes allow it (:mod:`mechkin.solvers.ik.analytic`), the one nearest the guess; else
+        ``lm``. ``analytic`` refuses a mechanism that does not decompose.
     q_v0, q_w0 : array_like, optional
         First guess; targets are then solved in order, each warm-started from the previous
         answer (kim1995 §5.2 Step 2).
     restarts : int, optional
         Extra seeded starts on failure (default: the scenario default of ``mechkin ik``).
+    fixed : dict, optional
+        ``{joint name: value}`` [rad | m]: hold these independent joints (a 7R arm's redundant
+        joint) and solve the remaining 6R analytically (``auto`` / ``analytic`` only).
     batch : bool
-        Solve all targets at once, vectorised (lm only).
+        Solve all targets at once: one compiled call of the analytic solver (``auto`` on a
+        decomposable arm: each target's solution nearest ``q_v0``), else vectorised lm.
 
     Returns
     -------
     list of IkResult
         One per target, with status and the verified position/orientation errors.
     """
+    from mechkin.solvers.ik.analytic.api_ik import ik_one_fast
+
+    fast = None if fixed else ik_one_fast(mech, targets, method, weights, q_v0, batch)
+    if fast is not None:  # one pose, analytic, verified: no further checks needed
+        return fast
+
     import numpy as np
 
     from mechkin.errors import ConfigError
@@ -155,11 +169,24 @@ def ik(
     T = T[None] if T.ndim == 2 else T
     if T.ndim != 3 or T.shape[1:] != (4, 4):
         raise ConfigError(f"targets: expected (k, 4, 4) poses, got shape {T.shape}")
+    if method not in ("auto", "analytic", "lm", "cg-golden"):
+        raise ConfigError(f"method: expected 'auto', 'analytic', 'lm' or 'cg-golden', got "
+                          f"{method!r}")
     from mechkin.solver import ik_options
 
-    opts, w = ik_options(mech, method, weights, restarts, seed)
+    opts, w = ik_options(mech, method if method in ("lm", "cg-golden") else "lm", weights,
+                         restarts, seed)
     qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
     qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
+    if fixed and method not in ("auto", "analytic"):
+        raise ConfigError(f"fixed: holds joints for method auto or analytic, not {method}")
+    if method in ("auto", "analytic"):
+        from mechkin.solvers.ik.analytic.api_ik import ik_analytic
+
+        out_a = ik_analytic(mech, T, method=method, weights=w, q_v0=qv, q_w0=qw,
+                            options=opts, batch=batch, fixed=fixed)
+        if out_a is not None:
+            return out_a
     if batch:
         from mechkin.tasks.ik_solve import batch_results
 

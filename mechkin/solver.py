@@ -117,7 +117,7 @@ class SolverBase:
     """
 
     def __init__(self, mech: Mechanism, frames: Sequence[str] | None = None, *,
-                 compiled: bool | None = None, method: str = "lm", weights: Any = None,
+                 compiled: bool | None = None, method: str = "auto", weights: Any = None,
                  restarts: int | None = None, seed: int = 0) -> None:
         import numpy as np
 
@@ -148,8 +148,9 @@ class SolverBase:
         self._shape_out = None if self._plan is None else self._plan.shape1
         if compiled and self._plan is not None and fk_accel.compiled_fk_available():
             fk_accel.load()
-        if method not in ("lm", "cg-golden"):
-            raise ConfigError(f"method: expected 'lm' or 'cg-golden', got {method!r}")
+        if method not in ("auto", "analytic", "lm", "cg-golden"):
+            raise ConfigError(f"method: expected 'auto', 'analytic', 'lm' or 'cg-golden', got "
+                              f"{method!r}")
         self._ik_args = (method, weights, restarts, seed)
         self._ik_opts: Any = None
 
@@ -317,8 +318,14 @@ class SolverBase:
         mech = self.mech
         if self._ik_opts is None:
             method, weights, restarts, seed = self._ik_args
-            self._ik_opts = ik_options(mech, method, weights, restarts, seed)
+            num = method if method not in ("auto", "analytic") else "lm"
+            self._ik_opts = ik_options(mech, num, weights, restarts, seed)
         opts, w = self._ik_opts
         qv = mech.home[mech.independent].copy() if q_v0 is None else np.asarray(q_v0, float)
         qw = mech.home[mech.dependent].copy() if q_w0 is None else np.asarray(q_w0, float)
+        if self._ik_args[0] in ("auto", "analytic"):  # as mechkin.ik: analytic where it applies
+            from mechkin.solvers.ik.analytic.dispatch import solve_ik_method
+
+            return solve_ik_method(mech, T, method=self._ik_args[0], q_v0=qv, q_w0=qw,
+                                   weights=w, options=opts)
         return solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)

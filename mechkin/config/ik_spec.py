@@ -134,18 +134,25 @@ class IkSpec(Spec):
 
     ``targets`` (a list of precision points, solved in order) and/or ``random_targets``;
     ``weights`` the default diagonal of W (kim1995 Eq. (9)); ``initial_guess`` independent (and
-    optionally dependent) joints by name; ``method`` lm (default), cg-golden (kim1995 §5.2) or
-    closed-form; ``variant`` (cg-golden only): ``robust`` (default) or ``printed`` (kim1995
-    §5.2 exactly as printed: no restarts, Arora's golden section without a step cap, no
-    passive-limit projection; ``cg_restart`` does not apply); ``warm_start`` each point from
-    the previous solution (kim1995 §5.2);
+    optionally dependent) joints by name; ``method``: ``auto`` (default: ``analytic`` where the
+    mechanism's joint axes decompose into subproblems and all six weights are positive, else
+    ``lm``), ``analytic`` (every branch by subproblem decomposition, the one nearest the guess;
+    refuses a mechanism that does not decompose, naming the axes), ``lm``, ``cg-golden``
+    (kim1995 §5.2) or ``closed-form``; ``variant`` (cg-golden only): ``robust`` (default) or
+    ``printed`` (kim1995 §5.2 exactly as printed: no restarts, Arora's golden section without a
+    step cap, no passive-limit projection; ``cg_restart`` does not apply); ``warm_start`` each
+    point from the previous solution (kim1995 §5.2);
     ``restarts`` re-solves of a target the (warm) start does not reach, from the nearest poses
     of a seeded codebook, then seeded random joints (default 50: >= 99.5 % of random reachable
     PUMA 560 / Panda poses verified; 0 turns them off); ``batch`` solve all targets at once
-    (lm, independent starts); ``solutions``: ``one`` (default) the solution of ``method``, or
-    ``all``: also every distinct verified solution of each target (the closed form where the
-    mechanism has one, else multi-start lm from ``solution_starts`` seeded starts; merged with
-    revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad).
+    (lm, independent starts; auto / analytic: one compiled call); ``solutions``: ``one``
+    (default) the solution of ``method``, or ``all``: also every distinct verified solution of
+    each target (the analytic branches where the mechanism decomposes and the method is auto or
+    analytic: complete, ``complete: true``; the closed form where the mechanism has one;
+    else multi-start lm from ``solution_starts`` seeded starts, ``complete: false``; merged
+    with revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad). ``fixed``: independent
+    joints held at the given values (a 7R arm's redundant joint; auto / analytic), the rest
+    solved analytically.
     """
 
     targets: list[TargetSpec] = Field(default_factory=list)
@@ -153,7 +160,7 @@ class IkSpec(Spec):
     random_targets: RandomTargetsSpec | None = None
     weights: Weights = Field(default_factory=lambda: [1.0] * 6)
     initial_guess: dict[Name, Num] | None = None
-    method: Literal["lm", "cg-golden", "closed-form"] = "lm"
+    method: Literal["auto", "analytic", "lm", "cg-golden", "closed-form"] = "auto"
     tolerances: IkToleranceSpec = Field(default_factory=IkToleranceSpec)
     restarts: Annotated[int, Field(strict=True, ge=0, le=1000)] = 50
     seed: Annotated[int, Field(strict=True, ge=0)] = 0
@@ -163,6 +170,7 @@ class IkSpec(Spec):
     variant: Literal["robust", "printed"] = "robust"
     solutions: Literal["one", "all"] = "one"
     solution_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
+    fixed: dict[Name, Num] | None = None
 
     @model_validator(mode="after")
     def _check(self) -> IkSpec:
@@ -183,8 +191,12 @@ class IkSpec(Spec):
         if self.variant == "printed" and self.cg_restart is not None:
             raise ValueError("cg_restart: the printed variant never restarts (kim1995 §5.2); "
                              "use variant robust")
-        if self.batch and self.method != "lm":
-            raise ValueError("batch: only method lm solves targets in a batch")
+        if self.fixed and self.method not in ("auto", "analytic"):
+            raise ValueError(f"fixed: holds joints for method auto or analytic (method is "
+                             f"{self.method})")
+        if self.batch and self.method not in ("lm", "auto", "analytic"):
+            raise ValueError("batch: only methods auto, analytic and lm solve targets in a "
+                             "batch")
         uses_default = self.random_targets is not None or any(
             t.weights is None for t in self.targets)
         if uses_default and not any(self.weights):

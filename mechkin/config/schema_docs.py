@@ -268,17 +268,23 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "weights": "Default diagonal of W (kim1995 Eq. (9)): position x, y, z, then "
                    "orientation.",
         "initial_guess": f"Start: independent (and optionally dependent) joints by name {_A}.",
-        "method": "lm (Levenberg-Marquardt), cg-golden (kim1995 §5.2 conjugate gradient with "
+        "method": "auto (default: analytic where the joint axes decompose into subproblems, "
+                  "else lm), analytic (every branch by subproblems, the one nearest the guess), "
+                  "lm (Levenberg-Marquardt), cg-golden (kim1995 §5.2 conjugate gradient with "
                   "golden section) or closed-form.",
         "tolerances": "Stopping and acceptance tolerances.",
         "restarts": "Re-solves of an unreached target from codebook and random starts (0: "
                     "off).",
         "seed": "Random seed of restarts and starts.",
         "warm_start": "Start each point from the previous solution (kim1995 §5.2).",
-        "batch": "Solve all targets at once (method lm, independent starts).",
+        "batch": "Solve all targets at once (lm: independent starts; auto / analytic: one "
+                 "compiled call).",
         "cg_restart": "Restart period of the conjugate gradient (cg-golden; default: n).",
-        "solutions": "one: the solution of method; all: every distinct verified solution.",
+        "solutions": "one: the solution of method; all: every distinct verified solution "
+                     "(complete for analytic and closed forms).",
         "solution_starts": "Seeded multi-start count for solutions: all.",
+        "fixed": f"Independent joints held at these values {_A} (a 7R arm's redundant "
+                 "joint); the rest solved analytically (auto / analytic).",
     },
     "PathSpec": {
         "type": "line (start, end; park Eq. (7)), arc (start, via, end on a circle) or spline "

@@ -50,6 +50,14 @@ from mechkin.tasks.common import (
 )
 from mechkin.tasks.distributed import resolve as resolve_execution
 from mechkin.tasks.ik_all import _all_solutions, _clean, _solution_rows, _solutions_record
+from mechkin.tasks.ik_analytic import (
+    analytic_problem,
+    held_values,
+    methods_used,
+    solutions_summary_extra,
+    solve_batch_analytic,
+    solve_held,
+)
 from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
 from mechkin.tasks.ik_solve import _safe_norm, _solve_batch, _solve_split, solve_sequence
 from mechkin.tasks.prepare import Prepared
@@ -189,6 +197,10 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: mechanism {mech.name} has no "
                           "end_effector frame")
     kind = _closed_form_kind(scenario, prepared) if spec.method == "closed-form" else None
+    if spec.method == "analytic":
+        why = analytic_problem(scenario, mech)
+        if why:
+            raise ConfigError(why)
     T_P, W, labels = _targets(scenario, mech)
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
@@ -198,7 +210,14 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     t0 = time.perf_counter()
     ex = resolve_execution(progress=progress)
     execution_info: dict[str, Any] | None = None
-    if spec.batch and not far.any():
+    fixed = held_values(scenario, mech)
+    exact_batch = (solve_batch_analytic(mech, spec.method, T_P, W, qv0, qw0, opts)
+                   if spec.batch and not far.any() and not fixed else None)
+    if fixed:  # held joints: the remaining chain by subproblems, warm-started
+        results, guesses = solve_held(mech, fixed, T_P, W, qv0, opts, spec.warm_start)
+    elif exact_batch is not None:  # auto / analytic: one compiled call for every target
+        results, guesses = exact_batch, [(qv0, qw0)] * len(T_P)
+    elif spec.batch and not far.any():
         results, execution_info = _solve_batch(scenario, T_P, W, qv0, qw0, opts, ex)
         guesses = [(qv0, qw0)] * len(T_P)
     elif ex.split:
@@ -260,6 +279,7 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
         "task": "ik",
         "mechanism": mech.name,
         "method": spec.method,
+        "methods_used": methods_used(results),
         "status": overall,
         "n_targets": len(results),
         "counts": counts,
@@ -283,6 +303,7 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
             # more independent joints than weighted pose components: the solutions form a
             # continuum and the list is a sample of it
             "continuum": bool(len(mech.independent) > int((W > 0).sum(axis=1).min())),
+            **solutions_summary_extra(all_sols),
         }
     checks = with_expect(summary, scenario)
     if all_sols is not None:

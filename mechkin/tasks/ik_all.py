@@ -31,6 +31,13 @@ from mechkin.solvers.ik.all_solutions import (
     multistart_all,
     wrapped,
 )
+from mechkin.tasks.ik_analytic import (
+    analytic_all,
+    analytic_rows,
+    held_values,
+    legs_all_solutions,
+    parallel_legs,
+)
 from mechkin.tasks.ik_solve import _safe_norm
 from mechkin.tasks.prepare import Prepared
 
@@ -45,6 +52,12 @@ def _all_solutions(sc: Scenario, prepared: Prepared, T_P: np.ndarray, W: np.ndar
 
     spec: IkSpec = sc.section
     mech = prepared.mechanism
+    fixed = held_values(sc, mech)
+    legs = parallel_legs(mech, spec.method)
+    exact = analytic_rows(mech, spec.method, W, fixed) & ~far
+    if exact.any():  # the analytic branches: complete (mechkin.solvers.ik.analytic)
+        refs = np.array([g[0] for g in guesses])
+        found = iter(analytic_all(mech, T_P[exact], refs[exact], fixed))
     try:
         kind = prepared.recognise_closed_form()
     except ClosedFormMismatch:
@@ -58,7 +71,11 @@ def _all_solutions(sc: Scenario, prepared: Prepared, T_P: np.ndarray, W: np.ndar
             out.append(IkSolutions(q=np.zeros((0, n)), q_v=np.zeros((0, len(mech.independent))),
                                    position_error=np.zeros(0), orientation_error=np.zeros(0),
                                    distance=np.zeros(0), source="reach bound", starts=0,
-                                   time_s=0.0))
+                                   time_s=0.0, complete=True))
+        elif exact[i]:
+            out.append(next(found))
+        elif legs is not None and bool(np.all(w > 0)):
+            out.append(legs_all_solutions(mech, legs, T, qv, qw, w))
         elif kind is not None:
             out.append(closed_form_all(mech, T, kind, q_w0=qw, ref=qv, extra=extra,
                                        weights=w))

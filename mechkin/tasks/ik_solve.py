@@ -34,6 +34,7 @@ from mechkin.solvers.ik.all_solutions import (
     SAME_TOL,
     wrapped,
 )
+from mechkin.solvers.ik.analytic.dispatch import ANALYTIC_METHODS, solve_ik_method
 from mechkin.tasks.distributed import Execution, map_jobs
 
 
@@ -123,6 +124,9 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
         else:
             if method == "closed-form":
                 r = _closed_form(mech, T, qw, kind)
+            elif method in ANALYTIC_METHODS:
+                r = solve_ik_method(mech, T, method=method, q_v0=qv, q_w0=qw, weights=w,
+                                    options=opts)
             else:
                 r = solve_ik(mech, T, q_v0=qv, q_w0=qw, weights=w, options=opts)
             results.append(r)

@@ -226,6 +226,12 @@ def ik_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
                            "lee_spherical in the mechanism file, or use method: lm)")
         except ClosedFormMismatch as exc:
             out.append(f"{doc.where(('mechanism',))}: {short_str(str(exc), 200)}")
+    if spec.method == "analytic":
+        from mechkin.tasks.ik_analytic import analytic_problem
+
+        why = analytic_problem(sc, mech)
+        if why:
+            out.append(why)
     names = _joint_names(mech)
     for k in (spec.initial_guess or {}):
         if k not in names:

@@ -60,8 +60,10 @@ class IkSolutions:
 
     q : (k, n) all joints; q_v : (k, n_v) independent joints; position_error,
     orientation_error : (k,) [m], [rad] by forward kinematics; distance : (k,) joint distance
-    of q_v from the guess (revolute modulo 2 pi); source : "closed-form" or "multi-start";
-    starts : candidates tried; time_s : wall time.
+    of q_v from the guess (revolute modulo 2 pi); source : "analytic", "closed-form" or
+    "multi-start"; starts : candidates tried; time_s : wall time; complete : the list is
+    every solution within the limits (analytic and closed-form enumeration of all branches);
+    False for multi-start, which finds what its starts reach.
     """
 
     q: np.ndarray
@@ -72,6 +74,7 @@ class IkSolutions:
     source: str
     starts: int
     time_s: float
+    complete: bool = False
 
     @property
     def count(self) -> int:
@@ -138,15 +141,26 @@ def _finish(mech: Mechanism, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, ref:
     dist = np.linalg.norm(wrapped(mech, iv, q[:, iv] - ref[None]), axis=1)
     order = np.lexsort(tuple(np.round(q[:, iv], 9).T[::-1]) + (np.round(dist, 9),))
     q, pe, oe, dist = q[order], pe[order], oe[order], dist[order]
-    keep: list[int] = []
-    for i in range(len(q)):
-        if not any(np.abs(wrapped(mech, iv, q[i, iv] - q[j, iv])).max() < same_tol
-                   for j in keep):
-            keep.append(i)
-    idx = np.array(keep, dtype=int)
+    idx = first_of_clusters(mech, iv, q[:, iv], same_tol)
     return IkSolutions(q=q[idx], q_v=q[idx][:, iv], position_error=pe[idx],
                        orientation_error=oe[idx], distance=dist[idx], source=source,
-                       starts=starts, time_s=time.perf_counter() - t0)
+                       starts=starts, time_s=time.perf_counter() - t0,
+                       complete=source == "closed-form")
+
+
+def first_of_clusters(mech: Mechanism, iv: np.ndarray, qv: np.ndarray, same_tol: float
+                      ) -> np.ndarray:
+    """Rows of qv (k, n_v) kept by the greedy rule: a row is kept unless it lies within
+    same_tol (max-abs, revolute joints modulo 2 pi) of an earlier kept row. Vectorised: one
+    array pass per kept row (every row close to it is dropped at once), not one Python step
+    per pair; the first remaining row is always kept, so this is the greedy rule exactly."""
+    alive = np.ones(len(qv), dtype=bool)
+    keep = []
+    while alive.any():
+        i = int(np.argmax(alive))
+        keep.append(i)
+        alive &= np.abs(wrapped(mech, iv, qv - qv[i])).max(axis=-1) >= same_tol
+    return np.array(keep, dtype=int)
 
 
 def assembled_starts(mech: Mechanism, k: int, qw0: np.ndarray, rng: np.random.Generator

@@ -88,15 +88,20 @@ def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
                ("serial_jit.solve_rows", "open-chain single solve"),
                ("serial_jit.verify_rows", "open-chain batch verification"),
                ("serial_jit.lm_verify", "open-chain small batch"),
-               ("serial_jit.nearest_turn_rows", "open-chain batch whole turns")]
+               ("serial_jit.nearest_turn_rows", "open-chain batch whole turns"),
+               # analytic IK (method auto): type-specialised, warmed on a built-in 6R arm
+               ("finish.solve_one_into", "analytic IK, one pose"),
+               ("finish.solve_finish", "analytic IK, every branch of many poses"),
+               ("finish.finish_batch", "analytic IK, SCARA and 5R branches")]
     return [*lms, ("tree_jit.evaluate_one", "cg-golden point evaluation")]
 
 
 def _dispatcher(name: str):
     from mechkin.solvers.ik import serial_jit, tree_jit
+    from mechkin.solvers.ik.analytic import finish
 
     mod, fn = name.split(".")
-    return getattr({"serial_jit": serial_jit, "tree_jit": tree_jit}[mod], fn)
+    return getattr({"serial_jit": serial_jit, "tree_jit": tree_jit, "finish": finish}[mod], fn)
 
 
 def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
@@ -105,6 +110,8 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
     from mechkin.solvers.ik import lm
     from mechkin.solvers.ik.results import IkOptions
 
+    if name.startswith("finish."):
+        return _analytic_runner(name)
     kern = kernel_for(mech)
     T = np.ascontiguousarray(frame_poses(mech, mech.home[None], [kern.frame])[:, 0])
     qv, qw = mech.home[kern.iv][None].copy(), mech.home[kern.iw][None].copy()
@@ -147,6 +154,55 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
 
     ce = ClosedEvaluator(kern, opts.tol_phi, TOL_DQ_CLOSURE, MAX_ITER_CLOSURE)
     return lambda: ce(qv[0], qw[0], T[0])
+
+
+#: A 6R arm with a spherical wrist (the analytic kernels are specialised on types only).
+TINY_6R = """name: warmup_6r
+units: {length: m, angle: deg}
+dh_convention: standard
+links: [{name: base}, {name: l1}, {name: l2}, {name: l3}, {name: l4}, {name: l5},
+        {name: l6, frames: [{name: tool, xyz: [0, 0, 0]}]}]
+joints:
+  - {name: q1, type: revolute, parent: base, child: l1, dh: {a: 0, alpha: 90, d: 0.4}}
+  - {name: q2, type: revolute, parent: l1, child: l2, dh: {a: 0.5, alpha: 0, d: 0}}
+  - {name: q3, type: revolute, parent: l2, child: l3, dh: {a: 0, alpha: 90, d: 0}}
+  - {name: q4, type: revolute, parent: l3, child: l4, dh: {a: 0, alpha: -90, d: 0.5}}
+  - {name: q5, type: revolute, parent: l4, child: l5, dh: {a: 0, alpha: 90, d: 0}}
+  - {name: q6, type: revolute, parent: l5, child: l6, dh: {a: 0, alpha: 0, d: 0.1}}
+independent: [q1, q2, q3, q4, q5, q6]
+end_effector: tool
+"""
+
+
+def _analytic_runner(name: str) -> Callable[[], object]:
+    """A call of analytic kernel ``name`` through its wrapper, on :data:`TINY_6R`."""
+    import tempfile
+    from pathlib import Path
+
+    from mechkin.model import load_mechanism
+    from mechkin.model.kinematics import frame_poses
+    from mechkin.solvers.ik.analytic.classify import classify
+    from mechkin.solvers.ik.analytic.dispatch import analytic_ik
+    from mechkin.solvers.ik.analytic.finish import finish_batch
+    from mechkin.solvers.ik.analytic.solutions import analytic_batch
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "warmup_6r.yaml"
+        path.write_text(TINY_6R)
+        mech = load_mechanism(path)
+    chain = classify(mech)
+    q = np.array([[0.1, 0.2, 0.3, 0.4, 0.5, 0.6]] * 2)
+    T = np.ascontiguousarray(frame_poses(mech, q, [mech.end_effector])[:, 0])
+    if name == "finish.solve_one_into":
+        return lambda: analytic_ik(mech, chain, T[0], q[0])
+    if name == "finish.solve_finish":
+        return lambda: analytic_batch(mech, chain, T, q[0])
+    out = (np.empty((1, 2, 4)), np.empty((1, 2)), np.empty((1, 2)), np.empty((1, 2)),
+           np.empty(1, dtype=np.int64))
+    lo, hi = np.full(4, -np.pi), np.full(4, np.pi)
+    return lambda: finish_batch(np.zeros((1, 2, 4)), np.ones(1, dtype=np.int64),
+                                np.zeros((1, 2, 2)), np.zeros((1, 4)), lo, hi,
+                                np.ones(4, dtype=np.bool_), 1e-8, 1e-8, 1e-3, *out)
 
 
 def warm(mechs: list[Mechanism]) -> Iterator[tuple[str, str] | Warmed]:

@@ -52,6 +52,13 @@ class _Stage:
     dt: np.ndarray  # (N2+1, N2+1) 2 dx1 / (x2[j] + x2[l]); inf between two rest states
     inv_dt: np.ndarray  # (N2+1, N2+1)
     rdd: np.ndarray  # (N2+1, N2+1) (x2[l]^2 - x2[j]^2) / (2 dx1)
+    rdd_sorted: bool = False  # every row of rdd non-decreasing (the compiled stage's window)
+    x2_to: np.ndarray | None = None  # the successor states l when they differ from x2 (band)
+
+    @property
+    def x2c(self) -> np.ndarray:
+        """The states ``l`` of stage i+1 (columns): ``x2`` unless a band grid says otherwise."""
+        return self.x2 if self.x2_to is None else self.x2_to
 
 
 def _transition_checks(
@@ -101,7 +108,7 @@ def _transition_checks(
             lo, hi = limits["qd"][0][k], limits["qd"][1][k]
             keep(f"qd_{k + 1}", ((qd_j >= lo - _slack(lo)) & (qd_j <= hi + _slack(hi)))[:, None])
         if "qdd" in limits or "jerk" in limits:
-            qdd = (pc.dq[i + 1, k] * st.x2[None, :] - qd_j[:, None]) * inv_dt  # park Eq. (32)
+            qdd = (pc.dq[i + 1, k] * st.x2c[None, :] - qd_j[:, None]) * inv_dt  # park Eq. (32)
             if "qdd" in limits:
                 lo, hi = limits["qdd"][0][k], limits["qdd"][1][k]
                 keep(f"qdd_{k + 1}", (qdd >= lo - _slack(lo)) & (qdd <= hi + _slack(hi)))

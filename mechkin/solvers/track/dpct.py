@@ -86,7 +86,11 @@ stated model can reproduce, see PAPER_NOTES):
     bisection, then the point inside it. The hand waits at rest for the difference.
 
 The recursion is vectorised over all ``(j, l)`` state pairs of a stage; Python loops run over
-stages only. :func:`limit_curve` gives the phase plane's limit curve (the largest ``r'`` the
+stages only. With numba installed, stages ``i >= 1`` run compiled
+(:mod:`mechkin.solvers.track.dp_jit`, rent or buy: :func:`use_compiled_dp`), the same tables
+bit for bit. ``objective="time"`` then refines r' in a band around the optimal curve
+(:func:`_refine_time`, ``refine=False`` turns it off); the tracking and intercept objectives of
+park §5 never do. :func:`limit_curve` gives the phase plane's limit curve (the largest ``r'`` the
 torque and velocity limits admit at each ``r``) that the realised trajectory carries for the
 plots.
 
@@ -98,6 +102,7 @@ park_conveyor_tracking_dp, §2-§4, Eq. (1)-(35); §5 for the reproduced cases.
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -110,6 +115,7 @@ from mechkin.records.track import TrackTrajectory  # re-exported: the realised p
 from mechkin.solvers.dynamics.open_chain import InverseDynamics
 from mechkin.solvers.track.dp_limits import (
     _describe,
+    _slack,
     _diagnose,
     _joint_names,
     _position_block,
@@ -178,16 +184,17 @@ def _run_dp(
     step time, the wait cost and the end jerk checks (:class:`DPOptions`).
     """
     N1 = pc.r.shape[0] - 1
-    N2 = x2.shape[0] - 1
+    N2 = x2.shape[-1] - 1
     n = pc.a.shape[1]
     dx1 = 1.0 / N1
+    band = x2.ndim == 2  # (N1+1, N2+1): each stage its own states (the time-optimal band)
     V = np.full((N1 + 1, N2 + 1), np.inf)
     T = np.full((N1 + 1, N2 + 1), np.nan)
     NP = np.zeros((N1, N2 + 1), dtype=np.int64)
 
     # end node (park Eq. (23)): torque with r'' = 0 and velocity must hold there too
     end_fail: list[str] = []
-    x_end = x2[j_end]
+    x_end = x2[N1, j_end] if band else x2[j_end]
     if "torque" in limits:
         U = pc.b[N1] * x_end**2 + pc.g[N1]
         end_fail += _joint_names(~_within(U, *limits["torque"]), "torque")
@@ -201,16 +208,143 @@ def _run_dp(
     if opts.jerk_ends:  # the motion after the end node: on the part (r'' = 0) or at rest
         qdd_next[j_end] = pc.ddq[N1] * x_end**2  # park Eq. (11)
 
-    dt, inv_dt, rdd = step_arrays(x2[:, None], x2[None, :], dx1, opts.step_time)
-    st = _Stage(x2=x2, dt=dt, inv_dt=inv_dt, rdd=rdd)
+    compiled = N1 > 1 and use_compiled_dp((N1 - 1) * (N2 + 1) ** 2)
+
+    def stage(x_from: np.ndarray, x_to: np.ndarray) -> _Stage:
+        dt, inv_dt, rdd = step_arrays(x_from[:, None], x_to[None, :], dx1, opts.step_time)
+        s = _Stage(x2=x_from, dt=dt, inv_dt=inv_dt, rdd=rdd, x2_to=x_to if band else None)
+        if compiled:  # r'' grows with l on every row (x2 ascending): the kernel's window
+            s.rdd_sorted = bool(np.all(np.diff(rdd, axis=1) >= 0.0))
+        return s
+
+    st = None if band else stage(x2, x2)
     for i in range(N1 - 1, -1, -1):
-        with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
-            out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu, intercept,
-                            opts)
+        if band:
+            st = stage(x2[i], x2[i + 1])
+        assert st is not None
+        out = None
+        if compiled and i >= 1:
+            out = _dp_stage_compiled(i, pc, limits, st, V, T, NP, qdd_next, reference, mu,
+                                     intercept)
+        if out is None:  # numpy: stage 0, no numba, or a dead stage (the diagnosis)
+            with np.errstate(invalid="ignore"):  # inf * 0 of rest-to-rest pairs, masked out
+                out = _dp_stage(i, pc, limits, st, V, T, NP, qdd_next, reference, mu,
+                                intercept, opts)
         if isinstance(out, list):
             return _DPTables(V, NP, T, (i, out))
         qdd_next = out
     return _DPTables(V, NP, T, None)
+
+
+#: Rent or buy for the compiled DP stage (:mod:`mechkin.solvers.track.dp_jit`): the numpy
+#: stage costs about ``NUMPY_PAIR_S`` per ``(j, l)`` pair (and joint limit family); loading the
+#: compiled kernel (numba import and cache load) about ``COMPILED_LOAD_S`` once per process.
+#: Measured 2026-12-03 (2 cores, load ~10, numba 0.68, warm cache): park time-optimal 50 x 500
+#: (12.3 M pairs, torque limits) numpy 1.3 s; numba import + cache load ~0.4 s.
+NUMPY_PAIR_S = 1.0e-7
+COMPILED_LOAD_S = 0.5
+_dp_spent = [0.0]  # estimated numpy DP seconds so far in this process
+_dp_loaded = [False]
+
+
+def use_compiled_dp(pairs: int) -> bool:
+    """Whether a DP of ``pairs`` transition pairs (all stages) runs the compiled stage.
+
+    False without numba or with ``MECHKIN_JIT=0``; True with ``MECHKIN_JIT=1`` or once the
+    kernel is loaded in this process; else when the numpy DP time of this process so far plus
+    this call's estimate exceeds the load cost (rent or buy; the estimate counts pairs, never
+    measured time, so the choice does not depend on the machine's load). Both back ends give
+    the same tables bit for bit, so the choice never changes a result."""
+    from mechkin.solvers.ik import accel
+
+    if not accel.compiled_lm_available():
+        return False
+    if _dp_loaded[0] or os.environ.get("MECHKIN_JIT") == "1":
+        return True
+    est = pairs * NUMPY_PAIR_S
+    if _dp_spent[0] + est > COMPILED_LOAD_S:
+        return True
+    _dp_spent[0] += est
+    return False
+
+
+def _slackened(limits: dict[str, tuple[np.ndarray, np.ndarray]]
+               ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each limit family's bounds with their round-off slack, ``lo - _slack(lo)`` and
+    ``hi + _slack(hi)`` per joint (the numpy stage's expressions, element for element)."""
+    return {fam: (np.asarray(lo) - _slack(np.asarray(lo)), np.asarray(hi) + _slack(np.asarray(hi)))
+            for fam, (lo, hi) in limits.items()}
+
+
+def _dp_stage_compiled(
+    i: int,
+    pc: PhaseCoefficients,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    st: _Stage,
+    V: np.ndarray,
+    T: np.ndarray,
+    NP: np.ndarray,
+    qdd_next: np.ndarray,
+    reference: tuple[float, float] | None,
+    mu: float = 0.0,
+    intercept: bool = False,
+) -> np.ndarray | None:
+    """:func:`_dp_stage` for a stage ``i >= 1`` by the compiled kernel (same tables bit for
+    bit). The per-row bounds are computed here with the numpy stage's expressions. Returns the
+    chosen accelerations, or None when no state survives (the numpy stage then redoes the
+    stage and names the blocking limits)."""
+    from mechkin.solvers.track import dp_jit
+
+    _dp_loaded[0] = True
+    x2 = st.x2
+    J = x2.shape[0]
+    n = pc.a.shape[1]
+    row_ok = np.ones(J, dtype=np.bool_)
+    tq_lo = np.zeros((J, n))
+    tq_hi = np.zeros((J, n))
+    tq_on = np.zeros(n, dtype=np.bool_)
+    sl = _slackened(limits)
+    z = np.zeros(n)
+    qd_j = pc.dq[i][None, :] * x2[:, None]  # park Eq. (10), (4)'
+    if "torque" in limits:
+        lo, hi = sl["torque"]
+        c = pc.b[i][None, :] * (x2**2)[:, None] + pc.g[i][None, :]  # Eq. (12) without r''
+        a = pc.a[i]
+        on = a != 0.0
+        if np.any(~on):
+            row_ok &= np.all((c[:, ~on] >= lo[~on]) & (c[:, ~on] <= hi[~on]), axis=1)
+        if np.any(on):
+            b1 = (lo[on] - c[:, on]) / a[on]
+            b2 = (hi[on] - c[:, on]) / a[on]
+            tq_lo[:, on], tq_hi[:, on] = np.minimum(b1, b2), np.maximum(b1, b2)
+            tq_on[:] = on
+    if "qd" in limits:
+        lo, hi = sl["qd"]
+        row_ok &= np.all((qd_j >= lo) & (qd_j <= hi), axis=1)
+    bounds = {fam: sl.get(fam, (z, z)) for fam in ("qdd", "jerk")}
+    if reference is None:
+        mode, r0, rd_ref = dp_jit.MODE_TIME, 0.0, 0.0
+    else:
+        mode = dp_jit.MODE_INTERCEPT if intercept else dp_jit.MODE_TRACKING
+        r0, rd_ref = reference
+    V_i = np.empty(J)
+    T_i = np.empty(J)
+    NP_i = np.empty(J, dtype=np.int64)
+    qdd_new = np.empty((J, n))
+    alive = dp_jit.dp_stage(
+        x2, st.x2c, st.dt, st.inv_dt, st.rdd, np.ascontiguousarray(V[i + 1]),
+        np.ascontiguousarray(T[i + 1]), row_ok, tq_lo, tq_hi, tq_on, qd_j,
+        np.ascontiguousarray(pc.dq[i + 1]), np.ascontiguousarray(pc.dq[i]), "qdd" in limits,
+        bounds["qdd"][0], bounds["qdd"][1], "jerk" in limits, bounds["jerk"][0],
+        bounds["jerk"][1], np.ascontiguousarray(qdd_next, dtype=np.float64), mode,
+        float(pc.r[i]), float(r0), float(rd_ref), float(mu), -LIMIT_RTOL, STEADY_TOL,
+        INTERCEPT_TIE, st.rdd_sorted, V_i, T_i, NP_i, qdd_new)
+    if alive == 0:
+        return None
+    V[i] = V_i
+    T[i] = T_i
+    NP[i] = NP_i
+    return qdd_new
 
 
 def _dp_stage(
@@ -269,7 +403,7 @@ def _dp_stage(
             masks["start"] = start_ok
         return _diagnose(masks, base)
     qdd_new = np.full((N2 + 1, pc.a.shape[1]), np.nan)
-    dqd = pc.dq[i + 1] * st.x2[best][:, None] - pc.dq[i] * x2j[:, None]
+    dqd = pc.dq[i + 1] * st.x2c[best][:, None] - pc.dq[i] * x2j[:, None]
     qdd_new[rows] = dqd * st.inv_dt[rows][jj, best][:, None]  # park Eq. (32), chosen transitions
     return qdd_new
 
@@ -308,6 +442,58 @@ def _time_penalty_search(
     return last, 0.0
 
 
+#: Band refinement of ``objective="time"`` (:func:`_refine_time`): per pass, the half width of
+#: the band in its own steps and the factor by which the pass divides the r' step. Chosen on
+#: park's torque and torque+qd+qdd cases at 50 x 500 (benchmarks/bench_topp_vs_toppra.py):
+#: +1.43 / +0.39 % over TOPP-RA N = 4000 before, +0.47 / +0.07 % after (the torque case's
+#: remaining gap is the 50 stages: TOPP-RA at N = 50 is +0.45 %); wider bands or more passes
+#: gained < 0.02 %.
+REFINE = ((64, 4), (32, 4), (32, 4))
+
+
+def _path_states(x2: np.ndarray, tab: _DPTables) -> np.ndarray:
+    """r' at every stage of the optimal path of ``tab`` (NP followed from (0, 0))."""
+    N1 = tab.NP.shape[0]
+    js = np.zeros(N1 + 1, dtype=np.int64)
+    for i in range(N1):
+        js[i + 1] = tab.NP[i, js[i]]
+    return x2[np.arange(N1 + 1), js] if x2.ndim == 2 else x2[js]
+
+
+def _refine_time(
+    pc: PhaseCoefficients,
+    limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    x2: np.ndarray,
+    tab: _DPTables,
+    opts: DPOptions,
+    schedule: Sequence[tuple[int, int]] = REFINE,
+) -> tuple[np.ndarray, _DPTables, int]:
+    """Minimum time on finer r' grids in a band around the optimal curve (objective time).
+
+    On a uniform r' grid each accelerating or decelerating step rounds its end state to the
+    grid and the losses add up along the path (50 x 500 on park's torque case: +1.4 % over
+    TOPP-RA). Each pass ``(half, factor)`` divides the r' step by ``factor`` and searches, at
+    every stage, the ``2 half + 1`` states ``c_i + h (k - m_i)`` around the previous pass's
+    curve ``c_i`` (``m_i <= half`` keeps the band at ``r' >= 0``; ``k = m_i`` is ``c_i``
+    itself, so the previous path stays on the grid and a pass can only shorten the time).
+    Same recursion, limits and readings as the uniform grid. Returns the per-stage grid
+    ``(N1+1, 2 half + 1)`` of the last pass kept (or ``x2``), its tables and the number of
+    passes kept."""
+    h = float(x2[1] - x2[0])
+    kept = 0
+    for half, factor in schedule:
+        c = _path_states(x2, tab)
+        h /= factor
+        k = np.arange(2 * half + 1, dtype=np.float64)
+        m = np.minimum(half, np.floor(c / h))
+        band = np.maximum(c[:, None] + h * (k[None, :] - m[:, None]), 0.0)
+        new = _run_dp(pc, limits, band, 0, 0.0, None, 0.0, False, opts)
+        if new.blocked is not None or not new.V[0, 0] <= tab.V[0, 0]:
+            break
+        x2, tab, kept = band, new, kept + 1
+    return x2, tab, kept
+
+
 def _realise(
     pc: PhaseCoefficients,
     path: JointPath,
@@ -333,7 +519,7 @@ def _realise(
     if objective == "time":
         t = t - t[0]
     r = pc.r.copy()
-    rd = x2[js]
+    rd = x2[np.arange(N1 + 1), js] if x2.ndim == 2 else x2[js]
     dt, _, rdd_steps = step_arrays(rd[:-1], rd[1:], dx1, opts.step_time)
     rdd = np.append(rdd_steps, 0.0)
     q = pc.q.copy()
@@ -382,6 +568,7 @@ def solve_conveyor_tracking(
     x2_max: float | None = None,
     joint_names: Sequence[str] | None = None,
     dp: DPOptions | None = None,
+    refine: bool = True,
 ) -> TrackResult:
     r"""Plan the hand's motion along the path by DP in the phase plane (park §4).
 
@@ -420,6 +607,12 @@ def solve_conveyor_tracking(
     dp : DPOptions, optional
         Readings of the DP stage (step time, wait cost, jerk on the end steps); default
         :data:`DEFAULT_DP`, the readings 2, 4 and 6 of the module docstring.
+
+    refine : bool
+        ``objective="time"`` only: after the uniform grid, search finer r' grids in a band
+        around its optimal curve (:data:`REFINE`, :func:`_refine_time`); the time can only
+        shrink. False: the uniform grid alone (the result before issue 29). The tracking and
+        intercept objectives (park §5) never refine.
 
     Returns
     -------
@@ -501,6 +694,9 @@ def solve_conveyor_tracking(
 
     tab = _run_dp(pc, lim, x2, j_end, t_end, ref_phase, 0.0, intercept, opts)
     feasible = tab.blocked is None and np.isfinite(tab.V[0, 0])
+    passes = 0
+    if feasible and objective == "time" and refine and N2 >= 2:
+        x2, tab, passes = _refine_time(pc, lim, x2, tab, opts)
     mu = 0.0
     blocked_by_start = tab.blocked is not None and "start" in tab.blocked[1]
     if not feasible and blocked_by_start:  # reading 9: relax t(0, 0) >= 0 into the cost
@@ -579,7 +775,8 @@ def solve_conveyor_tracking(
     else:
         t_move = 0.0
         duration = float(traj.t[-1])
-        message = f"ok: rest-to-rest time {duration:.4g} s on the {N1}x{N2} grid"
+        message = f"ok: rest-to-rest time {duration:.4g} s on the {N1}x{N2} grid" + (
+            f" (r' refined in a band, {passes} passes)" if passes else "")
     return TrackResult(
         status=TrackStatus.OK,
         message=message,
