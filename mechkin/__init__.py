@@ -36,13 +36,15 @@ __all__ = [
     "__version__",
     "fk",
     "ik",
+    "ik_frames",
     "load_mechanism",
     "load_scenario",
     "run",
 ]
 
 _WHERE = {
-    "fk": "mechkin.api", "ik": "mechkin.api", "load_mechanism": "mechkin.api",
+    "fk": "mechkin.api", "ik": "mechkin.api", "ik_frames": "mechkin.api",
+    "load_mechanism": "mechkin.api",
     "load_scenario": "mechkin.api", "run": "mechkin.api",
     "FkResult": "mechkin.records", "Report": "mechkin.records",
     "IkResult": "mechkin.solvers.ik", "Mechanism": "mechkin.model",

@@ -80,7 +80,7 @@ def fk(
         stops where the assembly folds, ``not converged``), ``within_limits`` (closed chains)
         and ``residual``, and ``poses[name]`` (m, 4, 4) in the base frame.
     """
-    if not mech.cuts:  # open chain: no loop closure, only the frames asked for (issue 29)
+    if not mech.is_closed:  # open chain (no cuts, no couplings): only the frames asked for
         return open_fk(mech, q_v, q_w0, frames)
     import numpy as np
 
@@ -219,6 +219,31 @@ def ik(
         if np.all(np.isfinite(r.q)):
             qv, qw = r.q_v, r.q_w
     return out
+
+
+def ik_frames(mech: Mechanism, targets: Sequence[dict[str, Any]], *, q_v0: Any = None,
+              q_w0: Any = None, seed: int = 0) -> Any:
+    """Several frames' targets solved together (a biped's feet, a humanoid's feet and hands):
+    ``targets`` = ``[{"frame": "left_sole", "T": (4, 4), "weights": (6,) optional}, ...]``,
+    with the loop closure and the joint couplings; a floating base's six joints are unknowns
+    like the others. Returns a :class:`mechkin.solvers.ik.multi_frame.MultiFrameResult`
+    (status, q, per-frame verified errors)."""
+    import numpy as np
+
+    from mechkin.errors import ConfigError
+    from mechkin.solvers.ik.multi_frame import FrameTarget, solve_multi_frame
+
+    fts = []
+    for k, t in enumerate(targets):
+        if t.get("frame") not in mech.frame_names:
+            raise ConfigError(f"targets[{k}].frame: unknown frame {t.get('frame')!r}")
+        T = np.asarray(t.get("T"), dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise ConfigError(f"targets[{k}].T: expected a finite (4, 4) pose")
+        w = np.asarray(t.get("weights", np.ones(6)), dtype=float)
+        fts.append(FrameTarget(str(t["frame"]), T, w))
+    return solve_multi_frame(mech, fts, q_v0=None if q_v0 is None else np.asarray(q_v0, float),
+                             q_w0=None if q_w0 is None else np.asarray(q_w0, float), seed=seed)
 
 
 def run(scenario: str | Path | Scenario, **options: Any) -> Report:

@@ -128,7 +128,7 @@ class SolverBase:
         self.mech = mech
         self.frame_names, self._idx = frame_indices(mech, frames)
         self._frames = None if frames is None else list(frames)
-        self.is_open = not mech.cuts
+        self.is_open = not mech.is_closed  # no cuts, no joint couplings
         self.n_v = len(mech.independent)
         n = mech.n
         self._plan = _path_plan(mech, np.asarray(self._idx, dtype=int), tuple(self._idx)) \

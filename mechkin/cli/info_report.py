@@ -27,6 +27,14 @@ def show_info(mechanism: Path, json_out: bool) -> None:
          f"({info['n_revolute']} revolute, {info['n_prismatic']} prismatic)")
     echo(f"  links                     {info['n_links']}")
     echo(f"  cuts                      {info['n_cuts']}")
+    if info.get("floating_base"):
+        echo("  base                      floating (6-DOF virtual chain from the world: "
+             "base_x, base_y, base_z, base_yaw, base_pitch, base_roll)")
+    if info.get("couplings"):
+        echo(f"  joint couplings           {len(info['couplings'])} ("
+             + ", ".join(f"{c['joint']} = {c['multiplier']:g} {c['master']} {c['offset']:+g}"
+                         for c in info["couplings"][:6])
+             + (", ..." if len(info["couplings"]) > 6 else "") + ")")
     echo(f"  constraint equations (NE) {info['n_equations']} "
          f"(rank {info['constraint_rank']} at home)")
     ab = info["absolute"]
@@ -38,7 +46,8 @@ def show_info(mechanism: Path, json_out: bool) -> None:
         echo(f"    note: {info['mobility_note']}")
     echo(f"  independent               {', '.join(info['independent'])}")
     echo(f"  dependent                 {', '.join(info['dependent']) or '-'}")
-    echo(f"  end effector              {info['end_effector'] or '-'}")
+    echo(f"  end effector              {info['end_effector'] or '-'}"
+         + (f" ({info['end_effector_note']})" if info.get("end_effector_note") else ""))
     sing = info.get("singularity_at_home") or {}
     if sing:
         echo(f"  at home                   {sing.get('class', '?')}")
@@ -116,6 +125,7 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
         "dependent": mech.dependent_names,
         "end_effector": mech.frame_names[mech.end_effector]
         if mech.end_effector is not None else None,
+        "end_effector_note": getattr(mech, "end_effector_note", "") or None,
         "joints": [
             {"name": g.name, "type": g.type,
              "coordinates": [mech.joint_names[j] for j in g.joints]}
@@ -125,6 +135,12 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
             {"name": c.name, "frames": [mech.frame_names[c.a], mech.frame_names[c.b]],
              "equations": int(c.mask.sum())}
             for c in mech.cuts
+        ],
+        "floating_base": bool(getattr(mech, "floating", False)),
+        "couplings": [
+            {"joint": mech.joint_names[c.joint], "master": mech.joint_names[c.master],
+             "multiplier": c.multiplier, "offset": c.offset}
+            for c in mech.couplings
         ],
         "absolute": absolute_counts(mech, kin0.axes()[0][0], n_bodies, J[0]),
         "singularity_at_home": mechanism_singularity_at_home(mech),
@@ -153,7 +169,7 @@ def modes_at_home(mech: Mechanism) -> dict[str, Any] | None:
 
 # Equations per joint in Haug's absolute coordinates (kim1995 ref. 13): spatial R and P 5, U 4,
 # S 3; planar R and P 2.
-_SPATIAL_EQ = {"revolute": 5, "prismatic": 5, "universal": 4, "spherical": 3}
+_SPATIAL_EQ = {"revolute": 5, "prismatic": 5, "universal": 4, "spherical": 3, "floating": 0}
 
 
 def absolute_counts(mech: Mechanism, axes: Any, n_bodies: int, J: Any) -> dict[str, Any]:
@@ -174,17 +190,19 @@ def absolute_counts(mech: Mechanism, axes: Any, n_bodies: int, J: Any) -> dict[s
     import numpy as np
 
     types = [g.type for g in mech.groups]
+    nk = len(mech.couplings)  # a joint coupling is one equation in either formulation
     spatial = {"n_coordinates": 7 * n_bodies,
-               "n_equations": n_bodies + 6 + sum(_SPATIAL_EQ[t] for t in types)}
+               "n_equations": n_bodies + 6 + sum(_SPATIAL_EQ[t] for t in types) + nk}
     planar = None
     z = np.asarray(axes, dtype=float).reshape(-1, 3)
     J = np.asarray(J, dtype=float)
+    J = J[: J.shape[0] - nk] if J.ndim == 2 else J  # the loops: cut rows (couplings come last)
     in_loop = np.flatnonzero(np.linalg.norm(J, axis=0) > 1e-12) if J.size else np.zeros(0, int)
     if in_loop.size and np.all(mech.s[in_loop] <= 1):
         zl = z[in_loop]
         if np.all(np.linalg.norm(np.cross(zl, zl[0]), axis=1) < 1e-9) and all(
                 t in ("revolute", "prismatic") for t in types):
-            planar = {"n_coordinates": 3 * n_bodies, "n_equations": 3 + 2 * len(types)}
+            planar = {"n_coordinates": 3 * n_bodies, "n_equations": 3 + 2 * len(types) + nk}
     main = planar if planar is not None else spatial
     return {**main, "formulation": "planar (3 per body)" if planar is not None else
             "spatial (7 per body: position and Euler parameters)",

@@ -15,7 +15,9 @@ def _ik_line(s: dict[str, Any]) -> str:
     if "counts" not in s:  # a biped run
         return f"{s['scenario']}: {s.get('status', '?')}; wrote {s['out_dir']}"
     c = s["counts"]
-    return (f"{s['scenario']}: {s['status']} ({c.get('ok', 0)}/{s['n_targets']} targets ok, "
+    n, what = ((s["n_targets"], "targets") if "n_targets" in s
+               else (s["n_target_sets"], "target sets"))
+    return (f"{s['scenario']}: {s['status']} ({c.get('ok', 0)}/{n} {what} ok, "
             f"max errors {s['max_position_error']:.3g} m, {s['max_orientation_error']:.3g} "
             f"rad); wrote {s['out_dir']}")
 

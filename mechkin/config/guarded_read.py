@@ -217,6 +217,8 @@ def check_mjcf_files(path: str | os.PathLike[str]) -> str:
             elif el.tag in _ASSET_ATTRS:
                 sub = dirs["mesh"] if el.tag != "texture" else dirs["texture"]
                 for attr in _ASSET_ATTRS[el.tag]:
+                    if el.get(attr) and not os.path.lexists(base / sub / el.get(attr, "")):
+                        continue  # missing on disk: mechkin.config.mjcf compiles without it
                     if el.get(attr):
                         check_file(base / sub / el.get(attr, ""), what=f"MJCF {el.tag} file",
                                    limit=4 * robot_limit(),

@@ -46,6 +46,7 @@ class TargetSpec(Spec):
     (w, x, y, z); optional ``weights`` (6: position x, y, z, then orientation) and ``name``."""
 
     name: str | None = None
+    frame: Name | None = None  # the frame that meets this pose (default: the end effector)
     matrix: Annotated[list[Row4], Field(min_length=4, max_length=4)] | None = None
     xyz: Annotated[list[Num], Field(min_length=3, max_length=3)] | None = None
     rpy: Annotated[list[Num], Field(min_length=3, max_length=3)] | None = None
@@ -84,6 +85,23 @@ class TargetSpec(Spec):
         if self.weights is not None and not any(self.weights):
             raise ValueError("weights: all six are zero, so every pose would count as reached; "
                              "give at least one positive weight")
+        return self
+
+
+class TargetSetSpec(Spec):
+    """Several frames' targets solved together (``frame`` on each; a biped's two feet, a
+    humanoid's feet and hands): one least-squares problem with the loop closure and couplings
+    (:mod:`mechkin.solvers.ik.multi_frame`)."""
+
+    name: str | None = None
+    targets: Annotated[list[TargetSpec], Field(min_length=1)]
+
+    @model_validator(mode="after")
+    def _check(self) -> TargetSetSpec:
+        missing = [i for i, t in enumerate(self.targets) if t.frame is None]
+        if missing:
+            raise ValueError(f"targets[{missing[0]}]: a target set names the frame of every "
+                             "target (frame: left_foot)")
         return self
 
 
@@ -138,6 +156,7 @@ class IkSpec(Spec):
     """
 
     targets: list[TargetSpec] = Field(default_factory=list)
+    target_sets: list[TargetSetSpec] = Field(default_factory=list)
     random_targets: RandomTargetsSpec | None = None
     weights: Weights = Field(default_factory=lambda: [1.0] * 6)
     initial_guess: dict[Name, Num] | None = None
@@ -155,8 +174,17 @@ class IkSpec(Spec):
 
     @model_validator(mode="after")
     def _check(self) -> IkSpec:
-        if not self.targets and self.random_targets is None:
-            raise ValueError("give targets (a list of precision points) or random_targets")
+        if not self.targets and self.random_targets is None and not self.target_sets:
+            raise ValueError("give targets (a list of precision points), target_sets or "
+                             "random_targets")
+        framed = [t.frame is not None for t in self.targets]
+        if any(framed) and (not all(framed) or self.target_sets or self.random_targets):
+            raise ValueError("targets that name their frame form one target set: name the "
+                             "frame of every target (or use target_sets), without "
+                             "random_targets")
+        if self.target_sets and (self.targets or self.random_targets):
+            raise ValueError("target_sets: give either target_sets or targets / "
+                             "random_targets")
         if "variant" in self.model_fields_set and self.method != "cg-golden":
             raise ValueError(f"variant: applies to method cg-golden only (method is "
                              f"{self.method})")

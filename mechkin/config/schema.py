@@ -32,6 +32,11 @@ Name = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z_][A-Za-z0-9_.\-]*$"
 AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
 
 
+#: joints of a floating base's virtual chain (``base: floating``): world x, y, z, then
+#: R = Rz(yaw) Ry(pitch) Rx(roll) (URDF roll-pitch-yaw, as ``base_pose.rpy``)
+FLOATING_JOINTS = ("base_x", "base_y", "base_z", "base_yaw", "base_pitch", "base_roll")
+
+
 class Spec(BaseModel):
     """Base of every file schema: frozen, unknown keys are errors."""
 
@@ -187,6 +192,22 @@ class CutSpec(Spec):
     description: str | None = None
 
 
+class CouplingSpec(Spec):
+    """A linear joint coupling (URDF ``<mimic>``, MJCF ``<equality><joint>``):
+    ``joint = multiplier * master + offset``.
+
+    The coupled ``joint`` is dependent: its row ``q_joint - multiplier q_master - offset`` is a
+    constraint row of phi, solved with the loop closure. ``offset`` is in the coupled joint's
+    unit (angle for revolute, length for prismatic); ``multiplier`` is in joint unit per master
+    unit (file units).
+    """
+
+    joint: Name
+    master: Name
+    multiplier: Num = 1.0
+    offset: Num = 0.0
+
+
 class MechanismSpec(Spec):
     """A mechanism file: links, joints, cuts, independent joints, end effector, and optionally
     the ``closed_form`` (stewart, direct_drive, lee_spherical) that solves its inverse
@@ -197,10 +218,14 @@ class MechanismSpec(Spec):
     notes: str | None = None
     units: Units = Field(default_factory=Units)
     dh_convention: Literal["standard", "modified"] = "standard"
+    # the fixed link (default: the first link), or ``floating``: the first link moves, carried
+    # by a 6-DOF virtual chain from the world (base_x, base_y, base_z, base_yaw, ..._roll)
     base: Name | None = None
+    base_pose: OriginSpec | None = None  # home pose of a floating base (xyz, rpy)
     links: Annotated[list[LinkSpec], Field(min_length=1)]
     joints: list[JointSpec] = Field(default_factory=list)
     cuts: list[CutSpec] = Field(default_factory=list)
+    couplings: list[CouplingSpec] = Field(default_factory=list)
     independent: list[Name] | None = None
     end_effector: Name | None = None
     gravity: Vec3 | None = None  # in the file's length unit per s^2 (default -9.81 m/s^2 z)

@@ -28,7 +28,12 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "units": "Units of every number in this file; converted to SI (m, rad) once on loading.",
         "dh_convention": "D-H convention of the joints placed by `dh`: standard (Denavit-"
                          "Hartenberg) or modified (Craig).",
-        "base": "The fixed link (ground); default: the first link.",
+        "base": "The fixed link (ground); default: the first link. `floating`: the first "
+                "link moves, carried from the world by 6 virtual joints base_x, base_y, base_z, "
+                "base_yaw, base_pitch, base_roll (inputs of fk, unknowns of ik).",
+        "base_pose": f"Home pose of a floating base: xyz {_L}, rpy {_A}.",
+        "couplings": "Linear joint couplings joint = multiplier * master + offset (URDF "
+                     "<mimic>): the coupled joints are dependent, solved with the loop closure.",
         "links": "The rigid bodies of the spanning tree (at least one).",
         "joints": "Joints of the spanning tree, each between a parent (link or frame) and a "
                   "child link; the chains are cut at the cut links (kim1995 §2).",
@@ -112,6 +117,13 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                   "joints.",
         "limits": f"Joint limits [lo, hi] {_A} (prismatic: {_L}); one pair, or one per axis.",
         "home": f"Home configuration {_A} (prismatic: {_L}); one per axis for compound joints.",
+    },
+    "CouplingSpec": {
+        "joint": "The coupled (dependent) joint: q_joint = multiplier * q_master + offset "
+                 "(URDF <mimic>, MJCF <equality><joint>); a constraint row of phi.",
+        "master": "The joint it follows.",
+        "multiplier": "Joint unit per master unit (file units).",
+        "offset": "In the coupled joint's unit (file units).",
     },
     "CutSpec": {
         "name": "Name of the cut link (kim1995 §2).",
@@ -216,6 +228,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
     },
     "TargetSpec": {
         "name": "Name of the precision point.",
+        "frame": "The frame that meets this pose (default: the end effector). Targets that "
+                 "name their frame are solved together, as one target set.",
         "matrix": f"Pose of the hand as a 4x4 homogeneous matrix (translation {_L}).",
         "xyz": f"Position of the hand {_L} (with rpy, euler or quaternion).",
         "rpy": f"Orientation, URDF roll-pitch-yaw: Rz(yaw) Ry(pitch) Rx(roll) {_A} (with xyz).",
@@ -223,6 +237,11 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "quaternion": "Orientation as a quaternion (w, x, y, z) (with xyz).",
         "weights": "Weights of this point (6: position x, y, z, then orientation); default "
                    "the section's weights.",
+    },
+    "TargetSetSpec": {
+        "name": "Name of the target set.",
+        "targets": "One target per frame (each with frame: and its own weights), solved "
+                   "together with the loop closure and couplings.",
     },
     "RandomTargetsSpec": {
         "count": "Number of reachable random poses (forward kinematics of random joints "
@@ -243,6 +262,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                    "restarts, Arora's golden section, no passive-limit projection) or robust "
                    "(the default: restarts, a capped bracket, passive limits kept).",
         "targets": "Precision points {P} (kim1995 §5), solved in order.",
+        "target_sets": "Sets of targets of several frames (a biped's feet, a humanoid's feet "
+                       "and hands), each set solved together; sets in order.",
         "random_targets": "Seeded random reachable targets (besides or instead of targets).",
         "weights": "Default diagonal of W (kim1995 Eq. (9)): position x, y, z, then "
                    "orientation.",

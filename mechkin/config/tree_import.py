@@ -23,13 +23,21 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
 from mechkin.config.load import YamlDoc, read_yaml
-from mechkin.config.schema import CutSpec, MechanismSpec, Name, Num, Spec, validate_model
+from mechkin.config.schema import (
+    CouplingSpec,
+    CutSpec,
+    MechanismSpec,
+    Name,
+    Num,
+    Spec,
+    validate_model,
+)
 from mechkin.errors import ConfigError
 from mechkin.spatial.rotations import rpy_of
 
@@ -63,6 +71,7 @@ class TreeJoint:
     limits: tuple[float, float] | None = None
     offset: float = 0.0
     line: int = 1
+    label: str | None = None  # how messages name the element (default ``joint[<name>]``)
 
 
 @dataclass
@@ -77,10 +86,16 @@ class Tree:
     cuts: list[dict] = field(default_factory=list)
     independent: list[str] | None = None
     end_effector: str | None = None
-    home: dict[str, float] = field(default_factory=dict)
+    home: dict[str, Any] = field(default_factory=dict)  # a spherical joint: 3 values
     description: str | None = None
     gravity: list[float] | None = None
     ignored: dict[str, int] = field(default_factory=dict)
+    #: joint couplings: {joint, master, multiplier, offset, _line, _file, _label} (SI)
+    couplings: list[dict] = field(default_factory=list)
+    #: named sites that look like a tool (tool, tcp, end_effector, ee, ...): default end effector
+    tool_sites: list[str] = field(default_factory=list)
+    #: a floating base (MJCF free joint): the root link moves, its home pose (xyz, rpy) in SI
+    floating: tuple[list[float], list[float]] | None = None
 
 
 class Sidecar(Spec):
@@ -95,6 +110,8 @@ class Sidecar(Spec):
     independent: list[Name] | None = None
     end_effector: Name | None = None
     home: dict[str, Num] | None = None
+    couplings: list[CouplingSpec] | None = None
+    base: Literal["floating", "fixed"] | None = None  # floating: the root link moves (6 DOF)
 
 
 def _clean(v) -> list[float]:
@@ -127,6 +144,11 @@ def merge_sidecar(tree: Tree, sidecar: Path | None) -> tuple[Tree, YamlDoc | Non
         tree.cuts = [c.model_dump(exclude_none=True) | {"_line": doc.line_of(("cuts", i)),
                                                          "_file": str(sidecar)}
                      for i, c in enumerate(sc.cuts)]
+    tree.__dict__["_sidecar_where"] = {
+        (k,): doc.where((k,)) for k in data if k in ("independent", "end_effector", "home")}
+    if "cuts" in data:
+        tree.__dict__["_sidecar_where"].update(
+            {("cuts", i): doc.where(("cuts", i)) for i in range(len(sc.cuts))})
     if sc.independent is not None:
         tree.independent = list(sc.independent)
         tree.__dict__["_independent_where"] = doc.where(("independent",))
@@ -137,6 +159,15 @@ def merge_sidecar(tree: Tree, sidecar: Path | None) -> tuple[Tree, YamlDoc | Non
         for k, v in sc.home.items():
             tree.home[k] = float(v)
         tree.__dict__["_home_where"] = doc.where(("home",))
+    if sc.base == "floating" and tree.floating is None:
+        tree.floating = ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    elif sc.base == "fixed":
+        tree.floating = None
+    if sc.couplings is not None:  # the sidecar's list replaces the file's couplings
+        tree.couplings = [c.model_dump() | {"_line": doc.line_of(("couplings", i)),
+                                            "_file": str(sidecar),
+                                            "_label": f"couplings[{i}]"}
+                          for i, c in enumerate(sc.couplings)]
     return tree, doc
 
 
@@ -248,7 +279,9 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         lines[("links", i)] = links[n].line
     moving = [j for j in tree.joints if j.kind != "fixed"]
     spec_joints = []
-    jnames = set()
+    jnames: set[str] = set()
+    components: set[str] = set()  # spherical joints' revolutes, <name>_1.._3
+    labels: dict[tuple, str] = {}
     for i, j in enumerate(moving):
         d = {"name": j.name, "type": j.kind, "parent": j.parent, "child": j.child,
              "origin": {"xyz": _clean(j.T[:3, 3]), "rpy": _clean(rpy_of(j.T[:3, :3]))}}
@@ -261,16 +294,28 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         if j.limits is not None:
             d["limits"] = [float(j.limits[0]), float(j.limits[1])]
         home = tree.home.get(j.name)
+        if j.kind == "spherical":  # whole (3 values) or by component (<name>_1.._3)
+            h = list(home) if isinstance(home, (list, tuple, np.ndarray)) else [0.0] * 3
+            for k in range(3):
+                h[k] = float(tree.home.get(f"{j.name}_{k + 1}", h[k]))
+            d["home"] = [float(x) for x in h]
+            spec_joints.append(d)
+            jnames.add(j.name)
+            components.update(f"{j.name}_{k + 1}" for k in range(3))
+            lines[("joints", i)] = j.line
+            labels[("joints", i)] = j.label or f"joint[{j.name}]"
+            continue
         if home is None:
             home = 0.0
             if j.limits is not None and not j.limits[0] <= 0.0 <= j.limits[1]:
                 home = 0.5 * (j.limits[0] + j.limits[1])
         d["home"] = float(home)
+        labels[("joints", i)] = j.label or f"joint[{j.name}]"
         spec_joints.append(d)
         jnames.add(j.name)
         lines[("joints", i)] = j.line
     for k in tree.home:
-        if k not in jnames:
+        if k not in jnames and k not in components:
             problems.append(f"{tree.__dict__.get('_home_where', str(path) + ':1: home')}: "
                             f"unknown joint {k!r} (moving joints: {', '.join(sorted(jnames))})")
     all_frames = set(mech_links) | {f["name"] for fl in frames.values() for f in fl}
@@ -284,17 +329,27 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         cuts.append({k: v for k, v in c.items() if not k.startswith("_")})
     if tree.independent is not None:
         for k in tree.independent:
-            if k not in jnames:
+            if k not in jnames and k not in components:
                 problems.append(f"{tree.__dict__.get('_independent_where', str(path) + ':1')}: "
                                 f"unknown joint {k!r} (moving joints: {', '.join(sorted(jnames))})")
+    couplings = []
+    for i, c in enumerate(tree.couplings):
+        where = f"{c.get('_file', path)}:{c.get('_line', 1)}: {c.get('_label', f'couplings[{i}]')}"
+        for key in ("joint", "master"):
+            if c[key] not in jnames and c[key] not in components:
+                problems.append(f"{where}.{key}: unknown joint {c[key]!r} (moving joints: "
+                                f"{', '.join(sorted(jnames)[:30])})")
+        couplings.append({k: (float(v) if k in ("multiplier", "offset") else v)
+                          for k, v in c.items() if not k.startswith("_")})
+        lines[("couplings", i)] = c.get("_line", 1)
+        labels[("couplings", i)] = c.get("_label", f"couplings[{i}]")
     ee = tree.end_effector
     if ee is not None and ee not in all_frames:
         problems.append(f"{tree.__dict__.get('_ee_where', str(path) + ':1: end_effector')}: "
                         f"unknown frame {ee!r}")
+    ee_note = None
     if ee is None:
-        leaves = [n for n in order if not children[n]] + [f[0] for f in tree.frames]
-        if len(leaves) == 1 and not tree.cuts:
-            ee = leaves[0]
+        ee, ee_note = _default_end_effector(tree, order, children)
     if problems:
         raise ConfigError(problems)
     data: dict[str, Any] = {"name": _safe_name(tree.name), "units": {"length": "m", "angle": "rad"},
@@ -303,18 +358,106 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         data["description"] = tree.description
     if cuts:
         data["cuts"] = cuts
+    if couplings:
+        data["couplings"] = couplings
     if tree.independent is not None:
         data["independent"] = list(tree.independent)
     if ee is not None:
         data["end_effector"] = ee
+    if tree.floating is not None:
+        data["base"] = "floating"
+        data["base_pose"] = {"xyz": _clean(tree.floating[0]), "rpy": _clean(tree.floating[1])}
     if tree.gravity is not None:
         data["gravity"] = [float(g) for g in tree.gravity]
-    doc = YamlDoc(path=path, data=data, lines=lines | (source_lines or {}))
+    if ee_note:
+        data["notes"] = ee_note
+    doc = RobotDoc(path=path, data=data, lines=lines | (source_lines or {}), labels=labels,
+                   sidecar=tree.__dict__.get("_sidecar_where", {}))
     spec = validate_model(doc, MechanismSpec, data)
     if tree.ignored:
         what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
         sys.stderr.write(f"{path.name}: note: ignored {what} (not kinematics)\n")
     return spec, doc
+
+
+@dataclass(frozen=True)
+class RobotDoc(YamlDoc):
+    """The YamlDoc of an imported robot file: key paths of the spec print as the file's own
+    elements (``joints[3]`` -> ``joint[panda_finger_joint2]``) at their real lines."""
+
+    labels: dict = field(default_factory=dict)
+    #: key paths written in the sidecar: (sidecar where-prefix "file:line: key") by key path
+    sidecar: dict = field(default_factory=dict)
+
+    def where(self, key_path) -> str:
+        from mechkin.config.load import format_key_path
+
+        kp = tuple(key_path)
+        for n in range(len(kp), 0, -1):
+            if kp[:n] in self.sidecar:
+                rest = format_key_path(kp[n:]) if kp[n:] else ""
+                return self.sidecar[kp[:n]] + ("" if not rest else
+                                               (rest if rest.startswith("[") else "." + rest))
+            if kp[:n] in self.labels:
+                rest = format_key_path(kp[n:]) if kp[n:] else ""
+                label = self.labels[kp[:n]] + ("" if not rest else
+                                               (rest if rest.startswith("[") else "." + rest))
+                return f"{self.path}:{self.line_of(kp)}: {label}"
+        if kp and kp[0] in SIDECAR_KEYS:  # not in the robot file: say where it goes
+            side = self.path.with_name(self.path.stem + ".mechkin.yaml").name
+            return (f"{self.path}:{self.line_of(kp)}: {format_key_path(kp)} (not in the robot "
+                    f"file: set '{kp[0]}:' in the sidecar {side})")
+        return super().where(key_path)
+
+
+#: keys a sidecar can give (what a robot file cannot say)
+SIDECAR_KEYS = ("name", "description", "cuts", "independent", "end_effector", "home",
+                "couplings", "base")
+
+
+#: words that mark a tool frame (strong), or probably one (weak)
+_TOOL_STRONG = ("tool", "tcp", "end_effector", "endeffector", "attachment_site")
+_TOOL_WEAK = ("ee", "eef", "flange", "gripper", "hand")
+
+
+def tool_rank(name: str) -> int:
+    """2 for a name that reads as a tool frame (contains tool, tcp, end_effector), 1 for a
+    likely one (a ``_``-separated word ee, eef, flange, gripper, hand), else 0."""
+    import re
+
+    low = name.lower()
+    if any(w in low for w in _TOOL_STRONG):
+        return 2
+    return 1 if any(w in _TOOL_WEAK for w in re.split(r"[^a-z0-9]+", low)) else 0
+
+
+def _default_end_effector(tree: Tree, order: list[str], children: dict
+                          ) -> tuple[str | None, str | None]:
+    """(frame, note) of the default end effector, or (None, None): the one site or fixed body
+    named like a tool (strong names first), else the last moving body of a single serial chain
+    (no body with two moving children, no cuts)."""
+    fixed_children = [j.child for js in children.values() for j in js if j.kind == "fixed"]
+    names = list(tree.tool_sites) + [n for n in fixed_children if n not in tree.tool_sites]
+    for rank in (2, 1):
+        hit = [n for n in names if tool_rank(n) == rank]
+        if len(hit) == 1:
+            what = "site" if hit[0] in tree.tool_sites else "frame"
+            return hit[0], f"end effector: default: the {what} named like a tool"
+    if tree.cuts:
+        return None, None
+    moving = {n: [j for j in children[n] if j.kind != "fixed"] for n in children}
+    if any(len(v) > 1 for v in moving.values()):
+        return None, None
+    has_moving_parent = {j.child for js in children.values() for j in js if j.kind != "fixed"}
+    ends = [n for n in order if n in has_moving_parent and not moving[n]]
+    if len(ends) == 1:
+        return ends[0], "end effector: default: the last moving body of the serial chain"
+    return None, None
+
+
+def end_effector_candidates(mech_frames: list[str]) -> list[str]:
+    """Frames worth naming as the end effector, tool-like names first."""
+    return sorted(mech_frames, key=lambda n: -tool_rank(n))
 
 
 def _safe_name(name: str) -> str:
@@ -334,8 +477,9 @@ def spec_to_yaml_text(spec: MechanismSpec, header: str = "") -> str:
     for j in d.get("joints", []):
         if j.get("origin") == {}:
             del j["origin"]
-    order = ["name", "description", "notes", "units", "dh_convention", "base", "links", "joints",
-             "cuts", "independent", "end_effector", "gravity", "closed_form"]
+    order = ["name", "description", "notes", "units", "dh_convention", "base", "base_pose",
+             "links", "joints", "cuts", "couplings", "independent", "end_effector", "gravity",
+             "closed_form"]
     d = {k: d[k] for k in order if k in d}
 
     class _Dumper(yaml.SafeDumper):

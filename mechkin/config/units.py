@@ -56,6 +56,18 @@ def mechanism_to_si(spec: MechanismSpec) -> MechanismSpec:
         j["offset"] = _scale(j["offset"], f)
         j["home"] = _scale(j["home"], f)
         j["limits"] = _scale(j["limits"], f)
+    if d.get("base_pose"):
+        d["base_pose"]["xyz"] = _scale(d["base_pose"]["xyz"], L)
+        d["base_pose"]["rpy"] = _scale(d["base_pose"]["rpy"], A)
+    if d.get("couplings"):
+        kinds = {j["name"]: j["type"] for j in d["joints"]}
+
+        def factor(name: str) -> float:  # a compound joint's components are revolute
+            return L if kinds.get(name) == "prismatic" else A
+
+        for c in d["couplings"]:
+            c["offset"] = c["offset"] * factor(c["joint"])
+            c["multiplier"] = c["multiplier"] * factor(c["joint"]) / factor(c["master"])
     if d.get("gravity"):
         d["gravity"] = _scale(d["gravity"], L)
     return MechanismSpec.model_validate(d)

@@ -9,8 +9,10 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
 - ``revolute`` (limits), ``continuous`` (no limits), ``prismatic`` -> origin + axis joints (the
   child link frame is ``T_origin Rot(axis, q)``, the URDF convention); ``fixed`` -> the child
   link becomes a named frame on the parent link (``mechkin.config.tree_import``);
-- ``<mimic>``, ``floating`` and ``planar`` joints are refused (mechkin has no joint coupling and
-  no 6-DOF or planar joint): one ``file:line`` message naming the joint;
+- ``<mimic joint= multiplier= offset=>`` -> a joint coupling ``q = multiplier q_joint + offset``
+  (``couplings:``; a constraint row of phi, :mod:`mechkin.model.couplings`); ``floating`` and
+  ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming
+  the joint and the fix;
 - ``<gazebo>``, ``<transmission>`` and other extensions are ignored with one note on stderr;
   ``<visual>``, ``<collision>``, ``<material>`` carry no kinematics and are skipped silently;
 - closed chains: cuts, independent joints, end effector and home come from the sidecar
@@ -113,20 +115,31 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
     link_line = {e.get("name"): e.sourceline for e in root.findall("link")}
     joint_el = {e.get("name"): e for e in root.findall("joint")}
     problems = []
+    couplings = []
     for name, e in joint_el.items():
         m = e.find("mimic")
         typ = e.get("type")
-        if m is not None:
-            problems.append(
-                f"{path}:{m.sourceline}: joint[{name}].mimic: mimic joints are not supported "
-                f"({name} = {m.get('multiplier', '1')} * {m.get('joint')} + "
-                f"{m.get('offset', '0')}): mechkin has no joint coupling; remove the <mimic> "
-                "(the joint becomes independent) or model the coupling as a closed chain "
-                "(sidecar cuts:)")
+        if m is not None and typ == "fixed":  # a fixed joint follows nothing (talos_reduced)
+            continue
+        if m is not None:  # q_name = multiplier * q_master + offset: a coupling row of phi
+            where = f"{path}:{m.sourceline}: joint[{name}].mimic"
+            mult = _floats(m.get("multiplier", "1"), 1, where + ".multiplier")[0]
+            off = _floats(m.get("offset", "0"), 1, where + ".offset")[0]
+            if not m.get("joint"):
+                problems.append(f"{where}: expected joint=\"MASTER\" (the joint it follows)")
+            elif (joint_el.get(m.get("joint")) is not None
+                  and joint_el[m.get("joint")].get("type") == "fixed"):
+                problems.append(f"{where}.joint: the master {m.get('joint')!r} is a fixed joint; "
+                                f"fix: remove the <mimic> (or make joint {name!r} fixed too)")
+            else:
+                couplings.append({"joint": name, "master": m.get("joint"), "multiplier": mult,
+                                  "offset": off, "_line": m.sourceline, "_file": str(path),
+                                  "_label": f"joint[{name}].mimic"})
         if typ not in ("revolute", "continuous", "prismatic", "fixed"):
             problems.append(f"{path}:{e.sourceline}: joint[{short_str(name)}].type: "
                             f"{short_str(typ)} joints are not supported (mechkin joints: revolute, "
-                            "continuous, prismatic, fixed)")
+                            "continuous, prismatic, fixed); fix: make it type=\"fixed\" (or "
+                            "remove it and its parent link, so its child is the base)")
     if problems:
         raise ConfigError(problems)
     try:
@@ -165,7 +178,8 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             if lo is not None and hi is not None and lo < hi:
                 limits = (float(lo), float(hi))
         joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line))
-    tree = Tree(name=robot.name or path.stem, path=path, links=links, joints=joints)
+    tree = Tree(name=robot.name or path.stem, path=path, links=links, joints=joints,
+                couplings=couplings)
     _read_extensions(root, tree, path)
     tree, _ = merge_sidecar(tree, find_sidecar(path, sidecar))
     return tree_to_spec(tree)

@@ -133,6 +133,7 @@ def mechanism_to_urdf(mech: Mechanism, *, visuals: Sequence[Any] = (),
         link_xml.append(f"  <link name={quoteattr(name)}>{inert}</link>" if inert
                         else f"  <link name={quoteattr(name)}/>")
     ext: list[str] = []
+    joint_pos: dict[int, int] = {}
     for k, jname in enumerate(mech.joint_names):
         prism = bool(mech.s[k])
         parent = mech.link_names[mech.joint_parent_link[k]]
@@ -158,6 +159,7 @@ def mechanism_to_urdf(mech: Mechanism, *, visuals: Sequence[Any] = (),
         vel, eff = rates.get(jname, (0.0, 0.0))
         limit = (f'<limit lower="{_num(lim[0])}" upper="{_num(lim[1])}" effort="{_num(eff)}" '
                  f'velocity="{_num(vel)}"/>') if lim else ""
+        joint_pos[k] = len(joint_xml)
         joint_xml.append(
             f'  <joint name={quoteattr(jname)} type="{typ}"><parent link={quoteattr(parent)}/>'
             f"<child link={quoteattr(target)}/>{_origin(origin)}<axis xyz=\"{_vec(axis)}\"/>"
@@ -172,6 +174,11 @@ def mechanism_to_urdf(mech: Mechanism, *, visuals: Sequence[Any] = (),
         if prism and unlimited:
             attrs += ' unlimited="true"'
         ext.append(f"  <mechkin:joint {attrs}/>")
+    for c in getattr(mech, "couplings", ()):  # joint couplings -> URDF <mimic>
+        i = joint_pos[c.joint]
+        mimic = (f"<mimic joint={quoteattr(mech.joint_names[c.master])} "
+                 f'multiplier="{_num(c.multiplier)}" offset="{_num(c.offset)}"/>')
+        joint_xml[i] = joint_xml[i][: -len("</joint>")] + mimic + "</joint>"
     for f in range(nl, len(mech.frame_names)):
         fname = mech.frame_names[f]
         vis = _visual_xml(by_link.get(fname, ()))

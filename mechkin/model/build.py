@@ -7,12 +7,16 @@ from collections import deque
 import numpy as np
 
 from mechkin.config.load import YamlDoc, short, short_list
-from mechkin.config.schema import MechanismSpec
+from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.errors import ConfigError
-from mechkin.model.mechanism import AXIS_NAMES, Cut, JointGroup, Mechanism
+from mechkin.model.mechanism import AXIS_NAMES, Coupling, Cut, JointGroup, Mechanism
 from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import rot_z
 from mechkin.spatial.transforms import T_from, transform_from_xyz_rpy
+
+#: how an importer's ``notes`` say why it chose the end effector (mechkin.config.tree_import)
+EE_NOTE = "end effector: "
+
 
 COMPOUND_AXES = {"universal": ([1, 0, 0], [0, 1, 0]),
                  "spherical": ([1, 0, 0], [0, 1, 0], [0, 0, 1])}
@@ -51,7 +55,7 @@ def _check_geometry(spec: MechanismSpec, P: _Problems) -> None:
     arithmetic overflow: at least one joint; every axis a direction; successive axes of a
     universal or spherical joint not parallel; lengths within MAX_LENGTH m, angles within
     MAX_ANGLE rad, masses within MAX_MASS kg (SI spec)."""
-    if not spec.joints:
+    if not spec.joints and spec.base != "floating":
         P.add(("joints",), "a mechanism needs at least one joint")
 
     def bound(kp: tuple, values, limit: float, what: str) -> None:
@@ -190,7 +194,15 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
             continue
         seen[link.name] = ("links", i, "name")
         link_names.append(link.name)
+    floating = spec.base == "floating" and "floating" not in link_names
     base_name = spec.base or spec.links[0].name
+    if floating:  # a 6-DOF virtual chain from a world link to the first link (DESIGN.md)
+        body = spec.links[0].name
+        base_name = next(w for w in ("world", "world_0", "world_1") if w not in link_names)
+        link_names.insert(0, base_name)
+    elif spec.base_pose is not None:
+        P.add(("base_pose",), "base_pose is the home pose of a floating base; it needs "
+              "base: floating")
     if base_name not in link_names:
         P.add(("base",), f"unknown link {short(base_name)} (links: {short_list(link_names)})")
         P.raise_if_any()
@@ -210,6 +222,24 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         joints.append((name, kind, parent, child, A, B, lo, hi, home, kp))
         return len(joints) - 1
 
+    if floating:
+        bp = spec.base_pose
+        xyz = bp.xyz if bp is not None else [0.0, 0.0, 0.0]
+        rpy = bp.rpy if bp is not None else [0.0, 0.0, 0.0]
+        idxs = []
+        parent = base_name
+        for k, (jn, prism, ax, h) in enumerate(zip(FLOATING_JOINTS, (1, 1, 1, 0, 0, 0),
+                                                   ((1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 1),
+                                                    (0, 1, 0), (1, 0, 0)),
+                                                   (*xyz, rpy[2], rpy[1], rpy[0]), strict=True)):
+            Ra = T_from(align_z(list(ax)), np.zeros(3))
+            child = body if k == 5 else f"_{jn}_link"
+            if k < 5:
+                virtual.append(child)
+            idxs.append(add_joint(jn, prism, parent, child, Ra, Ra.T.copy(), -np.inf, np.inf,
+                                  float(h), ("base",)))
+            parent = child
+        groups.append(JointGroup("base", "floating", tuple(idxs)))
     for i, j in enumerate(spec.joints):
         kp = ("joints", i)
         ncomp = {"universal": 2, "spherical": 3}.get(j.type, 1)
@@ -378,6 +408,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
                 continue
             mask = np.array([a in c.mask for a in AXIS_NAMES])
         cuts.append(Cut(c.name, frame_idx[fa], frame_idx[fb], mask))
+    couplings = _couplings(spec, P, [jt[0] for jt in joints], groups)
     # ---- end effector --------------------------------------------------------------------------
     ee = None
     if spec.end_effector is not None:
@@ -439,6 +470,10 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         gravity=gravity,
         virtual_links=frozenset(link_idx.get(v, -1) for v in virtual) if virtual else frozenset(),
         description=spec.description or "",
+        couplings=couplings,
+        floating=floating,
+        end_effector_note=(spec.notes[len(EE_NOTE):] if spec.notes and ee is not None
+                           and spec.notes.startswith(EE_NOTE) else ""),
     )
     P.raise_if_any()
     mech = _with_partition(mech, spec, P, names, groups)
@@ -477,12 +512,17 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
               "nothing can move")
         P.raise_if_any()
     group_of = {g.name: g for g in groups}
+    coupled = {c.joint for c in mech.couplings}
     if spec.independent is None:
         if mech.cuts:
             P.add(("independent",), f"a closed chain needs its independent joints listed "
                   f"({dof} degrees of freedom)")
             P.raise_if_any()
-        return mech
+        if not coupled:
+            return mech
+        # an open chain with couplings: every joint but the coupled ones
+        ind = np.array([k for k in range(n) if k not in coupled], dtype=int)
+        return replace(mech, independent=ind, dependent=np.array(sorted(coupled), dtype=int))
     idx: list[int] = []
     for k, name in enumerate(spec.independent):
         if name in names:
@@ -491,6 +531,9 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
             idx.extend(group_of[name].joints)
         else:
             P.add(("independent", k), f"unknown joint {short(name)} (joints: {short_list(names)})")
+    for i in sorted(set(idx) & coupled):
+        P.add(("independent",), f"joint {short(names[i])} is coupled (couplings:): a coupled "
+              "joint follows its master and cannot be independent")
     P.raise_if_any()
     if len(set(idx)) != len(idx):
         P.add(("independent",), "a joint is listed twice")
@@ -509,3 +552,35 @@ def _with_partition(mech, spec, P: _Problems, names, groups) -> Mechanism:
                   "the constraint Jacobian of the dependent joints is rank deficient at home")
             P.raise_if_any()
     return replace(mech, independent=ind, dependent=dep)
+
+
+def _couplings(spec: MechanismSpec, P: _Problems, names: list[str],
+               groups: list[JointGroup]) -> tuple[Coupling, ...]:
+    """Joint couplings ``joint = multiplier * master + offset`` (SI spec) -> Coupling rows
+    (:mod:`mechkin.model.couplings`); unknown, self- and doubly-coupled joints are reported."""
+    out: list[Coupling] = []
+    seen: dict[str, int] = {}
+    compound = {g.name for g in groups if len(g.joints) > 1}
+    for i, c in enumerate(spec.couplings):
+        kp = ("couplings", i)
+        bad = False
+        for key in ("joint", "master"):
+            v = getattr(c, key)
+            if v not in names:
+                hint = (f"; name a component of the {v} joint ({v}_1, {v}_2, ...)"
+                        if v in compound else "")
+                P.add(kp + (key,), f"unknown joint {short(v)} (joints: {short_list(names)}){hint}")
+                bad = True
+        if bad:
+            continue
+        if c.joint == c.master:
+            P.add(kp + ("master",), f"joint {short(c.joint)} cannot follow itself")
+            continue
+        if c.joint in seen:
+            P.add(kp + ("joint",), f"joint {short(c.joint)} is already coupled "
+                  f"(couplings[{seen[c.joint]}])")
+            continue
+        seen[c.joint] = i
+        out.append(Coupling(names.index(c.joint), names.index(c.master), float(c.multiplier),
+                            float(c.offset)))
+    return tuple(out)

@@ -145,7 +145,7 @@ def solve_closure(
     done = np.zeros(m, dtype=bool)
     res = np.full(m, np.inf)
     cond = np.ones(m)
-    if not mech.cuts or len(mech.dependent) == 0:
+    if not mech.is_closed or len(mech.dependent) == 0:
         q = mech.assemble(q_v, q_w)
         kin = forward_kinematics(mech, q)
         from mechkin.model.kinematics import closure_residual
@@ -277,7 +277,7 @@ def solve_trajectory(
     last_q = first.q[0] if first.status[0] is ClosureStatus.CONVERGED else None
     k = 1
     while k < m:
-        if chunk <= 1 or last_q is None or not mech.cuts:
+        if chunk <= 1 or last_q is None or not mech.is_closed:
             g = guess if last_q is None else last_q[mech.dependent][None]
             r = solve_closure(mech, q_v_traj[k : k + 1], g, **kw)
             sl = slice(k, k + 1)

@@ -184,8 +184,8 @@ def frame_motion(mech: Mechanism, kin: Kinematics, lm: LinkMotion, idx: np.ndarr
 def _closure_second_derivative(mech: Mechanism, kin: Kinematics, lm: LinkMotion) -> np.ndarray:
     """d^2 phi_R / dt^2 (m, n_eq) from the frame motion of the cut frames (module docstring)."""
     m = kin.q.shape[0]
-    if not mech.cuts:
-        return np.zeros((m, 0))
+    if not mech.cuts:  # coupling rows are linear in q: no quadratic term
+        return np.zeros((m, len(mech.couplings)))
     fa, fb, mask = _cut_arrays(mech)
     Ta, Tb = kin.frames(mech, fa), kin.frames(mech, fb)
     twa, acca = frame_motion(mech, kin, lm, fa)
@@ -210,7 +210,7 @@ def _closure_second_derivative(mech: Mechanism, kin: Kinematics, lm: LinkMotion)
     evd = 0.5 * (e0 * wr + _cross(wr, ev))
     ge = 0.5 * (e0d * wr + e0 * wrd + _cross(wrd, ev) + _cross(wr, evd))
     x = np.concatenate([to_a(gp), ge], axis=-1)  # (m, nc, 6)
-    return x[:, mask]
+    return np.concatenate([x[:, mask], np.zeros((m, len(mech.couplings)))], axis=1)
 
 
 def closure_bias(mech: Mechanism, q: np.ndarray | Kinematics, qd: np.ndarray) -> np.ndarray:

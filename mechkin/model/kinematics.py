@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mechkin.model import fk_accel
+from mechkin.model.couplings import append_coupling_rows
 from mechkin.model.fk_plan import (  # noqa: F401 - re-exported: the plan routes' names
     _F64,
     _ZC,
@@ -485,17 +486,25 @@ def closure_residual(mech: Mechanism, kin: Kinematics) -> np.ndarray:
     """phi_R (m, n_eq): the loop-closure residual of every cut, masked (kim1995 Eq. (4))."""
     m = kin.q.shape[0]
     if not mech.cuts:
-        return np.zeros((m, 0))
-    fa, fb, mask = _cut_arrays(mech)
-    x = relative_residual(kin.frames(mech, fa), kin.frames(mech, fb))  # (m, nc, 6)
-    return x[:, mask]
+        phi = np.zeros((m, 0))
+    else:
+        fa, fb, mask = _cut_arrays(mech)
+        x = relative_residual(kin.frames(mech, fa), kin.frames(mech, fb))  # (m, nc, 6)
+        phi = x[:, mask]
+    if mech.couplings:  # joint couplings: rows after the cuts' (mechkin.model.couplings)
+        phi = append_coupling_rows(mech, kin.q, phi)
+    return phi
 
 
 def closure_jacobian(mech: Mechanism, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
     """phi_R (m, n_eq) and d(phi_R)/dq (m, n_eq, n), analytic (kim1995 Eq. (4))."""
     m = kin.q.shape[0]
     if not mech.cuts:
-        return np.zeros((m, 0)), np.zeros((m, 0, mech.n))
-    fa, fb, mask = _cut_arrays(mech)
-    x, J = relative_jacobians(mech, kin, fa, fb)
-    return x[:, mask], J[:, mask]
+        phi, J = np.zeros((m, 0)), np.zeros((m, 0, mech.n))
+    else:
+        fa, fb, mask = _cut_arrays(mech)
+        x, Jx = relative_jacobians(mech, kin, fa, fb)
+        phi, J = x[:, mask], Jx[:, mask]
+    if mech.couplings:  # joint couplings: rows after the cuts' (mechkin.model.couplings)
+        phi, J = append_coupling_rows(mech, kin.q, phi, J)
+    return phi, J

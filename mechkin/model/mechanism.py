@@ -28,6 +28,18 @@ class Cut:
 
 
 @dataclass(frozen=True)
+class Coupling:
+    """A linear joint coupling ``q_joint = multiplier * q_master + offset`` (URDF mimic, MJCF
+    joint equality): one constraint row ``q_joint - multiplier q_master - offset`` of phi,
+    after the cut rows (:mod:`mechkin.model.couplings`). ``joint``, ``master``: joint indices."""
+
+    joint: int
+    master: int
+    multiplier: float
+    offset: float
+
+
+@dataclass(frozen=True)
 class JointGroup:
     """A joint as the user wrote it (a universal expands to 2 joints, a spherical to 3)."""
 
@@ -86,6 +98,11 @@ class Mechanism:
     inertia: np.ndarray
     gravity: np.ndarray
     virtual_links: frozenset[int] = field(default_factory=frozenset)
+    couplings: tuple[Coupling, ...] = ()
+    #: ``base: floating``: joints base_x..base_roll carry the first link from a world link 0
+    floating: bool = False
+    #: how an importer chose the default end effector ("site 'tcp' (named like a tool)"), or ""
+    end_effector_note: str = ""
     description: str = ""
     # stick drawings (mechkin.model.drawing): declared plates (name, link, ((kind, index), ...)),
     # kind "frame" or "joint"; auto_plates: convex-hull plates on the other links
@@ -108,12 +125,15 @@ class Mechanism:
 
     @property
     def n_equations(self) -> int:
-        """Number of loop-closure equations (6 per cut, fewer with masks)."""
-        return int(sum(int(c.mask.sum()) for c in self.cuts))
+        """Number of constraint equations of phi: 6 per cut (fewer with masks), then one per
+        joint coupling."""
+        return int(sum(int(c.mask.sum()) for c in self.cuts)) + len(self.couplings)
 
     @property
     def is_closed(self) -> bool:
-        return bool(self.cuts)
+        """Whether phi has rows (cuts or joint couplings): the dependent joints are solved by
+        the loop closure."""
+        return bool(self.cuts) or bool(self.couplings)
 
     # ---- partition (kim1995 Eq. (3)) -----------------------------------------------------------
     @property
@@ -174,3 +194,32 @@ class Mechanism:
             return int(self.frame_link[f])
         j = self.link_parent_joint[f]
         return -1 if j < 0 else int(self.joint_parent_frame[j])
+
+
+def end_effector_hint(mech: Mechanism, limit: int = 4) -> str:
+    """What to write when ``mech`` has no end effector: the key, where it goes (the sidecar
+    ``ROBOT.mechkin.yaml`` beside a URDF/MJCF file, else the mechanism file), an example and the
+    candidate frames (frames on links that carry no joint, tool-like names first)."""
+    import re
+
+    carrying = set(int(x) for x in mech.joint_parent_link)
+    leaves = [f for f in range(len(mech.frame_names))
+              if int(mech.frame_link[f]) not in carrying
+              and int(mech.frame_link[f]) not in mech.virtual_links]
+    names = [mech.frame_names[f] for f in leaves] or list(mech.frame_names)
+
+    def rank(n: str) -> int:
+        low = n.lower()
+        if any(w in low for w in ("tool", "tcp", "end_effector", "sole", "foot", "hand")):
+            return 0
+        return 1 if re.search(r"(^|_)(ee|eef|tip|flange|gripper)(_|$)", low) else 2
+
+    names = sorted(names, key=rank)
+    more = f", ... {len(names)} in all" if len(names) > limit else ""
+    src = mech.source
+    if src is not None and src.suffix.lower() in (".urdf", ".xml", ".mjcf"):
+        where = f"in the sidecar {src.stem}.mechkin.yaml beside it"
+    else:
+        where = "in the mechanism file"
+    return (f"fix: set end_effector {where}, e.g. 'end_effector: {names[0]}' (candidate "
+            f"frames: {', '.join(names[:limit])}{more})")

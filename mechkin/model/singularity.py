@@ -202,7 +202,11 @@ def _cond_scaled(s: np.ndarray, ncols: int) -> np.ndarray:
 def _row_is_position(mech: Mechanism) -> np.ndarray:
     _, _, mask = _cut_arrays(mech)
     kinds = np.broadcast_to(np.array([1, 1, 1, 0, 0, 0], bool), mask.shape)
-    return kinds[mask]
+    if not mech.couplings:
+        return kinds[mask]
+    from mechkin.model.couplings import coupling_position_rows
+
+    return np.concatenate([kinds[mask], coupling_position_rows(mech)])
 
 
 def constraint_scaling(mech: Mechanism, length_scale: float) -> tuple[np.ndarray, np.ndarray]:
@@ -211,7 +215,8 @@ def constraint_scaling(mech: Mechanism, length_scale: float) -> tuple[np.ndarray
     ``row * Phi_w * col``: position rows of the cut residuals divided by L, columns of
     prismatic dependent joints multiplied by L (module docstring).
     """
-    row = np.where(_row_is_position(mech), 1.0 / length_scale, 1.0) if mech.cuts else np.ones(0)
+    row = (np.where(_row_is_position(mech), 1.0 / length_scale, 1.0) if mech.is_closed
+           else np.ones(0))
     col = np.where(mech.s[mech.dependent] == 1, length_scale, 1.0)
     return row, col
 

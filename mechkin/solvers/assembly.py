@@ -210,7 +210,7 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
     guess = (np.where(np.isfinite(mech.home[dep]), mech.home[dep], 0.0) if q_w0 is None
              else np.asarray(q_w0, np.float64).reshape(-1))
     n = mech.n
-    if dep.size == 0 or not mech.cuts:
+    if dep.size == 0 or not mech.is_closed:
         q = mech.assemble(q_v[None], guess[None]).reshape(1, n)
         res = closure_residual(mech, forward_kinematics(mech, q))
         r = np.linalg.norm(res, axis=1) if res.shape[1] else np.zeros(1)

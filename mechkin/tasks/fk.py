@@ -95,6 +95,9 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
         span = max(t[-1] - t[0], 1e-300)
         for i, name in enumerate(names):
             mo = spec.motion.get(name)
+            if mo is None and getattr(mech, "floating", False) and name.startswith("base_"):
+                qv[:, i] = mech.home[mech.independent[i]]  # a floating base rests at base_pose
+                continue
             if mo is None:
                 problems.append(f"{doc.where(('fk', 'motion'))}: no motion for independent "
                                 f"joint {name!r}")

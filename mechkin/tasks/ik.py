@@ -58,6 +58,7 @@ from mechkin.tasks.ik_analytic import (
     solve_batch_analytic,
     solve_held,
 )
+from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
 from mechkin.tasks.ik_solve import _safe_norm, _solve_batch, _solve_split, solve_sequence
 from mechkin.tasks.prepare import Prepared
 
@@ -189,6 +190,9 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     if prepared is None or prepared.mechanism is None:
         prepared = Prepared(mechanism=load_mechanism(scenario.mechanism_path))
     mech = prepared.mechanism
+    if has_target_sets(spec):  # targets naming their frames: solved together per set
+        o = ik_options(spec, scenario.spec.units)
+        return run_target_sets(scenario, mech, *_initial(scenario, mech), o.tol_pos, o.tol_ori)
     if mech.end_effector is None:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: mechanism {mech.name} has no "
                           "end_effector frame")

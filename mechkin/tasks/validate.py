@@ -131,7 +131,8 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
                 out.append(_unknown_joint(sc, ("fk", "motion", k), k, names,
                                           "an independent joint"))
         for n in names:
-            if n not in spec.motion:
+            if n not in spec.motion and not (getattr(mech, "floating", False)
+                                             and n.startswith("base_")):
                 out.append(f"{doc.where(('fk', 'motion'))}: no motion for independent joint "
                            f"{short(n)}")
     elif spec.table is not None:
@@ -202,9 +203,14 @@ def ik_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
     spec = sc.section
     doc = sc.doc
     out: list[str] = []
-    if mech.end_effector is None:
-        out.append(f"{doc.where(('mechanism',))}: mechanism {short(mech.name)} has no "
-                   "end_effector frame")
+    framed = bool(spec.target_sets) or any(t.frame is not None for t in spec.targets)
+    if mech.end_effector is None and not framed:
+        from mechkin.model.mechanism import end_effector_hint
+
+        src = (mech.source.name if mech.source is not None and mech.source.suffix.lower() in
+               (".urdf", ".xml", ".mjcf") else mech.name)  # a robot file: its file name
+        out.append(f"{doc.where(('mechanism',))}: mechanism {short(src)} has no "
+                   f"end_effector frame; {end_effector_hint(mech)}")
     if spec.method == "closed-form":
         from mechkin.solvers.closed_form.recognise import (
             ClosedFormMismatch,
@@ -309,8 +315,10 @@ def track_problems(sc: Any, mech: Any) -> list[str]:
                            f"{limit_count_message(mech, lo.shape[0])}")
     if spec.path.frame is None:
         if mech.end_effector is None:
+            from mechkin.model.mechanism import end_effector_hint
+
             out.append(f"{doc.where(('track', 'path'))}: the mechanism has no end_effector; "
-                       "name the hand frame in path.frame")
+                       f"name the hand frame in path.frame; {end_effector_hint(mech, 3)}")
     elif spec.path.frame not in mech.frame_names:
         out.append(_unknown_joint(sc, ("track", "path", "frame"), spec.path.frame,
                                   list(mech.frame_names), "a frame"))
@@ -347,7 +355,10 @@ def _frame_problems(sc: Any, mech: Any) -> list[str]:
                                    list(mech.frame_names), "a frame")]
         return []
     if mech.end_effector is None:
-        return [f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; give frame"]
+        from mechkin.model.mechanism import end_effector_hint
+
+        return [f"{sc.doc.where(('workspace',))}: the mechanism has no end_effector; give "
+                f"workspace.frame; {end_effector_hint(mech, 3)}"]
     return []
 
 
@@ -361,17 +372,18 @@ def _joint_sweep_problems(sc: Any, mech: Any) -> list[str]:
     out += _frame_problems(sc, mech)
     if out:
         return out
-    swept = [n for n in names if n in given] if (given or spec.method == "grid") else names
+    swept = [n for n in names if n in given] if spec.method == "grid" else names
     if not swept:
         return [f"{doc.where(('workspace', 'joints'))}: method grid needs at least one joint "
                 "with n"]
     for n in swept:
         j = mech.joint_index(n)
         js = given.get(n)
-        if (js is None or js.range is None) and not (
+        if (js is None or js.range is None) and mech.s[j] == 1 and not (
                 math.isfinite(float(mech.lower[j])) and math.isfinite(float(mech.upper[j]))):
-            out.append(f"{doc.where(('workspace', 'joints', n))}: joint {short(n)} has no "
-                       "limits; give a range")
+            # (a revolute joint without limits is swept over a full turn)
+            out.append(f"{doc.where(('workspace', 'joints', n))}: prismatic joint {short(n)} "
+                       f"has no limits; give a range, e.g. '{n}: {{range: [0, 100]}}'")
         if spec.method == "grid" and (js is None or js.n is None):
             out.append(f"{doc.where(('workspace', 'joints', n))}: method grid needs n")
     if not out and spec.method == "grid":

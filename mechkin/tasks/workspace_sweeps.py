@@ -149,7 +149,9 @@ def _sweep_values(sc: Scenario, mech: Any) -> tuple[np.ndarray, list[str]]:
                 f"(independent: {', '.join(names)})" for k in given if k not in names]
     if problems:
         raise ConfigError(problems)
-    swept = [n for n in names if n in given] if (given or spec.method == "grid") else list(names)
+    # a grid sweeps the joints given with n; monte_carlo sweeps every independent joint (a range
+    # given for some keeps the others at their limits, or a full turn if they have none)
+    swept = [n for n in names if n in given] if spec.method == "grid" else list(names)
     if not swept:
         raise ConfigError(f"{doc.where(('workspace', 'joints'))}: method grid needs at least "
                           "one joint with n")
@@ -164,9 +166,12 @@ def _sweep_values(sc: Scenario, mech: Any) -> tuple[np.ndarray, list[str]]:
             lo, hi = js.range[0] * f, js.range[1] * f
         else:
             lo, hi = float(mech.lower[j]), float(mech.upper[j])
-            if not (math.isfinite(lo) and math.isfinite(hi)):
-                problems.append(f"{doc.where(('workspace', 'joints', name))}: joint {name!r} has "
-                                "no limits; give a range")
+            if not (math.isfinite(lo) and math.isfinite(hi)) and mech.s[j] == 0:
+                lo, hi = -math.pi, math.pi  # a revolute joint without limits: a full turn
+            elif not (math.isfinite(lo) and math.isfinite(hi)):
+                problems.append(f"{doc.where(('workspace', 'joints', name))}: joint {name!r} "
+                                "has no limits; give a range, e.g. "
+                                f"'{name}: {{range: [0, 100]}}' (file length unit)")
         ranges[name] = (lo, hi)
         if spec.method == "grid" and (js is None or js.n is None):
             problems.append(f"{doc.where(('workspace', 'joints', name))}: method grid needs n")
@@ -234,6 +239,10 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
         "method": spec.method,
         "seed": spec.seed if spec.method == "monte_carlo" else None,
         "swept_joints": swept,
+        "full_turn_joints": [n for n in swept if mech.s[mech.joint_index(n)] == 0 and not (
+            spec.joints and n in spec.joints and spec.joints[n].range is not None) and not (
+            np.isfinite(mech.lower[mech.joint_index(n)])
+            and np.isfinite(mech.upper[mech.joint_index(n)]))],
         "frame": mech.frame_names[f],
         "closed_chain": bool(closed),
         "n_samples": int(m),
@@ -253,6 +262,8 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
         "volume": volume,
         "definition": {
             "reachable": "loop closure converged (closed chains) and every joint within limits",
+            "full_turn_joints": "revolute joints without limits (and no range given), swept "
+                                "over a full turn [-pi, pi]",
             "continuation": "closed chains: each sample's loop closure starts from a solved "
                             "neighbour (grid step / nearest neighbour, first-order predictor), "
                             "else from home; mode_change: the dependent joints left that "

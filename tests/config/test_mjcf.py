@@ -136,21 +136,27 @@ def test_weld_is_a_full_cut_and_matches_mujoco(tmp_path):
 
 
 def test_unsupported_mjcf_is_a_config_error(tmp_path):
-    free = tmp_path / "free.xml"
+    free = tmp_path / "free.xml"  # a free body: a floating base now (issue 25)
     free.write_text('<mujoco>\n<worldbody>\n<body name="b">\n<freejoint name="f"/>\n'
                     '<geom size="0.1"/>\n</body>\n</worldbody>\n</mujoco>\n')
-    with pytest.raises(ConfigError, match=r"free\.xml:\d+: joint\[f\]\.type: free joints"):
-        load_mechanism(free)
+    mech = load_mechanism(free)
+    assert mech.floating and mech.n == 6
     bad = tmp_path / "bad.xml"
     bad.write_text("<mujoco>\n<worldbody>\n<body name='b'><joint type='wobble'/></body>\n"
                    "</worldbody>\n</mujoco>\n")
     with pytest.raises(ConfigError, match=r"bad\.xml:\d+: MJCF: "):
         load_mechanism(bad)
-    coupled = tmp_path / "coupled.xml"
+    coupled = tmp_path / "coupled.xml"  # a linear joint equality is a coupling now
     coupled.write_text(WELD.replace('<weld name="w" body1="tip" body2="anchor" anchor="0.1 0 0"/>',
                                     '<joint name="c" joint1="j1" joint2="j2"/>'))
-    with pytest.raises(ConfigError, match=r"equality\[c\]: only <connect> and <weld>"):
-        load_mechanism(coupled)
+    assert len(load_mechanism(coupled).couplings) == 1
+    nonlin = tmp_path / "nonlin.xml"
+    nonlin.write_text(WELD.replace(
+        '<weld name="w" body1="tip" body2="anchor" anchor="0.1 0 0"/>',
+        '<joint name="c" joint1="j1" joint2="j2" polycoef="0 1 2 0 0"/>'))
+    with pytest.raises(ConfigError, match=r"nonlin\.xml:18: equality/joint\[c\]\.polycoef: "
+                                          r"nonlinear.*fix: "):
+        load_mechanism(nonlin)
 
 
 def test_cli_import_mjcf_with_sidecar(tmp_path):

@@ -295,15 +295,17 @@ def test_closed_chain_without_sidecar_is_an_error_with_the_line(tmp_path):
            "'q_rocker'" in msg and "sidecar" in msg
 
 
-def test_mimic_joint_is_refused_with_file_line(tmp_path):
+def test_mimic_joint_is_a_coupling(tmp_path):
     p = tmp_path / "mimic.urdf"
     p.write_text(FOURBAR_TREE.replace(
         '<origin xyz="1.0 0 0"/><axis xyz="0 0 1"/></joint>',
         '<origin xyz="1.0 0 0"/><axis xyz="0 0 1"/>\n    <mimic joint="q_crank" '
         'multiplier="2"/></joint>'))
-    with pytest.raises(ConfigError, match=rf"{p}:15: joint\[q_rocker\]\.mimic: mimic joints "
-                                          r"are not supported \(q_rocker = 2 \* q_crank \+ 0\)"):
-        load_mechanism(p)
+    mech = load_mechanism(p)
+    (c,) = mech.couplings
+    assert (mech.joint_names[c.joint], mech.joint_names[c.master], c.multiplier, c.offset) \
+        == ("q_rocker", "q_crank", 2.0, 0.0)
+    assert "q_rocker" in mech.dependent_names
 
 
 INERTIAL = """<?xml version="1.0"?>

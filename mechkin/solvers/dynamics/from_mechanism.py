@@ -42,10 +42,16 @@ def chain_order(mech: Mechanism) -> np.ndarray:
         If the mechanism has cut links (closed chain), branches, or links not reached from the
         base by one path of joints.
     """
-    if mech.is_closed:
+    if mech.cuts:
         raise ModelError(
             f"{mech.name}: dynamics: closed chains are not supported (cuts: "
             f"{', '.join(c.name for c in mech.cuts)}); a serial chain is needed"
+        )
+    if mech.is_closed:  # joint couplings (mimic joints) are constraints too
+        raise ModelError(
+            f"{mech.name}: dynamics: coupled joints are not supported (couplings of "
+            f"{', '.join(mech.joint_names[c.joint] for c in mech.couplings)}); a serial chain "
+            "of independent joints is needed"
         )
     parent = np.asarray(mech.joint_parent_link)
     child = np.asarray(mech.joint_child_link)

@@ -29,6 +29,7 @@ One solver family in several modules, each doing one thing:
 ``accel``      whether the compiled kernels can be used
 ``serial_jit`` compiled lm for open chains (numba, optional)
 ``tree_jit``   compiled lm and evaluation for closed chains (numba, optional)
+``multi_frame`` several frames' targets solved together (a biped's feet; closure, couplings)
 ============== ===================================================================
 =======
 ==================== ===============================================================================
@@ -46,6 +47,7 @@ One solver family in several modules, each doing one thing:
 ``tree_closure_jit`` its tree kinematics and loop closure of one configuration
 ``all_solutions``    every solution of a target by multi-start lm
 ``warm``             the kernels ``mechkin warmup`` compiles
+``multi_frame``      several frames' targets solved together (a biped's feet; closure, couplings)
 ==================== ===============================================================================
 
 Imports go down this table's dependency order (kernel <- results <- seeds, lm, cg_golden <-

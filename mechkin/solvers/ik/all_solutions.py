@@ -128,7 +128,7 @@ def _finish(mech: Mechanism, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, ref:
         pe, oe, wpe, woe = pose_and_weighted_errors(T_E, np.broadcast_to(T_P, (k, 4, 4)),
                                                     np.broadcast_to(w, (k, 6)))
         closed = np.ones(k, dtype=bool)
-        if mech.cuts:
+        if mech.is_closed:
             from mechkin.model.kinematics import forward_kinematics
 
             phi = closure_residual(mech, forward_kinematics(mech, q))

@@ -86,7 +86,7 @@ class IkKernel:
         self.n = mech.n
         self.iv = np.asarray(mech.independent, dtype=int)
         self.iw = np.asarray(mech.dependent, dtype=int)
-        self.n_cuts = len(mech.cuts)
+        self.n_cuts = len(mech.cuts) + len(mech.couplings)  # constraint blocks of phi
         self.lower_v = mech.lower[self.iv]
         self.upper_v = mech.upper[self.iv]
         # a revolute joint whose range spans a full turn is continuous: wrap, do not clamp

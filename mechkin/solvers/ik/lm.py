@@ -195,7 +195,10 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     # starts for one target (stop_on_first) end at the first success: about one row's work
     # (measured, PUMA 560 scenario: 30 restart rows 6.4 ms by numpy, one row from the guess
     # 9.6 ms)
-    if accel.use_compiled("closed" if closed_chain else "open", 1 if stop_on_first else m):
+    # the compiled closed-chain kernel has no joint-coupling rows: numpy for those
+    n_rows = 1 if stop_on_first else m
+    if (not (closed_chain and kern.mech.couplings)
+            and accel.use_compiled("closed" if closed_chain else "open", n_rows)):
         # writable C arrays: a read-only start (a broadcast, a view of a frozen array) is
         # another numba signature, compiled at first use after `mechkin warmup` (issue 29)
         q_v0, q_w0, T_P, w = (np.require(a, np.float64, ("C", "W"))
@@ -229,7 +232,7 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     # converged: weighted errors far below the verification tolerances
     f_abs = 0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2
     done = ~closed_ok | (f < f_abs)
-    stall_check = opts.restarts > 0 and not kern.n_cuts  # closed chains crawl by nature
+    stall_check = opts.restarts > 0 and not kern.mech.cuts  # closed chains crawl by nature
     act = np.flatnonzero(~done)
     # compacted working set of the active rows
     qa, xa, Ja, fa, la, wa = qv[act], x[act], J[act], f[act], lam[act], w[act]

@@ -114,7 +114,7 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
             # lm: every remaining restart at once, as rows of one batch that stops at the
             # first success; cg-golden: one at a time (kim1995 §5.2 is sequential)
             k = opts.restarts if opts.method == "lm" else 1
-            if kern.n_cuts:
+            if kern.mech.cuts:  # (joint couplings alone assemble from any joints)
                 # closed chains: random joints seldom assemble, so restart near the given start
                 # (which does) with a seeded jitter of 2 % of each range
                 starts_v = kern.project(qv0 + rng.normal(0.0, 0.02, size=(k, kern.iv.size))

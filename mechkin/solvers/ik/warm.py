@@ -80,7 +80,7 @@ class Warmed:
 
 def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
     """(kernel name, role) of the compiled kernels ``mech``'s IK can use."""
-    closed = bool(mech.cuts) and len(mech.dependent) > 0
+    closed = mech.is_closed and len(mech.dependent) > 0
     if closed:
         lms = [("tree_jit.lm_closed", "closed-chain lm")]
     else:
