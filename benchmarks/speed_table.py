@@ -481,6 +481,12 @@ def main() -> None:  # noqa: C901 - one linear script
         frows, fnotes = speed_rows.first_run_rows(R, Row)
         rows += frows
         notes += fnotes
+        # ---- analytic IK vs EAIK / ssik (issue 26): per pose, its own table ----------------
+        import bench_analytic_ik
+
+        analytic = bench_analytic_ik.format_rows(
+            bench_analytic_ik.analytic_rows(rounds=R, batch=1000 if quick else 10_000,
+                                            quick=quick))
         if rtb is not None:
             rtb.close()
     took = (_dt.datetime.now(_dt.timezone.utc) - started).total_seconds()
@@ -490,7 +496,9 @@ def main() -> None:  # noqa: C901 - one linear script
     text = (f"Measured by `python benchmarks/speed_table.py --write-readme` on "
             f"{started:%Y-%m-%d %H:%M} UTC ({took / 60:.0f} min, {R} interleaved rounds): "
             f"{mach}.\nRatios below 1: mechkin faster.\n\n"
-            f"{head}\n{body}\n\n" + "\n".join(f"- {n}" for n in notes) + "\n")
+            f"{head}\n{body}\n\n" + "\n".join(f"- {n}" for n in notes) + "\n"
+            f"\nAnalytic IK per pose in the same run (`benchmarks/bench_analytic_ik.py`; "
+            f"mechkin / peer, median of paired rounds):\n\n{analytic}\n")
     print(text)
     if a.write_readme:
         readme = ROOT / "README.md"
