@@ -101,6 +101,7 @@ IK = {
     "n_targets": NUM, "counts": _IK_STATUSES, "max_position_error": NUM,
     "max_orientation_error": NUM, "solve_time_s": NUM, "median_time_per_target_s": NUM,
     "end_effector": STR, "targets": Items(_IK_TARGET), "solutions": ANY,
+    "methods_used": WORDS,
 }
 
 _LIMITS = {"min": JV, "max": JV}
@@ -140,7 +141,8 @@ _SWEEP_COMMON = {
     "execution": {"executor": STR, "workers": NUM, "jobs": NUM, "chunk": NUM},
 }
 JOINT_SWEEP = {
-    **_SWEEP_COMMON, "swept_joints": WORDS, "closed_chain": NUM, "n_not_converged": NUM,
+    **_SWEEP_COMMON, "swept_joints": WORDS, "full_turn_joints": WORDS, "closed_chain": NUM,
+    "n_not_converged": NUM,
     "n_outside_limits": NUM, "bounding_box": {"min_m": V3, "max_m": V3, "size_m": V3},
     "volume": {"voxel_m3": NUM, "voxel_edge_m": NUM, "occupied_voxels": NUM,
                "convex_hull_m3": NUM},

@@ -450,7 +450,7 @@ _FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_m
                        "max_angular_speed_rad_s", "max_acceleration_m_s2"}}
 _IK_KEYS = {"scenario", "task", "mechanism", "method", "status", "n_targets", "counts",
             "max_position_error", "max_orientation_error", "solve_time_s",
-            "median_time_per_target_s", "end_effector", "targets", "solutions"}
+            "median_time_per_target_s", "end_effector", "targets", "solutions", "methods_used"}
 _IK_TARGET_KEYS = {"name", "status", "q", "q_v", "position_error", "orientation_error",
                    "weights", "f", "grad_norm", "iterations", "evaluations", "time_s",
                    "closure_residual", "joints_at_limit", "target", "end_effector",
@@ -474,7 +474,8 @@ _TASK_SPACE_KEYS = _HEAD | {"mechanism", "method", "seed", "frame", "restarts", 
                             "iterations", "max_position_error_m", "max_orientation_error_rad",
                             "reachable_bounding_box", "definition", "execution",
                             "compute_time_s", "characteristic_length", "isotropy_normalized"}
-_JOINT_SWEEP_KEYS = _HEAD | {"mechanism", "method", "seed", "swept_joints", "frame",
+_JOINT_SWEEP_KEYS = _HEAD | {"mechanism", "method", "seed", "swept_joints", "full_turn_joints",
+                             "frame",
                              "closed_chain", "n_samples", "n_reachable", "reachable_fraction",
                              "n_not_converged", "n_outside_limits", "bounding_box", "volume",
                              "definition", "manipulability", "isotropy", "compute_time_s",
