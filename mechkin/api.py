@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from mechkin.solver import SolverBase, open_fk
+from mechkin.solver import SolverBase, frame_indices, open_fk
 
 if TYPE_CHECKING:  # pragma: no cover
 
@@ -109,19 +109,7 @@ def fk(
         qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
         qw0 = np.broadcast_to(np.atleast_2d(qw0), (qv.shape[0], len(mech.dependent)))
         res = solve_closure(mech, qv, np.array(qw0), **kw)
-    names = list(frames) if frames is not None else (
-        ["end_effector"] if mech.end_effector is not None else [])
-    idx = []
-    for nm in names:
-        if nm == "end_effector":
-            if mech.end_effector is None:
-                raise ConfigError(f"frames: mechanism {mech.name} has no end_effector")
-            idx.append(int(mech.end_effector))
-        else:
-            try:
-                idx.append(mech.frame_index(nm))
-            except KeyError as exc:
-                raise ConfigError(f"frames: {exc.args[0]}") from None
+    names, idx = frame_indices(mech, frames)
     T = frame_poses(mech, res.q, idx) if idx else np.zeros((len(qv), 0, 4, 4))
     return FkResult(q=res.q, status=[s.value for s in res.status], residual=res.residual,
                     iterations=res.iterations, poses={n: T[:, k] for k, n in enumerate(names)},
