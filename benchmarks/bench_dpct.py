@@ -12,13 +12,13 @@ import time
 
 import numpy as np
 
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
     TrackResult,
     solve_conveyor_tracking,
 )
-from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 
 PATH = PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732])

@@ -33,8 +33,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from mechkin.solvers.track.dpct import TrackLimits, solve_conveyor_tracking
 from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.dpct import TrackLimits, solve_conveyor_tracking
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 from mechkin.solvers.track.topp import (
     constraint_rows,

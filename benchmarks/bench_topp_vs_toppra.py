@@ -18,8 +18,8 @@ import toppra.algorithm
 import toppra.constraint as tc
 from toppra.interpolator import AbstractGeometricPath
 
-from mechkin.solvers.track.dpct import TrackLimits, solve_conveyor_tracking
 from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.track.dpct import TrackLimits, solve_conveyor_tracking
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 
 PATH = PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732])

@@ -33,10 +33,10 @@ import numpy as np
 from mechkin.config.scenario import load_scenario
 from mechkin.config.track_spec import limits_si, point_si
 from mechkin.model import load_mechanism
-from mechkin.solvers.track.dpct import ConveyorReference, TrackLimits
 from mechkin.solvers.dynamics.from_mechanism import dynamics_from_mechanism
-from mechkin.solvers.track.topp import plan_time_optimal, torque_coefficients
+from mechkin.solvers.track.dpct import ConveyorReference, TrackLimits
 from mechkin.solvers.track.plan import plan_track
+from mechkin.solvers.track.topp import plan_time_optimal, torque_coefficients
 from mechkin.tasks.track import hand_ik
 
 ROOT = Path(__file__).resolve().parents[1]

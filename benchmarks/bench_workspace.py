@@ -27,8 +27,8 @@ from mechkin.solvers.closed_form.lee_spherical import (
     forward_position_batch,
     inverse_position,
 )
-from mechkin.solvers.workspace.sweeps import lee_design_sweep
 from mechkin.solvers.workspace.maps import lee_evaluator, orientation_maps
+from mechkin.solvers.workspace.sweeps import lee_design_sweep
 
 DEG = math.pi / 180.0
 

@@ -18,6 +18,7 @@ from functools import cache
 import numpy as np
 import pytest
 
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
@@ -25,7 +26,6 @@ from mechkin.solvers.track.dpct import (
     TrackStatus,
     solve_conveyor_tracking,
 )
-from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 
 PATH = PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732])  # §5.1

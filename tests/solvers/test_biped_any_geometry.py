@@ -22,7 +22,6 @@ from mechkin.config.scenario import load_scenario
 from mechkin.errors import ConfigError
 from mechkin.model import load_mechanism
 from mechkin.model.kinematics import frame_poses
-from mechkin.solvers.biped.sequence import geometry_from_mechanism
 from mechkin.solvers.biped.leg import (
     HWANG2023_ESTIMATED,
     STATUS_AT_LIMIT,
@@ -32,6 +31,7 @@ from mechkin.solvers.biped.leg import (
     rolled_position,
     solve_leg_case,
 )
+from mechkin.solvers.biped.sequence import geometry_from_mechanism
 from mechkin.spatial.euler_conventions import (
     contact_angles_from_matrix,
     plane_angles_from_matrix,

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from mechkin.config.mechanism_file import read_mechanism_spec
-from mechkin.solvers.biped.rolling_chain import solve_blade_tilt_by_closure
 from mechkin.solvers.biped.leg import (
     HWANG2023_ESTIMATED,
     InclinedPlane,
@@ -24,6 +23,7 @@ from mechkin.solvers.biped.leg import (
     solve_biped_case,
     solve_known_position,
 )
+from mechkin.solvers.biped.rolling_chain import solve_blade_tilt_by_closure
 from mechkin.spatial.rotations import rot_y
 from mechkin.spatial.transforms import T_from
 

@@ -22,8 +22,8 @@ from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure, solve_trajectory
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.solvers.dynamics.closed_chain import ClosedChainDynamics, closed_motion
-from mechkin.solvers.dynamics.open_chain import InverseDynamics
 from mechkin.solvers.dynamics.from_mechanism import dynamics_from_mechanism
+from mechkin.solvers.dynamics.open_chain import InverseDynamics
 
 ROOT = Path(__file__).resolve().parents[2]
 RNG = np.random.default_rng(11)

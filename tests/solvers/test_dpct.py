@@ -9,6 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from mechkin.errors import ConfigError
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics, SerialChainDynamics
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
@@ -16,7 +17,6 @@ from mechkin.solvers.track.dpct import (
     TrackStatus,
     solve_conveyor_tracking,
 )
-from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics, SerialChainDynamics
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath, path_torques
 
 # park §5.1 (PAPER_NOTES): hand (-0.8, 1.732) -> (-0.3, 1.732); part from (-0.9, 1.732) at 0.2 m/s

@@ -21,6 +21,7 @@ import pytest
 from scipy.integrate import quad
 
 from mechkin.errors import ConfigError
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     DPOptions,
@@ -32,7 +33,6 @@ from mechkin.solvers.track.dpct import (
     step_arrays,
     wait_cost,
 )
-from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath, phase_coefficients
 
 PATH = PlanarTwoLinkLinePath([-0.8, 1.732], [-0.3, 1.732])  # park §5.1

@@ -7,12 +7,12 @@ import pytest
 
 from mechkin.errors import ModelError
 from mechkin.model import load_mechanism
-from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics, SerialChainDynamics
 from mechkin.solvers.dynamics.from_mechanism import (
     chain_order,
     dynamics_from_mechanism,
     planar_two_link_from_mechanism,
 )
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics, SerialChainDynamics
 
 ROOT = Path(__file__).resolve().parents[2]
 RNG = np.random.default_rng(7)

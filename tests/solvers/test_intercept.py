@@ -12,6 +12,8 @@ import pytest
 
 from mechkin.config.scenario import load_scenario
 from mechkin.errors import ConfigError
+from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
+from mechkin.solvers.result import Status
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     PartMotion,
@@ -19,11 +21,9 @@ from mechkin.solvers.track.dpct import (
     TrackResult,
     TrackStatus,
 )
-from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics
 from mechkin.solvers.track.path import PlanarTwoLinkLinePath, phase_coefficients
-from mechkin.solvers.result import Status
-from mechkin.solvers.track.topp import plan_time_optimal
 from mechkin.solvers.track.plan import plan_track as solve_conveyor_tracking
+from mechkin.solvers.track.topp import plan_time_optimal
 from tests.scenario_copy import local_scenario as _local
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
+from mechkin.solvers.workspace.maps import lee_workspace
 from mechkin.solvers.workspace.sweeps import (
     COND_CAP,
     design_comparison,
@@ -19,7 +20,6 @@ from mechkin.solvers.workspace.sweeps import (
     task_space_random,
     task_space_sweep,
 )
-from mechkin.solvers.workspace.maps import lee_workspace
 
 ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "mechanisms" / "puma560.yaml"

@@ -17,8 +17,8 @@ import pytest
 
 from mechkin.errors import ConfigError
 from mechkin.solvers.dynamics.open_chain import PlanarTwoLinkDynamics, SerialChainDynamics
-from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 from mechkin.solvers.result import Status
+from mechkin.solvers.track.path import PlanarTwoLinkLinePath
 from mechkin.solvers.track.topp import (
     ConstraintRows,
     plan_time_optimal,

@@ -23,7 +23,11 @@ import numpy as np
 from mechkin.errors import ModelError
 from mechkin.model import Mechanism
 from mechkin.solvers.dynamics.closed_chain import ClosedChainDynamics
-from mechkin.solvers.dynamics.open_chain import InverseDynamics, PlanarTwoLinkDynamics, SerialChainDynamics
+from mechkin.solvers.dynamics.open_chain import (
+    InverseDynamics,
+    PlanarTwoLinkDynamics,
+    SerialChainDynamics,
+)
 
 __all__ = [
     "MechanismDynamics",
