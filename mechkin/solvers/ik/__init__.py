@@ -18,20 +18,6 @@ Design
 ------
 One solver family in several modules, each doing one thing:
 
-``kernel``     IkKernel (per-mechanism constants), the objective, evaluate, pose_errors
-``results``    IkOptions, IkResult, IkBatchResult, IkStatus; verification and status
-``seeds``      the seeded codebook (KD-tree of reachable poses), restart starts
-``lm``         Levenberg-Marquardt, batched (numpy; dispatches to the compiled kernels)
-``cg_golden``  kim1995 §5.2: conjugate gradient with golden-section line search
-``solve``      solve_ik, solve_ik_batch (starts, restarts, results)
-``chain``      solve_ik_sequence, solve_ik_warm (warm-started chains; closed chains retry a
-               failed target as a lone one)
-``accel``      whether the compiled kernels can be used
-``serial_jit`` compiled lm for open chains (numba, optional)
-``tree_jit``   compiled lm and evaluation for closed chains (numba, optional)
-``multi_frame`` several frames' targets solved together (a biped's feet; closure, couplings)
-============== ===================================================================
-=======
 ==================== ===============================================================================
 ``kernel``           IkKernel (per-mechanism constants), the objective, evaluate, pose_errors
 ``results``          IkOptions, IkResult, IkBatchResult, IkStatus; verification and status
@@ -48,6 +34,7 @@ One solver family in several modules, each doing one thing:
 ``all_solutions``    every solution of a target by multi-start lm
 ``warm``             the kernels ``mechkin warmup`` compiles
 ``multi_frame``      several frames' targets solved together (a biped's feet; closure, couplings)
+``analytic``         analytic IK by subproblem decomposition (Paden-Kahan, IK-Geo), every branch
 ==================== ===============================================================================
 
 Imports go down this table's dependency order (kernel <- results <- seeds, lm, cg_golden <-
