@@ -1,0 +1,123 @@
+"""IK of coupled open chains (joint couplings, URDF ``<mimic>``) against the same chains with
+the coupling removed: ``python benchmarks/bench_couplings.py [--n 30] [--rounds 3]``.
+
+Mechanisms: example-robot-data's Panda URDF (mimic finger; {E} the hand TCP, and {E} on the
+mimic finger ``panda_rightfinger``) and tests/data/gripper_mimic.yaml (a 7R arm, one coupling on
+the arm, a parallel gripper whose mimic finger carries {E}). "uncoupled": the same file with the
+couplings removed (the coupled joints become independent). Targets: FK of seeded random joints
+of the coupled mechanism within its limits (reachable by both).
+
+Modes, each per target: ``single`` = ``solve_ik`` without a guess (codebook start where the
+chain has one), ``restarts=50`` (the ``mechkin ik`` default); ``norestart`` = the same without
+restarts (the success of the first start alone); ``api`` = ``mechkin.ik`` with its
+defaults (method auto, guess home, restarts 50); ``batch`` = ``solve_ik_batch`` of all targets,
+restarts 50 (time per target). Success: verified by FK at 1e-6 m and 1e-6 rad. Rounds are
+interleaved (coupled, uncoupled, coupled, ...); medians over rounds. One-time costs (codebook,
+kernel load) are paid in a warm-up and not counted. Never a timed assertion.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import mechkin
+from mechkin.model import load_mechanism
+from mechkin.model.kinematics import forward_kinematics
+from mechkin.solvers.ik import IkOptions, pose_errors, solve_ik, solve_ik_batch
+
+ROOT = Path(__file__).resolve().parents[1]
+TOL = 1e-6
+
+
+def _erd_panda() -> Path:
+    import importlib.metadata
+
+    dist = importlib.metadata.distribution("example-robot-data")
+    f = next(f for f in dist.files or [] if str(f).endswith("panda_description/urdf/panda.urdf"))
+    return Path(dist.locate_file(f))
+
+
+def variants(tmp: Path) -> list[tuple[str, object, object, str | None]]:
+    """(name, coupled mechanism, uncoupled mechanism, {E} frame name or None)."""
+    urdf = _erd_panda().read_text()
+    a, b = tmp / "panda.urdf", tmp / "panda_nomimic.urdf"
+    a.write_text(urdf)
+    b.write_text(re.sub(r"<mimic[^>]*/>", "", urdf))
+    y = (ROOT / "tests" / "data" / "gripper_mimic.yaml").read_text()
+    g1, g2 = tmp / "gripper.yaml", tmp / "gripper_free.yaml"
+    g1.write_text(y)
+    g2.write_text(re.sub(r"couplings:\n(  - .*\n)+independent: .*\n", "", y))
+    pa, pb = load_mechanism(a), load_mechanism(b)
+    ga, gb = load_mechanism(g1), load_mechanism(g2)
+    return [("panda hand_tcp", pa, pb, None), ("panda rightfinger", pa, pb, "panda_rightfinger"),
+            ("gripper tip", ga, gb, None)]
+
+
+def targets(mech, frame: int, n: int, seed: int = 7) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    qv = rng.uniform(mech.lower[mech.independent], mech.upper[mech.independent],
+                     size=(n, len(mech.independent)))
+    res = mechkin.fk(mech, qv, frames=[mech.frame_names[frame]])
+    return res.poses[mech.frame_names[frame]]
+
+
+def ok(mech, frame, q, T) -> np.ndarray:
+    T_E = forward_kinematics(mech, np.atleast_2d(q)).frames(mech, [frame])[:, 0]
+    pe, oe = pose_errors(T_E, np.asarray(T).reshape(-1, 4, 4))
+    return (pe < TOL) & (oe < TOL)
+
+
+def run_mode(mode, mech, frame, Ts):
+    opts = IkOptions(restarts=0 if mode == "norestart" else 50, tol_pos=TOL, tol_ori=TOL)
+    t0 = time.perf_counter()
+    if mode in ("single", "norestart"):
+        qs = [solve_ik(mech, T, options=opts, frame=frame).q for T in Ts]
+    elif mode == "api":
+        qs = [mechkin.ik(mech, T)[0].q for T in Ts]
+    else:
+        qs = list(solve_ik_batch(mech, Ts, options=opts, frame=frame).q)
+    dt = (time.perf_counter() - t0) / len(Ts)
+    succ = float(np.mean([ok(mech, frame, q, T)[0] for q, T in zip(qs, Ts, strict=True)]))
+    return dt, succ
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--n", type=int, default=30)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--modes", default="single,norestart,api,batch")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        for name, mc, mu, fname in variants(Path(d)):
+            fc = mc.end_effector if fname is None else mc.frame_index(fname)
+            fu = mu.end_effector if fname is None else mu.frame_index(fname)
+            Ts = targets(mc, fc, args.n)
+            for mode in args.modes.split(","):
+                if mode == "api" and fname is not None:
+                    continue  # mechkin.ik solves the mechanism's own end effector
+                for m, f in ((mc, fc), (mu, fu)):  # warm-up: codebook, kernels
+                    run_mode(mode, m, f, Ts[:2])
+                res = {"coupled": [], "uncoupled": []}
+                for _ in range(args.rounds):
+                    res["coupled"].append(run_mode(mode, mc, fc, Ts))
+                    res["uncoupled"].append(run_mode(mode, mu, fu, Ts))
+                line = [f"{name:18s} {mode:6s}"]
+                for k, v in res.items():
+                    t = statistics.median(x[0] for x in v) * 1e3
+                    s = statistics.median(x[1] for x in v) * 100
+                    line.append(f"{k}: {t:8.2f} ms/target {s:5.1f} %")
+                tc = statistics.median(x[0] for x in res["coupled"])
+                tu = statistics.median(x[0] for x in res["uncoupled"])
+                line.append(f"coupled/uncoupled {tc / tu:5.2f}")
+                print("  ".join(line), flush=True)
+
+
+if __name__ == "__main__":
+    main()
