@@ -49,7 +49,8 @@ def _warmup(paths: list[Path]) -> None:
             mechs = given
         else:
             mechs = []
-            for name, text in (("open.yaml", warm.TINY_OPEN), ("closed.yaml", warm.TINY_CLOSED)):
+            for name, text in (("open.yaml", warm.TINY_OPEN), ("closed.yaml", warm.TINY_CLOSED),
+                               ("coupled.yaml", warm.TINY_COUPLED)):
                 (Path(td) / name).write_text(text)
                 mechs.append(load_mechanism(Path(td) / name))
         typer.echo(f"numba cache: {folder}")
