@@ -222,3 +222,38 @@ def test_closed_chain_with_couplings_compiled(tmp_path, monkeypatch):
         kin = forward_kinematics(mech, a.q[None])
         assert np.abs(closure_residual(mech, kin)).max() < 1e-12
         np.testing.assert_allclose(kin.frames(mech, [kern.frame])[0, 0], Tk, atol=1e-10)
+
+
+def test_every_solution_of_a_coupled_chain(gripper):
+    """``solutions: all`` by multi-start lm on the coupled gripper: codebook starts, every
+    solution reaches the target by the tree FK, coupled joints exact, limits kept."""
+    from mechkin.solvers.ik.all_solutions import multistart_all
+
+    kern = kernel_for(gripper)
+    T = _targets(gripper, kern.frame, 1, 21)[0]
+    sols = multistart_all(gripper, T, starts=24)
+    assert sols.count >= 2
+    T_E = forward_kinematics(gripper, sols.q).frames(gripper, [kern.frame])[:, 0]
+    np.testing.assert_allclose(T_E, np.broadcast_to(T, T_E.shape), atol=1e-6, rtol=0)
+    _check_couplings_and_limits(gripper, sols.q)
+
+
+def test_warmup_covers_the_coupled_kernel(tmp_path, monkeypatch):
+    """``mechkin warmup`` (its built-in coupled arm) compiles the coupled kernel with the
+    signature the solvers use: a later solve adds none."""
+    from mechkin.solvers.ik import coupled_jit, warm
+
+    p = tmp_path / "coupled.yaml"
+    p.write_text(warm.TINY_COUPLED)
+    mech = load_mechanism(p)
+    assert kernel_for(mech).coupling is not None
+    assert "coupled_jit.lm_coupled" in [n for n, _ in warm.kernels_for(mech)]
+    for _ in warm.warm([mech]):
+        pass
+    sigs = list(coupled_jit.lm_coupled.signatures)
+    assert sigs
+    monkeypatch.setattr(accel, "compiled_lm_available", lambda: True)
+    calls = _spy(monkeypatch, coupled_jit, "lm_coupled_rows")
+    T = _targets(mech, mech.end_effector, 2, 1)
+    assert solve_ik_batch(mech, T, options=IkOptions(restarts=3)).ok.all()
+    assert calls and list(coupled_jit.lm_coupled.signatures) == sigs
