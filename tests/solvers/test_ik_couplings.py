@@ -257,3 +257,20 @@ def test_warmup_covers_the_coupled_kernel(tmp_path, monkeypatch):
     T = _targets(mech, mech.end_effector, 2, 1)
     assert solve_ik_batch(mech, T, options=IkOptions(restarts=3)).ok.all()
     assert calls and list(coupled_jit.lm_coupled.signatures) == sigs
+
+
+def test_coupled_rows_on_threads_equal_one_thread(gripper, monkeypatch):
+    """Large batches run row blocks on threads (as the plain open-chain kernel): the same
+    answers as one thread, bit for bit."""
+    from mechkin.solvers.ik import coupled_jit
+
+    monkeypatch.setattr(accel, "compiled_lm_available", lambda: True)
+    kern = kernel_for(gripper)
+    T = _targets(gripper, kern.frame, 12, 13)
+    one = solve_ik_batch(gripper, T, options=IkOptions(restarts=4))
+    monkeypatch.setattr(coupled_jit, "PARALLEL_ROWS", 4)
+    monkeypatch.setattr(coupled_jit, "_CPUS", 3)
+    many = solve_ik_batch(gripper, T, options=IkOptions(restarts=4))
+    np.testing.assert_array_equal(one.q, many.q)
+    np.testing.assert_array_equal(one.iterations, many.iterations)
+    assert one.ok.sum() >= 10

@@ -22,6 +22,8 @@ Part of the IK solver family :mod:`mechkin.solvers.ik`. Imports numpy, numba and
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 from mechkin.solvers.ik.accel import configure_numba_cache
 
 configure_numba_cache()  # before numba reads NUMBA_CACHE_DIR (a read-only install: user cache)
@@ -30,6 +32,8 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 from mechkin.solvers.ik.serial_jit import (  # noqa: E402
+    _CPUS,
+    PARALLEL_ROWS,
     evaluate,
     half_wsq,
     lm_decide,
@@ -153,9 +157,23 @@ def lm_coupled_rows(u0: np.ndarray, F0: np.ndarray, w: np.ndarray, chain, reduce
         cc = chain.__dict__["_jit_consts"] = (
             chain.Pc[:, 0].copy(), chain.Ps[:, 0].copy(), chain.Pd[:, 0].copy(),
             chain.P0[:, 0].copy(), chain.rev.copy())
-    lm_coupled(np.ascontiguousarray(u0, dtype=np.float64), np.ascontiguousarray(F0),
-               np.ascontiguousarray(w, dtype=np.float64), *cc, *reduced,
-               *(np.ascontiguousarray(a) for a in (lo, hi, cont, lower, upper)), float(f_abs),
-               float(grad_tol), int(max_iter), int(stall), float(mu), bool(stop_first), u, f,
-               iters, done, gnorm, hist)
+    args = (np.ascontiguousarray(u0, dtype=np.float64), np.ascontiguousarray(F0),
+            np.ascontiguousarray(w, dtype=np.float64))
+    consts = (*cc, *reduced, *(np.ascontiguousarray(a) for a in (lo, hi, cont, lower, upper)),
+              float(f_abs), float(grad_tol), int(max_iter), int(stall), float(mu),
+              bool(stop_first))
+    outs = (u, f, iters, done, gnorm, hist)
+
+    def run(sl: slice) -> None:
+        lm_coupled(*(a[sl] for a in args), *consts, *(o[sl] if o.shape[0] else o for o in outs))
+
+    # as serial_jit.lm_serial: row blocks on threads (the kernel releases the GIL)
+    workers = 1 if stop_first else min(_CPUS, m // PARALLEL_ROWS)
+    if workers <= 1:
+        run(slice(None))
+    else:
+        bounds = np.linspace(0, m, workers + 1).astype(int)
+        with ThreadPoolExecutor(workers) as ex:
+            list(ex.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:],
+                                                             strict=True)]))
     return u, f, iters, done, gnorm, hist
