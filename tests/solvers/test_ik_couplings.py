@@ -274,3 +274,23 @@ def test_coupled_rows_on_threads_equal_one_thread(gripper, monkeypatch):
     np.testing.assert_array_equal(one.q, many.q)
     np.testing.assert_array_equal(one.iterations, many.iterations)
     assert one.ok.sum() >= 10
+
+
+def test_cg_golden_on_a_coupled_chain_both_back_ends(gripper, monkeypatch):
+    """kim1995 §5.2 on the coupled gripper: the compiled point evaluator (the coupling rows of
+    the compiled loop closure) and the numpy one (couplings in closed form) take the same
+    steps to the same answer."""
+    kern = kernel_for(gripper)
+    rng = np.random.default_rng(2)
+    qv = rng.uniform(kern.lower_v, kern.upper_v, size=kern.iv.size)
+    T = mechkin.fk(gripper, qv[None], frames=["tip"]).poses["tip"][0]
+    out = {}
+    for backend in ("compiled", "numpy"):
+        monkeypatch.setattr(accel, "compiled_lm_available", lambda b=backend: b == "compiled")
+        out[backend] = solve_ik(gripper, T, q_v0=qv + 0.05,
+                                options=IkOptions(method="cg-golden", restarts=0))
+    a, b = out["compiled"], out["numpy"]
+    assert a.status.value == "ok" and b.status.value == "ok"
+    assert a.iterations == b.iterations
+    np.testing.assert_allclose(a.q, b.q, atol=1e-8, rtol=0)
+    _check_couplings_and_limits(gripper, np.stack([a.q, b.q]))
