@@ -12,8 +12,9 @@ independent joint: M = 1, C = 0) and S (n, n_v) constant. So IK needs no loop cl
 constraint rows: it searches q_v with the reduced Jacobian ``J S`` (the column of a coupled
 joint added into its master's, times M), which is what the open-chain lm (numpy and compiled,
 :mod:`mechkin.solvers.ik.coupled_jit`) and the seed codebook do with :class:`CouplingMap`. The
-loop-closure route (Newton-Raphson on the coupling rows) gives the same q_w after one step; it
-remains the route of mechanisms with cut links.
+loop-closure route (Newton-Raphson on the coupling rows, linear, so it lands on the same q_w)
+remains the route of mechanisms with cut links, whose compiled closure has the coupling rows
+(:mod:`mechkin.solvers.ik.tree_closure_jit`).
 
 Limits of a coupled joint j are bounds on its master: ``lower_j <= M_j q_b + C_j <= upper_j``
 maps to an interval of q_b, intersected with the master's own limits

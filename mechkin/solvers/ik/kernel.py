@@ -14,7 +14,9 @@ dependent joints
           \frac{\partial\phi_R}{\partial q_v}.
 
 This module holds :class:`IkKernel` (the constants of the objective for one mechanism and
-end-effector frame: index sets, limits, the serial path to {E}), :func:`evaluate` (loop closure,
+end-effector frame: index sets, limits, the serial path to {E}; on a mechanism whose only
+constraints are joint couplings, their closed form q = S q_v + c0 and the bounds they put on
+q_v, :mod:`mechkin.solvers.ik.coupled`), :func:`evaluate` (loop closure,
 residual and reduced Jacobian of a batch), the public :func:`objective`,
 :func:`reduced_jacobian`, :func:`gradient`, and :func:`pose_errors` (the verified errors of a
 pose). The kinematics (forward kinematics, the residual Jacobian, the loop closure) are those of
