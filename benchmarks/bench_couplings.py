@@ -14,6 +14,26 @@ defaults (method auto, guess home, restarts 50); ``batch`` = ``solve_ik_batch`` 
 restarts 50 (time per target). Success: verified by FK at 1e-6 m and 1e-6 rad. Rounds are
 interleaved (coupled, uncoupled, coupled, ...); medians over rounds. One-time costs (codebook,
 kernel load) are paid in a warm-up and not counted. Never a timed assertion.
+
+Measured 2026-12-03 (2 busy cores; ``MECHKIN_JIT=1``; three processes per side, before and
+after interleaved, ``--n 20 --rounds 1``, medians; "before" = mechkin at eebc0c7, where coupled
+chains took the numpy loop-closure lm and no codebook), ms per target, coupled chain:
+
+================== ========= ====== ===== ======== ================= =====================
+case               mode      before after speed-up uncoupled (after) success b / a (uncpl)
+================== ========= ====== ===== ======== ================= =====================
+panda hand_tcp     single     261.0   7.2     36.2               5.9 100 / 100 (100) %
+panda hand_tcp     norestart  302.7   4.5     67.0               3.9  65 /  85  (75) %
+panda hand_tcp     api        211.5   9.6     22.1               6.5 100 / 100 (100) %
+panda hand_tcp     batch      306.4   2.6    118.3               1.7 100 / 100 (100) %
+panda rightfinger  single     286.6   7.5     38.3               7.5 100 / 100 (100) %
+panda rightfinger  norestart  349.2   7.1     49.0               5.2  80 /  90  (75) %
+panda rightfinger  batch      138.7   1.2    111.9               1.8 100 / 100 (100) %
+gripper tip        single     564.6   6.2     91.1               5.6 100 / 100 (100) %
+gripper tip        norestart  278.3   4.1     68.7               3.0  50 /  75  (80) %
+gripper tip        api        413.4   3.2    129.6               2.5 100 / 100 (100) %
+gripper tip        batch      204.3   1.1    179.2               1.1 100 / 100 (100) %
+================== ========= ====== ===== ======== ================= =====================
 """
 
 from __future__ import annotations
