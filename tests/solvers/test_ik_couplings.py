@@ -294,3 +294,69 @@ def test_cg_golden_on_a_coupled_chain_both_back_ends(gripper, monkeypatch):
     assert a.iterations == b.iterations
     np.testing.assert_allclose(a.q, b.q, atol=1e-8, rtol=0)
     _check_couplings_and_limits(gripper, np.stack([a.q, b.q]))
+
+
+CHAINED = """name: chained
+units: {length: m, angle: rad}
+links:
+  - name: base
+  - name: l1
+  - name: l2
+  - name: l3
+  - name: l4
+    frames: [{name: tip, xyz: [0.3, 0, 0]}]
+joints:
+  - {name: q1, type: revolute, parent: base, child: l1, axis: [0, 0, 1], limits: [-3, 3]}
+  - {name: q2, type: revolute, parent: l1, child: l2, origin: {xyz: [0.5, 0, 0]},
+     axis: [0, 0, 1], limits: [-2, 2]}
+  - {name: q3, type: revolute, parent: l2, child: l3, origin: {xyz: [0.4, 0, 0]},
+     axis: [0, 0, 1], limits: [-1.5, 1.0]}
+  - {name: q4, type: prismatic, parent: l3, child: l4, axis: [1, 0, 0], limits: [0.0, 0.2]}
+couplings:
+  - {joint: q4, master: q3, multiplier: -0.1, offset: 0.1}
+  - {joint: q3, master: q2, multiplier: 2.0, offset: 0.1}
+independent: [q1, q2]
+end_effector: tip
+"""
+
+
+def test_chained_couplings_compose(tmp_path, monkeypatch):
+    """q4 follows q3, which follows q2: q4 = -0.1 (2 q2 + 0.1) + 0.1. The map composes the
+    chain (and evaluates each row as written, so every coupled joint equals its own row to the
+    bit), q2's bounds are the intersection of its limits with q3's and q4's images, and IK of
+    the planar chain's position reaches its targets within them."""
+    p = tmp_path / "chained.yaml"
+    p.write_text(CHAINED)
+    mech = load_mechanism(p)
+    kern = kernel_for(mech)
+    cm = kern.coupling
+    assert cm is not None
+    assert (cm.col[3], cm.mult[3]) == (1, pytest.approx(-0.2))
+    assert cm.off[3] == pytest.approx(-0.1 * 0.1 + 0.1)
+    # q3 in [-1.5, 1.0] -> q2 in [-0.8, 0.45]; q4 in [0, 0.2] -> q3 in [-1, 1] -> q2 in
+    # [-0.55, 0.45]; with q2's own [-2, 2]: [-0.55, 0.45]
+    assert kern.lower_v[1] == pytest.approx(-0.55) and kern.upper_v[1] == pytest.approx(0.45)
+    rng = np.random.default_rng(8)
+    qv = rng.uniform(kern.lower_v, kern.upper_v, size=(8, 2))
+    np.testing.assert_allclose(cm.full(qv), mechkin.fk(mech, qv, frames=[]).q, atol=1e-14)
+    monkeypatch.setattr(accel, "compiled_lm_available", lambda: True)
+    T = _targets(mech, kern.frame, 8, 2)
+    w = np.array([1.0, 1.0, 0.0, 0.0, 0.0, 0.0])  # planar: x, y of the tip
+    for Tk in T:
+        r = solve_ik(mech, Tk, weights=w, options=IkOptions(restarts=20, tol_pos=1e-11))
+        assert r.status.value == "ok" and r.position_error < 1e-10
+        _check_couplings_and_limits(mech, r.q)
+
+
+def test_empty_coupled_limits_keep_the_loop_closure_route(tmp_path):
+    """A coupled joint whose limits no value of its master reaches: no closed form (its
+    interval on q_v is empty), the loop-closure route answers and reports the passive joint
+    outside its limits instead of an answer."""
+    p = tmp_path / "empty.yaml"
+    p.write_text(CHAINED.replace("limits: [0.0, 0.2]", "limits: [0.5, 0.6], home: 0.55"))
+    mech = load_mechanism(p)
+    kern = kernel_for(mech)
+    assert kern.coupling is None and not kern.open_path
+    T = _targets(mech, kern.frame, 1, 2)[0]
+    r = solve_ik(mech, T, weights=np.array([1.0, 1, 0, 0, 0, 0]), options=IkOptions(restarts=2))
+    assert r.status.value != "ok" and "q4" in r.at_limit
