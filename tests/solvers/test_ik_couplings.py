@@ -12,6 +12,7 @@ import pytest
 
 import mechkin
 from mechkin.model import load_mechanism
+from mechkin.model.closure import solve_closure
 from mechkin.model.couplings import coupling_jacobian
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.solvers.ik import IkOptions, accel, kernel_for, solve_ik, solve_ik_batch
@@ -42,14 +43,22 @@ def panda(panda_path):
     return load_mechanism(panda_path)
 
 
+def _closure_q(mech, qv):
+    """All joints at q_v (m, n_v) by the loop closure (Newton-Raphson on the coupling rows from
+    the home guess, :func:`mechkin.model.closure.solve_closure`), not by the closed form."""
+    res = solve_closure(mech, qv, np.broadcast_to(mech.home[mech.dependent],
+                                                  (len(qv), len(mech.dependent))).copy())
+    assert res.ok.all()
+    return res.q
+
+
 def _targets(mech, frame, n, seed):
-    """Poses of ``frame`` at random independent joints within the limits, by the loop-closure
-    route of :func:`mechkin.fk` (couplings solved by Newton-Raphson, not by the map)."""
+    """Poses of ``frame`` at random independent joints within the limits (bounded by the
+    coupled joints' limits), coupled joints by the loop closure."""
     rng = np.random.default_rng(seed)
     kern = kernel_for(mech, frame)
     qv = rng.uniform(kern.lower_v, kern.upper_v, size=(n, kern.iv.size))
-    name = mech.frame_names[frame]
-    return mechkin.fk(mech, qv, frames=[name]).poses[name]
+    return forward_kinematics(mech, _closure_q(mech, qv)).frames(mech, [frame])[:, 0]
 
 
 def _spy(monkeypatch, module, name):
@@ -79,8 +88,11 @@ def test_closed_form_couplings_equal_the_loop_closure(gripper, panda):
         assert kern.coupling is not None and kern.open_path
         rng = np.random.default_rng(3)
         qv = rng.uniform(kern.lower_v, kern.upper_v, size=(6, kern.iv.size))
-        q_ref = mechkin.fk(mech, qv, frames=[]).q  # Newton-Raphson on the coupling rows
+        q_ref = _closure_q(mech, qv)  # Newton-Raphson on the coupling rows
         np.testing.assert_allclose(kern.coupling.full(qv), q_ref, atol=1e-14, rtol=0)
+        fk = mechkin.fk(mech, qv, frames=[])  # the API's FK: the closed form, no continuation
+        np.testing.assert_allclose(fk.q, q_ref, atol=1e-14, rtol=0)
+        assert set(fk.status) == {"converged"} and fk.residual.max() < 1e-15
         T_P = forward_kinematics(mech, q_ref[::-1]).frames(mech, [kern.frame])[:, 0]
         ev = evaluate(kern, qv, np.zeros((6, kern.iw.size)), T_P)
         x, Jq = kern.residual_jacobian(forward_kinematics(mech, q_ref), T_P)
@@ -89,6 +101,18 @@ def test_closed_form_couplings_equal_the_loop_closure(gripper, panda):
                                                                    Phi[:, kern.iv])
         np.testing.assert_allclose(ev.x, x, atol=1e-13, rtol=0)
         np.testing.assert_allclose(ev.J, Jr, atol=1e-13, rtol=0)
+
+
+def test_fk_reports_a_coupled_joint_outside_its_limits(gripper):
+    """The API's FK in closed form keeps the loop closure's verdicts: finger_l = 0.038 puts its
+    mimic at -0.038, beyond finger_r's -0.03 limit: ``outside limits``, within_limits False."""
+    kern = kernel_for(gripper)
+    qv = np.array([gripper.home[kern.iv]] * 2)
+    qv[1, -1] = 0.038
+    res = mechkin.fk(gripper, qv, frames=["tip"])
+    assert list(res.status) == ["converged", "outside limits"]
+    assert res.within_limits == [True, False]
+    np.testing.assert_array_equal(res.q[1, gripper.joint_index("finger_r")], -0.038)
 
 
 def test_coupled_limits_bound_the_masters(gripper):
@@ -283,7 +307,8 @@ def test_cg_golden_on_a_coupled_chain_both_back_ends(gripper, monkeypatch):
     kern = kernel_for(gripper)
     rng = np.random.default_rng(2)
     qv = rng.uniform(kern.lower_v, kern.upper_v, size=kern.iv.size)
-    T = mechkin.fk(gripper, qv[None], frames=["tip"]).poses["tip"][0]
+    T = forward_kinematics(gripper, _closure_q(gripper, qv[None])).frames(
+        gripper, [kern.frame])[0, 0]
     out = {}
     for backend in ("compiled", "numpy"):
         monkeypatch.setattr(accel, "compiled_lm_available", lambda b=backend: b == "compiled")
@@ -338,7 +363,7 @@ def test_chained_couplings_compose(tmp_path, monkeypatch):
     assert kern.lower_v[1] == pytest.approx(-0.55) and kern.upper_v[1] == pytest.approx(0.45)
     rng = np.random.default_rng(8)
     qv = rng.uniform(kern.lower_v, kern.upper_v, size=(8, 2))
-    np.testing.assert_allclose(cm.full(qv), mechkin.fk(mech, qv, frames=[]).q, atol=1e-14)
+    np.testing.assert_allclose(cm.full(qv), _closure_q(mech, qv), atol=1e-14)
     monkeypatch.setattr(accel, "compiled_lm_available", lambda: True)
     T = _targets(mech, kern.frame, 8, 2)
     w = np.array([1.0, 1.0, 0.0, 0.0, 0.0, 0.0])  # planar: x, y of the tip

@@ -1,7 +1,7 @@
 r"""Compiled lm of a coupled open chain in its reduced coordinates (optional, needs ``numba``).
 
 The open-chain lm of :mod:`mechkin.solvers.ik.serial_jit` on the serial path to {E} when some
-of the path's joints are coupled (URDF ``<mimic>``; :mod:`mechkin.solvers.ik.coupled`): the
+of the path's joints are coupled (URDF ``<mimic>``; :mod:`mechkin.model.couplings`): the
 unknowns are the r independent joints that drive the path, ``u`` (r,); the path's joint i is
 
 .. math:: q_i = M_i\,u_{c(i)} + C_i,\qquad

@@ -16,7 +16,7 @@ dependent joints
 This module holds :class:`IkKernel` (the constants of the objective for one mechanism and
 end-effector frame: index sets, limits, the serial path to {E}; on a mechanism whose only
 constraints are joint couplings, their closed form q = S q_v + c0 and the bounds they put on
-q_v, :mod:`mechkin.solvers.ik.coupled`), :func:`evaluate` (loop closure,
+q_v, :mod:`mechkin.model.couplings`), :func:`evaluate` (loop closure,
 residual and reduced Jacobian of a batch), the public :func:`objective`,
 :func:`reduced_jacobian`, :func:`gradient`, and :func:`pose_errors` (the verified errors of a
 pose). The kinematics (forward kinematics, the residual Jacobian, the loop closure) are those of
@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mechkin.model.closure import solve_closure
+from mechkin.model.couplings import CouplingMap, coupling_map
 from mechkin.model.kinematics import (
     Kinematics,
     closure_jacobian,
@@ -50,7 +51,6 @@ from mechkin.model.kinematics import (
 )
 from mechkin.model.mechanism import Mechanism
 from mechkin.model.serial import SerialChain
-from mechkin.solvers.ik.coupled import CouplingMap, coupling_map
 from mechkin.spatial.rotations import quat_from_matrix
 
 TOL_PHI = 1e-12  # loop closure ||phi_R||, kim1995 §5.1 epsilon_v

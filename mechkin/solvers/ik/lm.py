@@ -43,7 +43,7 @@ class _OpenRows:
     :meth:`SerialChain.first_frame`): the pose of {E} in {P} gives the residual (position,
     rotation vector) and the geometric Jacobian in {P} is its Jacobian. No carry. On a coupled
     open chain (:attr:`IkKernel.coupling`) the path's joints are ``jmul q_v + joff`` and the
-    Jacobian is ``J M`` (:mod:`mechkin.solvers.ik.coupled`)."""
+    Jacobian is ``J M`` (:mod:`mechkin.model.couplings`)."""
 
     def __init__(self, kern: IkKernel) -> None:
         self.chain = kern.chain

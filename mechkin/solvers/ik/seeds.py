@@ -5,7 +5,7 @@ random configurations within the limits (forward kinematics once, a KD-tree of t
 restarts take the next-nearest codebook poses, then seeded random joints within the limits.
 Open chains only (closed chains seldom assemble at random joints; their restarts jitter the
 given start); an open chain with joint couplings counts (its coupled joints follow their masters
-in closed form, :mod:`mechkin.solvers.ik.coupled`, and its codebook draws the masters within the
+in closed form, :mod:`mechkin.model.couplings`, and its codebook draws the masters within the
 coupled joints' limits too).
 
 Design

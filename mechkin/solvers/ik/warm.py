@@ -89,7 +89,7 @@ class Warmed:
 
 def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
     """(kernel name, role) of the compiled kernels ``mech``'s IK can use."""
-    from mechkin.solvers.ik.coupled import coupling_map
+    from mechkin.model.couplings import coupling_map
 
     closed = mech.is_closed and len(mech.dependent) > 0
     if closed and coupling_map(mech) is not None:  # couplings alone: open chain, reduced
