@@ -117,8 +117,8 @@ def test_fk_reports_a_coupled_joint_outside_its_limits(gripper):
 
 def test_coupled_limits_bound_the_masters(gripper):
     """finger_r = -finger_l with finger_r in [-0.03, 0]: finger_l in [0, 0.03] (not its own
-    [0, 0.04]); q3 = -0.5 q2 + 0.2 within [-2, 2] leaves q2's [-1.8, 1.8]; masters are never
-    wrapped by whole turns."""
+    [0, 0.04]); q3 = -0.5 q2 + 0.2 within [-2, 2] leaves q2's [-1.8, 1.8]; the codebook's
+    starts keep the couplings and the limits."""
     kern = kernel_for(gripper)
     names = gripper.independent_names
     assert kern.lower_v[names.index("finger_l")] == 0.0
@@ -133,7 +133,7 @@ def test_coupled_limits_bound_the_masters(gripper):
 
 def test_gripper_ik_compiled_route_fk_verified(gripper, monkeypatch):
     """Defaults (no guess: the codebook's nearest pose, then restarts): the compiled reduced
-    kernel runs (never the loop closure), every answer reaches its target to 1e-11 by the tree
+    kernel runs (never the loop closure), every answer reaches its target to 1e-10 by the tree
     FK, coupled joints are exact and all joints within their limits, including targets whose
     finger opening is outside the coupled finger's limits (the arm reaches them otherwise)."""
     monkeypatch.setattr(accel, "compiled_lm_available", lambda: True)
@@ -385,3 +385,22 @@ def test_empty_coupled_limits_keep_the_loop_closure_route(tmp_path):
     T = _targets(mech, kern.frame, 1, 2)[0]
     r = solve_ik(mech, T, weights=np.array([1.0, 1, 0, 0, 0, 0]), options=IkOptions(restarts=2))
     assert r.status.value != "ok" and "q4" in r.at_limit
+
+
+def test_a_master_with_followers_is_never_wrapped(tmp_path):
+    """Limits over a full turn make a revolute joint continuous (wrapped by whole turns), but
+    not a master that a joint follows: a whole turn of q2 moves q3 = 2 q2 + 0.1 by two turns
+    and the prismatic q4 by -0.4 pi m. q1 (no follower) stays continuous."""
+    text = (CHAINED.replace("limits: [-3, 3]", "limits: [-7, 7]")
+            .replace("limits: [-2, 2]", "limits: [-7, 7]")
+            .replace("limits: [-1.5, 1.0]", "limits: [-7, 7]")
+            .replace("limits: [0.0, 0.2]", "limits: [-10, 10]"))
+    p = tmp_path / "wide.yaml"
+    p.write_text(text)
+    kern = kernel_for(load_mechanism(p))
+    assert kern.cont_v.tolist() == [True, False]
+    assert (kern.lower_v[1], kern.upper_v[1]) == (-7.0, 7.0)  # q4's image is wider
+    np.testing.assert_array_equal(kern.project(np.array([[0.0, 7.5]])), [[0.0, 7.0]])  # clamped
+    q = np.array([[6.9, 6.9]])
+    np.testing.assert_array_equal(kern.nearest_turn(q, np.zeros((1, 2))),
+                                  [[6.9 - 2 * np.pi, 6.9]])  # q1 turned, q2 kept
