@@ -14,15 +14,16 @@ it from many seeded starts at once and keeps the distinct converged solutions:
   actuated ones starting at q_v), then Newton at q_v. A random q_w is far from any closure; the
   relaxed start is a consistent configuration of nearly the requested q_v (for a Stewart
   platform, a platform pose with slightly wrong leg lengths), and Newton at q_v converges from
-  it far more often and to many more modes (Dietmaier's 40-posture platform: 37-40 of 40 modes
-  from 1024 relaxed starts, 10 from 1024 direct ones);
+  it far more often and to many more modes (Dietmaier's 40-posture platform: 37-39 of the 40
+  modes from 1024 relaxed starts, 10 from 1024 direct ones);
 * explored: from every mode found, :data:`EXPLORE_PER_MODE` perturbed starts (normal,
   :data:`EXPLORE_SIGMA` rad, or that times 0.1 characteristic length for a prismatic joint) run
-  Newton deflated at every known mode (:func:`deflated_newton`), round after round while a
-  round finds a new mode (at most :data:`EXPLORE_ROUNDS`): deflation drives each start away from
-  the mode it began at, to another one, often a neighbour with a small basin that plain
-  multi-start Newton rarely reaches (modes lying close together near a fold of the forward
-  problem);
+  Newton deflated at every known mode (:func:`deflated_newton`), round after round until
+  :data:`EXPLORE_PATIENCE` rounds in a row find no new mode (at most :data:`EXPLORE_ROUNDS`):
+  deflation drives each start away from the mode it began at, to another one, often a
+  neighbour with a small basin that plain multi-start Newton rarely reaches (modes lying close
+  together near a fold of the forward problem). Dietmaier's platform, default settings: all 40
+  modes for each of the seeds 0-9 (without exploration 21-25 of them, seeds 0-3);
 * verified: ``||phi_R|| < tol_phi`` by forward kinematics at the returned joints;
 * distinct: two solutions are one mode when every frame of the mechanism (link frames and named
   frames) is at the same place (``same_tol`` m, relative to the characteristic length) and
@@ -65,9 +66,11 @@ ASSEMBLY_STARTS = 256
 SAME_TOL = 1e-6
 TOL_PHI = 1e-9
 #: perturbed starts per newly found mode in each exploration round
-EXPLORE_PER_MODE = 8
-#: at most this many exploration rounds (a round that finds no new mode ends them)
+EXPLORE_PER_MODE = 4
+#: at most this many exploration rounds
 EXPLORE_ROUNDS = 8
+#: exploration ends after this many rounds in a row that find no new mode
+EXPLORE_PATIENCE = 2
 #: spread of the exploration starts about a mode [rad; x 0.1 characteristic length for m]
 EXPLORE_SIGMA = 0.3
 #: Gauss-Newton iterations of :func:`relax`
@@ -332,8 +335,9 @@ def deflated_newton(mech: Mechanism, q_v: np.ndarray, Q_w: np.ndarray, roots: np
 def _explore(mech: Mechanism, q_v: np.ndarray, q: np.ndarray, rng, tol_phi: float,
              same_tol: float, max_iter: int, rounds: int) -> tuple[np.ndarray, int]:
     """Deflated Newton (:func:`deflated_newton`) from perturbations of every mode found so far,
-    every known mode deflated, round after round while a round finds a new mode. q (k, n) the
-    solutions so far; returns one solution of each new mode (j, n) and the number of starts."""
+    every known mode deflated, round after round until :data:`EXPLORE_PATIENCE` rounds in a row
+    find no new mode. q (k, n) the solutions so far; returns one solution of each new mode
+    (j, n) and the number of starts."""
     dep = mech.dependent
     sigma = np.where(mech.s[dep] == 1, 0.1 * characteristic_length(mech), EXPLORE_SIGMA)
     tried = 0
@@ -342,18 +346,20 @@ def _explore(mech: Mechanism, q_v: np.ndarray, q: np.ndarray, rng, tol_phi: floa
     key = _scaled_key(mech, q)
     idx = _distinct(key, same_tol)
     modes, known, n0 = q[idx], key[idx], len(idx)
+    idle = 0
     for _ in range(rounds):
         S = np.repeat(modes[:, dep], EXPLORE_PER_MODE, axis=0)
         S = S + rng.normal(size=S.shape) * sigma
         tried += len(S)
         got = _closed(mech, q_v, deflated_newton(mech, q_v, S, modes[:, dep],
                                                  max_iter=max_iter), tol_phi, max_iter)
-        if len(got) == 0:
-            break
-        k = _scaled_key(mech, got)
+        k = _scaled_key(mech, got) if len(got) else known[:0]
         idx = _distinct(k, same_tol, known)
-        if not idx:
+        idle = 0 if idx else idle + 1
+        if idle >= EXPLORE_PATIENCE:
             break
+        if not idx:
+            continue
         known, modes = np.vstack([known, k[idx]]), np.vstack([modes, got[idx]])
     return modes[n0:], tried
 
