@@ -456,7 +456,9 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
     order = np.lexsort(tuple(np.round(q[:, dep], 9).T[::-1]) + (np.round(dist, 9), ~lim))
     q, phin, dist, lim = q[order], phin[order], dist[order], lim[order]
     idx = np.array(_distinct(_scaled_key(mech, q), same_tol), dtype=int)
-    idx = idx[np.lexsort((np.round(dist[idx], 9),))]  # modes by distance from the guess
+    # modes by distance from the guess, then lexicographically by q_w
+    idx = idx[np.lexsort(tuple(np.round(q[idx][:, dep], 9).T[::-1])
+                         + (np.round(dist[idx], 9),))]
     out = AssemblyModes(q=q[idx], residual=phin[idx], distance=dist[idx],
                         starts=n_starts, converged=int(ok.sum()),
                         time_s=time.perf_counter() - t0, within_limits=lim[idx])

@@ -7,15 +7,15 @@ solutions real (the upper bound: 40 complex solutions, Raghavan, ASME J. Mech. D
 1993). The geometry and leg lengths (tests/data/stewart_dietmaier40.yaml, typed in its header)
 were read in E. Martyushev's fkSGP, https://github.com/martyushev/fkSGP, python/genSGP.py,
 sgpType 100 "general 6-6 SGP with 40 real postures (by P. Dietmaier)" (commit 8bd29e5), which
-also prints one of the postures as the instance's ground truth (motionType 0: Rgt, tgt; pose
-16 of POSES below). Dietmaier's paper was not at hand: the count (40) is the published fact;
-the 40 poses below are not printed anywhere we could read. They were computed with fkSGP's
+also prints one of the postures as the instance's ground truth (motionType 0: Rgt, tgt; row 29
+of POSES below, 0-based). Dietmaier's paper was not at hand: the count (40) is the published
+fact; the 40 poses below are not printed anywhere we could read. They were computed with fkSGP's
 python/solver66.py (Martyushev, "Forward kinematics of a general Stewart-Gough platform by
 elimination templates", Mech. Mach. Theory 215 (2025) 106170: all 40 complex roots by an
-elimination template and an eigenvalue problem, i.e. a method that cannot miss a root), then
-Newton-polished on the six leg equations (|l_i(pose) - l_i| <= 1e-15); test_reference_poses
-re-checks them here. Each pose: p (m), then the rotation vector of R (rad); leg i joins the base
-point a_i and p + R b_i.
+elimination template and an eigenvalue problem; here it returned 40 real roots, Dietmaier's
+count), then Newton-polished on the six leg equations to round-off and typed with 13 decimals;
+test_reference_poses re-checks them here (legs to 1e-12, all distinct). Each pose: p (m), then
+the rotation vector of R (rad); leg i joins the base point a_i and p + R b_i.
 """
 
 from __future__ import annotations
@@ -146,7 +146,7 @@ def test_reference_poses():
     p, R = _poses()
     assert POSES.shape == (40, 6)
     assert np.abs(_leg_lengths(p, R) - LEGS).max() < 1e-12
-    # 40 distinct postures (the closest two differ by 0.03 in p)
+    # 40 distinct postures (the closest two differ by 0.038 m in p)
     d = np.linalg.norm(p[:, None] - p[None], axis=-1) + np.linalg.norm(
         R[:, None] - R[None], axis=(-2, -1))
     assert np.sort(d + np.eye(40) * 9, axis=None)[0] > 1e-2
