@@ -22,8 +22,9 @@ it from many seeded starts at once and keeps the distinct converged solutions:
   :data:`EXPLORE_PATIENCE` rounds in a row find no new mode (at most :data:`EXPLORE_ROUNDS`):
   deflation drives each start away from the mode it began at, to another one, often a
   neighbour with a small basin that plain multi-start Newton rarely reaches (modes lying close
-  together near a fold of the forward problem). Dietmaier's platform, default settings: all 40
-  modes for each of the seeds 0-9 (without exploration 21-25 of them, seeds 0-3);
+  together near a fold of the forward problem). Dietmaier's platform: all 40 modes with the
+  default 256 starts for each of the seeds 0-9, and with ``mechkin info``'s 64 starts for the
+  seeds 0-4 (without exploration 21-25 of them, 256 starts, seeds 0-3);
 * verified: ``||phi_R|| < tol_phi`` by forward kinematics at the returned joints;
 * distinct: two solutions are one mode when every frame of the mechanism (link frames and named
   frames) is at the same place (``same_tol`` m, relative to the characteristic length) and
@@ -68,9 +69,9 @@ TOL_PHI = 1e-9
 #: perturbed starts per newly found mode in each exploration round
 EXPLORE_PER_MODE = 4
 #: at most this many exploration rounds
-EXPLORE_ROUNDS = 8
+EXPLORE_ROUNDS = 12
 #: exploration ends after this many rounds in a row that find no new mode
-EXPLORE_PATIENCE = 2
+EXPLORE_PATIENCE = 3
 #: spread of the exploration starts about a mode [rad; x 0.1 characteristic length for m]
 EXPLORE_SIGMA = 0.3
 #: Gauss-Newton iterations of :func:`relax`
