@@ -34,8 +34,9 @@ it from many seeded starts at once and keeps the distinct converged solutions:
   position problem. Each mode is represented by its solution nearest the guess (joint
   distance, revolute joints modulo 2 pi) among those within the limits, if any (the same frames
   can be reached with other joint values, e.g. a spherical joint's Euler angles (a + pi,
-  pi - b, c + pi)); revolute joints are taken at the turn nearest the guess where that stays
-  within the limits;
+  pi - b, c + pi), which :func:`spherical_equivalents` substitutes where it is within the
+  limits); revolute joints are taken at the turn nearest the guess where that stays within the
+  limits;
 * ordered: by that distance from the guess, then lexicographically by q_w;
 * flagged: whether every joint of a mode lies within its limits (the kim1995 direct-drive
   arm's crossed parallelogram closes the loop but leaves the passive limits).
@@ -238,6 +239,40 @@ def relax(mech: Mechanism, q: np.ndarray, *, max_iter: int = RELAX_ITER,
         nst = np.linalg.norm(step, axis=1, keepdims=True)
         q[act] -= unit * step * np.minimum(1.0, 0.5 / np.maximum(nst, 1e-300))
     return q, ok
+
+
+def spherical_equivalents(mech: Mechanism, q: np.ndarray) -> np.ndarray:
+    """q (m, n) with the angles (a, b, c) of each spherical joint that leaves its limits replaced
+    by the other Euler-angle solution of the same rotation, (a + pi, pi - b, c + pi) (axes
+    x-y-z-like) or (a + pi, -b, c + pi) (z-y-z-like), each angle at the turn within its limits,
+    where that puts the joint within its limits and moves no frame of a real link (checked by
+    forward kinematics). The same assembly, so the within-limits flag does not depend on which
+    of the two Newton happened to reach."""
+    q = np.array(q, dtype=np.float64)
+    groups = [np.array(g.joints) for g in mech.groups if g.type == "spherical"
+              and len(g.joints) == 3 and np.all(mech.s[list(g.joints)] == 0)]
+    if not groups or len(q) == 0:
+        return q
+    lo, hi = mech.lower, mech.upper
+    real = np.flatnonzero(~np.isin(mech.frame_link, list(mech.virtual_links)))
+    tol = 1e-9 * max(1.0, characteristic_length(mech))
+    for j in groups:
+        rows = np.flatnonzero(np.any((q[:, j] < lo[j] - 1e-9) | (q[:, j] > hi[j] + 1e-9), axis=1))
+        for mid in (np.pi, 0.0):
+            if rows.size == 0:
+                break
+            c = q[rows].copy()
+            c[:, j] = np.stack([c[:, j[0]] + np.pi, mid - c[:, j[1]], c[:, j[2]] + np.pi], axis=1)
+            turn = lo[j] + np.mod(c[:, j] - lo[j], 2.0 * np.pi)
+            c[:, j] = np.where(np.isfinite(lo[j]) & (turn <= hi[j]), turn, c[:, j])
+            inside = np.all((c[:, j] >= lo[j] - 1e-9) & (c[:, j] <= hi[j] + 1e-9), axis=1)
+            F0 = forward_kinematics(mech, q[rows]).frames(mech, real)
+            F1 = forward_kinematics(mech, c).frames(mech, real)
+            same = np.abs(F1 - F0).max(axis=(1, 2, 3), initial=0.0) < tol
+            ok = inside & same
+            q[rows[ok]] = c[ok]
+            rows = rows[~ok]
+    return q
 
 
 def _distinct(key: np.ndarray, same_tol: float, known: np.ndarray | None = None) -> list[int]:
@@ -450,6 +485,7 @@ def assembly_modes(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None 
     near = guess[None] + wrapped_difference(mech, dep, q[:, dep], guess[None])
     inside = (near >= mech.lower[dep]) & (near <= mech.upper[dep])
     q[:, dep] = np.where(inside, near, q[:, dep])
+    q = spherical_equivalents(mech, q)
     lim = np.all((q >= mech.lower - 1e-9) & (q <= mech.upper + 1e-9), axis=1)
     dist = np.linalg.norm(wrapped_difference(mech, dep, q[:, dep], guess[None]), axis=1)
     # within the limits, then nearest the guess first: each mode's representative is its

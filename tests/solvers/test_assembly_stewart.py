@@ -28,7 +28,12 @@ from scipy.spatial.transform import Rotation
 from mechkin.model import load_mechanism
 from mechkin.model.closure import solve_closure
 from mechkin.model.kinematics import closure_residual, forward_kinematics
-from mechkin.solvers.assembly import assembly_modes, deflated_newton, relax
+from mechkin.solvers.assembly import (
+    assembly_modes,
+    deflated_newton,
+    relax,
+    spherical_equivalents,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 MECH = ROOT / "tests" / "data" / "stewart_dietmaier40.yaml"
@@ -210,3 +215,22 @@ def test_deflated_newton_leaves_the_known_mode():
         key = forward_kinematics(mech, mech.assemble(qv[None], q_w)).frames(mech)[0, :, :3, 3]
         d = np.abs(ref - key[None]).max(axis=(1, 2))
         assert d[mode] < 1e-9 < d[1 - mode]
+
+
+def test_spherical_equivalents_put_a_mode_back_within_the_limits():
+    """Each spherical joint's other Euler solution (a + pi, pi - b, c + pi) leaves the middle
+    angle's [-90, 90] deg limits with the same frames; the within-limits one is restored."""
+    mech = load_mechanism(MECH)
+    home = solve_closure(mech, LEGS[None], mech.home[mech.dependent][None]).q[0]
+    flipped = home.copy()
+    for g in mech.groups:
+        if g.type == "spherical":
+            a, b, c = g.joints
+            flipped[[a, b, c]] = flipped[a] + np.pi, np.pi - flipped[b], flipped[c] + np.pi
+    assert not np.all(flipped <= mech.upper + 1e-9)
+    real = [f for f in range(len(mech.frame_names))
+            if mech.frame_link[f] not in mech.virtual_links]
+    F = forward_kinematics(mech, np.vstack([home, flipped])).frames(mech, real)
+    assert np.abs(F[0] - F[1]).max() < 1e-12
+    out = spherical_equivalents(mech, np.vstack([home, flipped]))
+    assert np.abs(out - home).max() < 1e-12
