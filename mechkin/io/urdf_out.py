@@ -77,8 +77,9 @@ def _visual_xml(visuals: Sequence[Any]) -> str:
             geo = f"<mesh filename={quoteattr(uri)}/>"
         else:
             geo = f"<mesh filename={quoteattr(v.uri)} scale=\"{_vec(size)}\"/>"
+        mat = f"<material name={quoteattr('mechkin_' + v.material)}/>" if v.material else ""
         out.append(f"<visual>{_origin(np.asarray(v.T, dtype=float))}<geometry>{geo}</geometry>"
-                   f"<material name={quoteattr('mechkin_' + v.material)}/></visual>")
+                   f"{mat}</visual>")
     return "".join(out)
 
 

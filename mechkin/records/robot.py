@@ -35,7 +35,8 @@ class Visual:
         cylinder (radius, length), sphere (radius,), box (x, y, z), mesh (sx, sy, sz) scale,
         prism (thickness,) [m].
     material : str
-        Name of a colour in :attr:`RobotDescription.materials`.
+        Name of a colour in :attr:`RobotDescription.materials`; ``""``: none (a mesh keeps
+        its own colours).
     uri : str
         Mesh file URI (``package://``, ``file://``, ``http(s)://``) for ``mesh``.
     polygon : array (p, 2), optional
@@ -60,8 +61,9 @@ class RobotDescription:
     mechanism : object
         The built mechanism (duck-typed: names, ``A``, ``B``, limits, frames, cuts).
     visuals : tuple of Visual
-        Generated geometry: link cylinders between joint points, joint cylinders along their
-        axes, plates, the end-effector triad.
+        The mechanism file's own visuals (imported meshes, primitives) on their links, and
+        generated geometry on the others: link cylinders between joint points, joint cylinders
+        along their axes, plates; the end-effector triad.
     materials : dict of str to RGBA
         Colours the visuals name.
     rate_limits : dict of str to (velocity, effort)
