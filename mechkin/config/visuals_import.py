@@ -12,7 +12,9 @@ moves the entries of bodies that become named frames onto their link (poses comp
   referenced (a viewer shows it missing);
 - URDF: ``box``, ``cylinder``, ``sphere``, ``mesh`` (with ``scale``), the material colour (the
   visual's own ``<color>`` or the robot-level ``<material>`` of that name); ``<collision>`` is
-  not drawn;
+  not drawn; meshes in other URI schemes (``data:``, ``model://``) are left out with a note,
+  and so are the visuals ``mechkin export`` generated (``<visual name="mechkin_generated">``:
+  a re-imported export is drawn as the original was);
 - MJCF: the geoms MuJoCo's viewer shows by default (groups 0-2, alpha > 0): ``mesh`` (the
   asset's file and ``scale``, relative to ``meshdir``), ``box``, ``cylinder``, ``sphere``, and
   ``capsule`` as a cylinder and two spheres; planes, ellipsoids, height fields and SDFs are
@@ -27,17 +29,21 @@ May import: config, errors, numpy, mujoco (passed in).
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mechkin.config.visual_spec import mesh_uri
+from mechkin.config.visual_spec import MESH_SCHEMES, mesh_uri
 
 __all__ = ["attach_mjcf_visuals", "attach_urdf_visuals"]
 
 _MARK = "__mechkin_visual_"
+GENERATED = "mechkin_generated"  # mechkin.io.urdf_out.GENERATED (config does not import io)
+#: a URI scheme (two letters at least: ``C:\\`` is a Windows path)
+_ANY_SCHEME = re.compile(r"^([A-Za-z][A-Za-z0-9+.\-]+):")
 
 
 def _by_name(links: list[Any]) -> dict[str, Any]:
@@ -49,17 +55,22 @@ def attach_urdf_visuals(links: list[Any], robot: Any, path: Path) -> None:
     colours = {m.name: m.color.rgba for m in (robot.materials or ())
                if m.name and m.color is not None and m.color.rgba is not None}
     tree_links = _by_name(links)
+    skipped: dict[str, int] = {}
     for lk in robot.links:
         target = tree_links.get(lk.name)
         if target is None:
             continue
         for v in lk.visuals or ():
             g = v.geometry
-            if g is None:
+            if g is None or v.name == GENERATED:  # mechkin export's own geometry
                 continue
             e: dict[str, Any] = {"T": np.asarray(v.origin if v.origin is not None
                                                  else np.eye(4), dtype=float)}
             if g.mesh is not None and g.mesh.filename:
+                scheme = _ANY_SCHEME.match(str(g.mesh.filename))
+                if scheme and scheme.group(1).lower() not in MESH_SCHEMES:
+                    skipped[scheme.group(1)] = skipped.get(scheme.group(1), 0) + 1
+                    continue
                 e["mesh"] = mesh_uri(str(g.mesh.filename), path.parent)
                 if g.mesh.scale is not None:
                     s = np.broadcast_to(np.asarray(g.mesh.scale, dtype=float), (3,))
@@ -80,6 +91,10 @@ def attach_urdf_visuals(links: list[Any], robot: Any, path: Path) -> None:
             if rgba is not None:
                 e["rgba"] = [float(min(max(x, 0.0), 1.0)) for x in rgba]
             target.visuals.append(e)
+    if skipped:
+        what = ", ".join(f"{n} {k}:" for k, n in sorted(skipped.items()))
+        sys.stderr.write(f"{path.name}: note: left out meshes given as {what} URIs (mechkin "
+                         f"references {', '.join(s + '://' for s in MESH_SCHEMES)} and paths)\n")
 
 
 def attach_mjcf_visuals(links: list[Any], mujoco: Any, path: Path, bodies: list[str]) -> None:

@@ -41,6 +41,9 @@ class Visual:
         Mesh file URI (``package://``, ``file://``, ``http(s)://``) for ``mesh``.
     polygon : array (p, 2), optional
         A prism's outline in the xy plane of ``T`` [m].
+    generated : bool
+        Generated from the kinematics (written as ``<visual name="mechkin_generated">``, which
+        ``mechkin import`` skips), or False: the mechanism file's own visual.
     """
 
     link: str
@@ -50,6 +53,7 @@ class Visual:
     material: str
     uri: str = ""
     polygon: np.ndarray | None = None
+    generated: bool = True
 
 
 @dataclass(frozen=True, eq=False)

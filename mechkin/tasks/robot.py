@@ -14,7 +14,9 @@ Geometry, every piece fixed in the link it belongs to (so a URDF viewer moves it
 * the end effector: an x/y/z triad (red, green, blue) on its frame.
 
 A link whose file gives visuals (``links[].visuals``: imported meshes and primitives,
-:mod:`mechkin.config.visuals_import`) is drawn with those instead (the triad stays).
+:mod:`mechkin.config.visuals_import`) is drawn with those instead (the triad stays), unless one
+of its meshes is a ``file://`` URI of a file missing on this machine: then it is drawn with
+both (the viewer reports the missing mesh and still shows the link).
 
 Sizes scale with the mechanism (the largest extent of its joint points and frames at home).
 
@@ -233,10 +235,13 @@ def robot_description(mech: Any, rate_limits: dict[str, tuple[float, float]] | N
 
 
 def source_visuals(mech: Any, materials: dict[str, Any]) -> tuple[tuple[Visual, ...], set[str]]:
-    """(the file's visuals of ``mech`` as records, the links that have them); their colours
-    are added to ``materials`` as ``source_<k>`` (one per distinct rgba); a visual without a
-    colour names no material (the mesh's own colours)."""
+    """(the file's visuals of ``mech`` as records, the links they draw); their colours are
+    added to ``materials`` as ``source_<k>`` (one per distinct rgba); a visual without a colour
+    names no material (the mesh's own colours). A link with a ``file://`` mesh that is not on
+    this machine (looked up, never opened) is not counted as drawn: it keeps its generated
+    geometry beside the reference, so the robot shows even where a viewer cannot load it."""
     out = []
+    missing: set[str] = set()
     colour_name: dict[tuple, str] = {}
     for v in getattr(mech, "visuals", ()):
         material = ""
@@ -247,8 +252,18 @@ def source_visuals(mech: Any, materials: dict[str, Any]) -> tuple[tuple[Visual, 
                 materials[colour_name[key]] = key
             material = colour_name[key]
         out.append(Visual(v.link, v.shape, np.asarray(v.T, dtype=float), tuple(v.size),
-                          material, uri=v.uri))
-    return tuple(out), {v.link for v in out}
+                          material, uri=v.uri, generated=False))
+        if v.uri.startswith("file:") and not _file_exists(v.uri):
+            missing.add(v.link)
+    return tuple(out), {v.link for v in out} - missing
+
+
+def _file_exists(uri: str) -> bool:
+    """Whether a ``file://`` URI names a regular file here (``os.stat``; nothing is opened)."""
+    import os
+    from urllib.parse import unquote, urlparse
+
+    return os.path.isfile(unquote(urlparse(uri).path))
 
 
 def robot_snapshot(mech: Any) -> RobotSnapshot:
