@@ -42,7 +42,7 @@ class VisualSpec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     mesh: Annotated[str, Field(min_length=1, max_length=4096)] | None = None
-    scale: _Pos3 | None = None
+    scale: _Vec3 | None = None
     box: _Pos3 | None = None
     cylinder: Annotated[list[_Pos], Field(min_length=2, max_length=2)] | None = None
     sphere: _Pos | None = None
@@ -73,6 +73,8 @@ class VisualSpec(BaseModel):
                              + (", ".join(given) if given else "none"))
         if self.scale is not None and self.mesh is None:
             raise ValueError("scale goes with mesh")
+        if self.scale is not None and 0.0 in self.scale:  # negative: mirrored (URDF allows)
+            raise ValueError(f"scale: expected nonzero numbers, got {self.scale}")
         return self
 
 

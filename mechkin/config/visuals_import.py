@@ -88,13 +88,32 @@ def attach_urdf_visuals(links: list[Any], robot: Any, path: Path) -> None:
             rgba = None
             if m is not None:
                 rgba = m.color.rgba if m.color is not None else colours.get(m.name)
-            if rgba is not None:
+            if rgba is not None and np.all(np.isfinite(rgba)):
                 e["rgba"] = [float(min(max(x, 0.0), 1.0)) for x in rgba]
-            target.visuals.append(e)
+            if usable(e):
+                target.visuals.append(e)
+            else:
+                skipped["degenerate"] = skipped.get("degenerate", 0) + 1
     if skipped:
-        what = ", ".join(f"{n} {k}:" for k, n in sorted(skipped.items()))
-        sys.stderr.write(f"{path.name}: note: left out meshes given as {what} URIs (mechkin "
-                         f"references {', '.join(s + '://' for s in MESH_SCHEMES)} and paths)\n")
+        what = ", ".join(f"{n} {k}" + ("" if k == "degenerate" else ":")
+                         for k, n in sorted(skipped.items()))
+        sys.stderr.write(f"{path.name}: note: left out {what} <visual> elements (mechkin draws "
+                         "boxes, cylinders, spheres of positive size and meshes by "
+                         f"{', '.join(s + '://' for s in MESH_SCHEMES)} URI or path)\n")
+
+
+def usable(e: dict[str, Any]) -> bool:
+    """Whether an entry fits ``links[].visuals``: finite pose, sizes > 0, scale finite and
+    nonzero (a mirrored mesh has a negative one)."""
+    if not np.all(np.isfinite(e["T"])):
+        return False
+    sizes = e.get("box", e.get("cylinder", [e["sphere"]] if "sphere" in e else []))
+    scale = e.get("scale", [1.0])
+    mesh = e.get("mesh", "-")
+    if len(mesh) > 4096 or any(ord(c) < 32 for c in mesh):  # visual_spec's limits
+        return False
+    return (all(np.isfinite(x) and x > 0 for x in sizes)
+            and all(np.isfinite(x) and x != 0 for x in scale))
 
 
 def attach_mjcf_visuals(links: list[Any], mujoco: Any, path: Path, bodies: list[str]) -> None:
@@ -128,24 +147,29 @@ def attach_mjcf_visuals(links: list[Any], mujoco: Any, path: Path, bodies: list[
         T[:3, :3] = _quat_matrix(model.geom_quat[g])
         size = [float(x) for x in model.geom_size[g]]
         typ = int(model.geom_type[g])
-        base = {"rgba": [float(x) for x in rgba]}
+        base = {"rgba": [float(min(max(x, 0.0), 1.0)) for x in rgba]}
         if name in meshes:
             uri, scale = meshes[name]
             e = {"T": T, "mesh": uri} | base
             if not np.allclose(scale, 1.0):
                 e["scale"] = [float(x) for x in scale]
-            target.visuals.append(e)
+            _add(target, e)
         elif typ == G.mjGEOM_BOX:
-            target.visuals.append({"T": T, "box": [2.0 * x for x in size]} | base)
+            _add(target, {"T": T, "box": [2.0 * x for x in size]} | base)
         elif typ == G.mjGEOM_SPHERE:
-            target.visuals.append({"T": T, "sphere": size[0]} | base)
+            _add(target, {"T": T, "sphere": size[0]} | base)
         elif typ in (G.mjGEOM_CYLINDER, G.mjGEOM_CAPSULE):
-            target.visuals.append({"T": T, "cylinder": [size[0], 2.0 * size[1]]} | base)
+            _add(target, {"T": T, "cylinder": [size[0], 2.0 * size[1]]} | base)
             if typ == G.mjGEOM_CAPSULE:  # URDF has no capsule: two end spheres
                 for sign in (-1.0, 1.0):
                     Te = T.copy()
                     Te[:3, 3] = T[:3, 3] + sign * size[1] * T[:3, 2]
-                    target.visuals.append({"T": Te, "sphere": size[0]} | base)
+                    _add(target, {"T": Te, "sphere": size[0]} | base)
+
+
+def _add(target: Any, e: dict[str, Any]) -> None:
+    if usable(e):
+        target.visuals.append(e)
 
 
 def _visual_model(mujoco: Any, path: Path) -> tuple[Any, dict[str, tuple[str, list[float]]],

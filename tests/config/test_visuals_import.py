@@ -100,8 +100,9 @@ URDF_HOSTILE = """<robot name="bot">
 <mesh filename="/nonexistent/dir/b.dae"/></geometry></visual>
 <visual><geometry><box size="0.1 0.2 0.3"/></geometry><material name="red"><color rgba="1 0 0 1"/>
 </material></visual></link>
-<link name="c"><visual><geometry><mesh filename="package://pkg/meshes/c.dae"/></geometry>
-</visual><visual><geometry><cylinder radius="0.05" length="0.4"/></geometry></visual>
+<link name="c"><visual><geometry><mesh filename="package://pkg/meshes/c.dae" scale="-1 1 1"/>
+</geometry></visual><visual><geometry><box size="0 1 1"/></geometry></visual>
+<visual><geometry><cylinder radius="0.05" length="0.4"/></geometry></visual>
 <visual><geometry><sphere radius="0.07"/></geometry></visual></link>
 <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
 <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
@@ -127,6 +128,8 @@ def test_mesh_files_are_referenced_never_opened(tmp_path):
         r = subprocess.run([sys.executable, "-m", "mechkin", *args], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, (args, r.stderr[-2000:])
+        if args[0] == "import":
+            assert "r.urdf: note: left out 1 degenerate <visual> elements" in r.stderr
     fifo_uri = (tmp_path / "meshes" / "fifo.stl").as_uri()
     text = (tmp_path / "r.yaml").read_text()
     for uri in (fifo_uri, "file:///nonexistent/dir/b.dae", "package://pkg/meshes/c.dae"):
@@ -141,8 +144,9 @@ def test_mesh_files_are_referenced_never_opened(tmp_path):
     meshes = {w[1] for w in want if w[1] not in ("box", "cylinder", "sphere")}
     assert len(meshes) == 3
     assert match_poses(want, got, keys=meshes) <= ATOL_POSE
-    # primitives: b's box, c's cylinder and sphere (generated visuals are named and left out)
-    src_prims = [w for w in want if w[1] not in meshes]
+    # primitives: b's box, c's cylinder and sphere (generated visuals are named and left out;
+    # c's box of size 0 is left out at import, its mirrored mesh (scale -1 1 1) kept)
+    src_prims = [w for w in want if w[1] not in meshes and abs(np.linalg.det(w[2])) > 0]
     got_prims = [x for x, v in zip(got, _visual_elements(out), strict=True)
                  if x[1] not in meshes and v.name != "mechkin_generated"]
     assert len(src_prims) == 3 and match_poses(src_prims, got_prims) <= ATOL_POSE

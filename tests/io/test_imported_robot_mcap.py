@@ -1,0 +1,124 @@
+"""The robot in the MCAP of an imported robot file (issue 27): example-robot-data's UR5 URDF
+(package:// meshes) driven by an fk run, and the bundled MJCF biped (its mesh files are not
+shipped) by its ik scenario. Each MCAP passes the strict check; its ``/robot_description``
+parses with yourdfpy, carries the source's meshes (same URIs, same links, same world poses)
+beside well-formed URIs only, and its forward kinematics at every ``/joint_states`` message
+equals ``/tf`` to 1e-9; the layout's URDF layer reads that topic, driven by ``/joint_states``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from urllib.parse import urlparse
+
+import pytest
+
+from tests.config.robot_files import robots_dir
+from tests.config.visual_poses import load_urdf, match_poses, visual_poses
+from tests.io.mcap_checks import strict_check, urdf_fk_errors
+
+ROOT = Path(__file__).resolve().parents[2]
+ATOL_POSE = 1e-9
+UR5 = "ur_description/urdf/ur5_robot.urdf"
+FK = """name: ur5_urdf_fk
+task: fk
+mechanism: {path}
+fk:
+  time: {{start: 0, stop: 1, step: 0.1}}
+  motion:
+    shoulder_pan_joint: {{type: ramp, from: 0, to: 1}}
+    shoulder_lift_joint: {{type: ramp, from: -1, to: -0.5}}
+    elbow_joint: {{type: ramp, from: 1, to: 0.2}}
+    wrist_1_joint: {{type: ramp, from: 0, to: -1}}
+    wrist_2_joint: {{type: ramp, from: 0.3, to: 1.5}}
+    wrist_3_joint: {{type: ramp, from: 0, to: 2}}
+"""
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory) -> dict[str, Path]:
+    from mechkin.api import run
+
+    folder = tmp_path_factory.mktemp("imported")
+    (folder / "ur5_urdf_fk.yaml").write_text(FK.format(path=robots_dir() / UR5))
+    out = {}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("MECHKIN_JIT", "0")
+        if "NUMBA_CACHE_DIR" not in os.environ:
+            mp.setenv("NUMBA_CACHE_DIR", str(tmp_path_factory.mktemp("numba")))
+        for name, scenario, task in [
+                ("ur5_urdf_fk", folder / "ur5_urdf_fk.yaml", "fk"),
+                ("biped_floating_ik", ROOT / "scenarios" / "biped_floating_ik.yaml", "ik")]:
+            report = run(scenario)
+            dest = tmp_path_factory.mktemp(name)
+            report.write(dest, plots=False)
+            out[name] = dest / f"{task}.mcap"
+    return out
+
+
+def _uri_ok(uri: str) -> bool:
+    u = urlparse(uri)
+    if u.scheme == "package":
+        return bool(u.netloc) and bool(u.path)
+    if u.scheme == "file":
+        return u.netloc == "" and u.path.startswith("/")
+    return u.scheme == "data" and uri.startswith("data:model/vnd.collada+xml;base64,")
+
+
+@pytest.mark.parametrize("name", ["ur5_urdf_fk", "biped_floating_ik"])
+def test_imported_robot_mcap_is_drawn_as_logged(written, name):
+    path = written[name]
+    data = strict_check(path)
+    err, n_msgs, n_links = urdf_fk_errors(data)
+    assert n_msgs == len(data["msgs"]["/tf"]) and n_links >= 6
+    assert err <= ATOL_POSE, f"{name}: URDF FK differs from /tf by {err:.3g}"
+    robot = load_urdf(data["msgs"]["/robot_description"][0][1]["data"])
+    uris = [v.geometry.mesh.filename for lk in robot.robot.links for v in lk.visuals
+            if v.geometry.mesh is not None]
+    assert uris and all(_uri_ok(u) for u in uris), [u[:60] for u in uris if not _uri_ok(u)]
+    lay = json.loads((path.parent / f"{path.stem}.layout.json").read_text())
+    three_d = next(c for pid, c in lay["configById"].items() if pid.startswith("3D!"))
+    urdf = [c for c in three_d["layers"].values() if c["layerId"] == "foxglove.Urdf"]
+    assert len(urdf) == 1
+    assert (urdf[0]["sourceType"], urdf[0]["topic"]) == ("topic", "/robot_description")
+    assert (urdf[0]["controlMode"], urdf[0]["jointStatesTopic"]) == ("jointStates",
+                                                                    "/joint_states")
+
+
+def test_ur5_mcap_carries_the_source_meshes_where_the_source_puts_them(written):
+    """Every ``<visual>`` mesh of the UR5 file is in the MCAP's URDF with its package:// URI on
+    the link of the same name (base_link's on world: base_link is fixed to it), and at the
+    logged joint states it sits where the source URDF puts it (1e-9)."""
+    data = strict_check(written["ur5_urdf_fk"])
+    robot = load_urdf(data["msgs"]["/robot_description"][0][1]["data"])
+    src = load_urdf(robots_dir() / UR5)
+    src_meshes = {lk.name: [v.geometry.mesh.filename for v in lk.visuals
+                            if v.geometry.mesh is not None] for lk in src.robot.links}
+    got = {lk.name: [v.geometry.mesh.filename for v in lk.visuals
+                     if v.geometry.mesh is not None] for lk in robot.robot.links}
+    for link, uris in src_meshes.items():
+        if uris:
+            assert got["world" if link == "base_link" else link] == uris, link
+    keys = {u for uris in src_meshes.values() for u in uris}
+    assert len(keys) == 7
+    for _, msg in data["msgs"]["/joint_states"]:
+        q = {j.name: j.position for j in msg.joints}
+        err = match_poses(visual_poses(src, q), visual_poses(robot, q), keys=keys)
+        assert err <= ATOL_POSE
+
+
+def test_biped_mcap_references_its_missing_meshes_and_still_draws_the_legs(written):
+    """biped_floating.xml names meshes_not_shipped/part.stl: the URDF references it (file://
+    beside the MJCF) on every body that has the geom, and those links keep their generated
+    cylinders, so the legs show although the viewer cannot load the mesh."""
+    data = strict_check(written["biped_floating_ik"])
+    robot = load_urdf(data["msgs"]["/robot_description"][0][1]["data"])
+    uri = (ROOT / "mechanisms" / "meshes_not_shipped" / "part.stl").as_uri()
+    with_mesh = [lk for lk in robot.robot.links
+                 if any(v.geometry.mesh is not None and v.geometry.mesh.filename == uri
+                        for v in lk.visuals)]
+    assert len(with_mesh) == 7  # the file's seven <geom type="mesh"> bodies
+    for lk in with_mesh:
+        assert any(v.name == "mechkin_generated" for v in lk.visuals), lk.name
