@@ -8,16 +8,14 @@ equals ``/tf`` to 1e-9; the layout's URDF layer reads that topic, driven by ``/j
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
-from urllib.parse import urlparse
 
 import pytest
 
 from tests.config.robot_files import robots_dir
 from tests.config.visual_poses import load_urdf, match_poses, visual_poses
-from tests.io.mcap_checks import strict_check, urdf_fk_errors
+from tests.io.mcap_checks import check_robot_in_view, strict_check, urdf_fk_errors
 
 ROOT = Path(__file__).resolve().parents[2]
 ATOL_POSE = 1e-9
@@ -58,15 +56,6 @@ def written(tmp_path_factory) -> dict[str, Path]:
     return out
 
 
-def _uri_ok(uri: str) -> bool:
-    u = urlparse(uri)
-    if u.scheme == "package":
-        return bool(u.netloc) and bool(u.path)
-    if u.scheme == "file":
-        return u.netloc == "" and u.path.startswith("/")
-    return u.scheme == "data" and uri.startswith("data:model/vnd.collada+xml;base64,")
-
-
 @pytest.mark.parametrize("name", ["ur5_urdf_fk", "biped_floating_ik"])
 def test_imported_robot_mcap_is_drawn_as_logged(written, name):
     path = written[name]
@@ -74,17 +63,8 @@ def test_imported_robot_mcap_is_drawn_as_logged(written, name):
     err, n_msgs, n_links = urdf_fk_errors(data)
     assert n_msgs == len(data["msgs"]["/tf"]) and n_links >= 6
     assert err <= ATOL_POSE, f"{name}: URDF FK differs from /tf by {err:.3g}"
-    robot = load_urdf(data["msgs"]["/robot_description"][0][1]["data"])
-    uris = [v.geometry.mesh.filename for lk in robot.robot.links for v in lk.visuals
-            if v.geometry.mesh is not None]
-    assert uris and all(_uri_ok(u) for u in uris), [u[:60] for u in uris if not _uri_ok(u)]
-    lay = json.loads((path.parent / f"{path.stem}.layout.json").read_text())
-    three_d = next(c for pid, c in lay["configById"].items() if pid.startswith("3D!"))
-    urdf = [c for c in three_d["layers"].values() if c["layerId"] == "foxglove.Urdf"]
-    assert len(urdf) == 1
-    assert (urdf[0]["sourceType"], urdf[0]["topic"]) == ("topic", "/robot_description")
-    assert (urdf[0]["controlMode"], urdf[0]["jointStatesTopic"]) == ("jointStates",
-                                                                    "/joint_states")
+    uris = check_robot_in_view(data, path)
+    assert sum(not u.startswith("data:") for u in uris) >= 7  # the source's meshes
 
 
 def test_ur5_mcap_carries_the_source_meshes_where_the_source_puts_them(written):
