@@ -305,7 +305,7 @@ def _compile(mujoco, path: Path):
     except ValueError:
         raise fail(first) from None
     sys.stderr.write(f"{path.name}: note: compiled without its {n} mesh / texture assets "
-                     "(missing on disk; mechkin needs no geometry)\n")
+                     "(missing on disk; the kinematics need none; visuals still reference them)\n")
     return model, n
 
 
