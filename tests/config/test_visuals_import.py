@@ -296,3 +296,37 @@ joints:
             load_mechanism(tmp_path / "bad.yaml")
         msg = str(exc.value)
         assert "bad.yaml:7" in msg and "links[0].visuals[1]" in msg and words in msg, msg
+
+
+@pytest.mark.parametrize("visual, ok", [
+    ({"mesh": "package://p/m.dae"}, True),
+    ({"mesh": "m.stl", "scale": [-1, 1, 1], "rgba": [1, 0, 0, 1]}, True),
+    ({"box": [1, 2, 3], "xyz": [0, 0, 1]}, True),
+    ({"cylinder": [0.1, 2]}, True),
+    ({"sphere": 0.5}, True),
+    ({}, False),
+    ({"box": [1, 2, 3], "sphere": 1}, False),
+    ({"sphere": 1, "scale": [1, 1, 1]}, False),
+    ({"sphere": 0}, False),
+    ({"cylinder": [1]}, False),
+    ({"mesh": "m.stl", "rgba": [2, 0, 0, 1]}, False),
+    ({"mesh": "m.stl", "color": "red"}, False),
+])
+def test_json_schema_and_loader_agree_on_visuals(visual, ok):
+    """What an editor checks (the shipped JSON Schema) and what the loader checks agree."""
+    import json
+
+    import jsonschema
+
+    from mechkin.config import schema_files
+    from mechkin.config.schema import MechanismSpec
+
+    data = {"name": "m", "links": [{"name": "a", "visuals": [visual]}]}
+    validator = jsonschema.Draft202012Validator(json.loads(schema_files.schema_text("mechanism")))
+    assert (next(validator.iter_errors(data), None) is None) == ok
+    try:
+        MechanismSpec.model_validate(data)
+        loader_ok = True
+    except ValueError:  # pydantic's ValidationError
+        loader_ok = False
+    assert loader_ok == ok
