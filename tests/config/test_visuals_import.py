@@ -330,3 +330,20 @@ def test_json_schema_and_loader_agree_on_visuals(visual, ok):
     except ValueError:  # pydantic's ValidationError
         loader_ok = False
     assert loader_ok == ok
+
+
+def test_mjcf_visuals_survive_the_yaml_round_trip(tmp_path):
+    """``mechkin import`` of the MJCF file -> YAML -> the same visuals (URI, colour, world pose)
+    as the MJCF file itself gives, at a configuration away from home."""
+    from mechkin.config.mjcf import read_mjcf_spec
+    from mechkin.config.tree_import import spec_to_yaml_text
+
+    path = _write_mjcf(tmp_path, with_mesh=True)
+    spec, _ = read_mjcf_spec(path)
+    (tmp_path / "r.yaml").write_text(spec_to_yaml_text(spec))
+    q = {"j1": -1.2, "j2": 0.9}
+    direct, via_yaml = (load_urdf(_exported(p)) for p in (path, tmp_path / "r.yaml"))
+    assert match_poses(visual_poses(direct, q), visual_poses(via_yaml, q)) <= ATOL_POSE
+    colours = [sorted(tuple(m.color.rgba) for m in r.robot.materials if m.color is not None)
+               for r in (direct, via_yaml)]
+    assert colours[0] == colours[1] and (1.0, 0.0, 0.0, 1.0) in colours[0]
