@@ -1,9 +1,10 @@
 """The robot in the MCAP of an imported robot file (issue 27): example-robot-data's UR5 URDF
-(package:// meshes) driven by an fk run, and the bundled MJCF biped (its mesh files are not
-shipped) by its ik scenario. Each MCAP passes the strict check; its ``/robot_description``
-parses with yourdfpy, carries the source's meshes (same URIs, same links, same world poses)
-beside well-formed URIs only, and its forward kinematics at every ``/joint_states`` message
-equals ``/tf`` to 1e-9; the layout's URDF layer reads that topic, driven by ``/joint_states``.
+(package:// meshes) driven by an fk run and shown by a workspace run, and the bundled MJCF
+biped (its mesh files are not shipped) by its ik scenario. Each MCAP passes the strict check;
+its ``/robot_description`` parses with yourdfpy, carries the source's meshes (same URIs, same
+links, same world poses) beside well-formed URIs only, and its forward kinematics at every
+``/joint_states`` message equals ``/tf`` to 1e-9; the layout's URDF layer reads that topic,
+driven by ``/joint_states``.
 """
 
 from __future__ import annotations
@@ -34,6 +35,18 @@ fk:
     wrist_3_joint: {{type: ramp, from: 0, to: 2}}
 """
 
+WORKSPACE = """name: ur5_urdf_workspace
+task: workspace
+mechanism: {path}
+workspace:
+  kind: joint_sweep
+  method: grid
+  joints:
+    shoulder_pan_joint: {{range: [-1, 1], n: 2}}
+    shoulder_lift_joint: {{range: [-1, 1], n: 2}}
+    elbow_joint: {{range: [-1, 1], n: 2}}
+"""
+
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory) -> dict[str, Path]:
@@ -41,6 +54,7 @@ def written(tmp_path_factory) -> dict[str, Path]:
 
     folder = tmp_path_factory.mktemp("imported")
     (folder / "ur5_urdf_fk.yaml").write_text(FK.format(path=robots_dir() / UR5))
+    (folder / "ur5_urdf_ws.yaml").write_text(WORKSPACE.format(path=robots_dir() / UR5))
     out = {}
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("MECHKIN_JIT", "0")
@@ -48,6 +62,7 @@ def written(tmp_path_factory) -> dict[str, Path]:
             mp.setenv("NUMBA_CACHE_DIR", str(tmp_path_factory.mktemp("numba")))
         for name, scenario, task in [
                 ("ur5_urdf_fk", folder / "ur5_urdf_fk.yaml", "fk"),
+                ("ur5_urdf_workspace", folder / "ur5_urdf_ws.yaml", "workspace"),
                 ("biped_floating_ik", ROOT / "scenarios" / "biped_floating_ik.yaml", "ik")]:
             report = run(scenario)
             dest = tmp_path_factory.mktemp(name)
@@ -56,7 +71,7 @@ def written(tmp_path_factory) -> dict[str, Path]:
     return out
 
 
-@pytest.mark.parametrize("name", ["ur5_urdf_fk", "biped_floating_ik"])
+@pytest.mark.parametrize("name", ["ur5_urdf_fk", "ur5_urdf_workspace", "biped_floating_ik"])
 def test_imported_robot_mcap_is_drawn_as_logged(written, name):
     path = written[name]
     data = strict_check(path)
@@ -67,11 +82,12 @@ def test_imported_robot_mcap_is_drawn_as_logged(written, name):
     assert sum(not u.startswith("data:") for u in uris) >= 7  # the source's meshes
 
 
-def test_ur5_mcap_carries_the_source_meshes_where_the_source_puts_them(written):
+@pytest.mark.parametrize("name", ["ur5_urdf_fk", "ur5_urdf_workspace"])
+def test_ur5_mcap_carries_the_source_meshes_where_the_source_puts_them(written, name):
     """Every ``<visual>`` mesh of the UR5 file is in the MCAP's URDF with its package:// URI on
     the link of the same name (base_link's on world: base_link is fixed to it), and at the
     logged joint states it sits where the source URDF puts it (1e-9)."""
-    data = strict_check(written["ur5_urdf_fk"])
+    data = strict_check(written[name])
     robot = load_urdf(data["msgs"]["/robot_description"][0][1]["data"])
     src = load_urdf(robots_dir() / UR5)
     src_meshes = {lk.name: [v.geometry.mesh.filename for v in lk.visuals
