@@ -206,7 +206,10 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
                 "cut in the sidecar (ROBOT.mechkin.yaml: cuts:), not as a second parent")
         parent_joint.setdefault(j.child, j)
     roots = [lk.name for lk in tree.links if lk.name not in parent_joint]
-    if len(roots) != 1 and not problems:
+    if not tree.links and not problems:
+        problems.append(f"{path}:1: robot: the file has no links (a xacro macro file?); fix: "
+                        "expand it with xacro and import the expanded URDF")
+    elif len(roots) != 1 and not problems:
         problems.append(f"{path}:1: robot: expected one root link (a link that is no joint's "
                         f"child), found {len(roots)}: {', '.join(roots[:10])}")
     if problems:
@@ -335,10 +338,15 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     couplings = []
     for i, c in enumerate(tree.couplings):
         where = f"{c.get('_file', path)}:{c.get('_line', 1)}: {c.get('_label', f'couplings[{i}]')}"
+        mimic = str(c.get("_label", "")).endswith(".mimic")  # a URDF <mimic joint=...>
         for key in ("joint", "master"):
             if c[key] not in jnames and c[key] not in components:
-                problems.append(f"{where}.{key}: unknown joint {c[key]!r} (moving joints: "
-                                f"{', '.join(sorted(jnames)[:30])})")
+                fix = (f"; fix: name the joint it follows, e.g. <mimic joint="
+                       f"\"{sorted(jnames)[0]}\"/>" if mimic and key == "master" and jnames
+                       else "")
+                problems.append(f"{where}.{'joint' if mimic else key}: unknown joint "
+                                f"{c[key]!r} (moving joints: "
+                                f"{', '.join(sorted(jnames)[:30])}){fix}")
         couplings.append({k: (float(v) if k in ("multiplier", "offset") else v)
                           for k, v in c.items() if not k.startswith("_")})
         lines[("couplings", i)] = c.get("_line", 1)

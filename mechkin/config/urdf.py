@@ -28,6 +28,7 @@ May import: config, spatial, errors, numpy, yourdfpy, lxml.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,7 @@ from mechkin.config.tree_import import (
     merge_sidecar,
     tree_to_spec,
 )
+from mechkin.config.urdf_check import element_problems, locate_rejection
 from mechkin.errors import ConfigError
 
 NS = "urn:mechkin:urdf"
@@ -83,6 +85,21 @@ def _parse_xml(path: Path):
         raise ConfigError(f"{path}:{line}: XML syntax error: {exc.msg}") from None
 
 
+def _without_geometry(root):
+    """A copy of the ``<robot>`` element without ``<visual>`` and ``<collision>`` (mechkin uses
+    no geometry, so a shape yourdfpy does not know, e.g. a capsule, is no reason to refuse the
+    file); lxml keeps each element's source line in the copy."""
+    import copy
+
+    light = copy.deepcopy(root)
+    if not light.get("name"):  # xacro output may leave it out (ur3.urdf): the file's stem then
+        light.set("name", "")
+    for link in light.findall("link"):
+        for e in [*link.findall("visual"), *link.findall("collision")]:
+            link.remove(e)
+    return light
+
+
 def _floats(s: str | None, n: int, where: str) -> list[float]:
     try:
         v = [float(x) for x in (s or "").split()]
@@ -109,12 +126,15 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                           f"got <{root.tag}>")
     try:
         import yourdfpy
+        from lxml import etree
     except ImportError:
         raise ConfigError(f"{path}: reading URDF needs yourdfpy (pip install "
                           "'mechkin[urdf]')") from None
+    problems = element_problems(root, path)  # located before yourdfpy's bare errors
+    if problems:
+        raise ConfigError(problems)
     link_line = {e.get("name"): e.sourceline for e in root.findall("link")}
     joint_el = {e.get("name"): e for e in root.findall("joint")}
-    problems = []
     couplings = []
     for name, e in joint_el.items():
         m = e.find("mimic")
@@ -126,7 +146,8 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             mult = _floats(m.get("multiplier", "1"), 1, where + ".multiplier")[0]
             off = _floats(m.get("offset", "0"), 1, where + ".offset")[0]
             if not m.get("joint"):
-                problems.append(f"{where}: expected joint=\"MASTER\" (the joint it follows)")
+                problems.append(f"{where}: missing joint=\"...\" (the joint it follows); fix: "
+                                "e.g. <mimic joint=\"finger_joint1\" multiplier=\"1\"/>")
             elif (joint_el.get(m.get("joint")) is not None
                   and joint_el[m.get("joint")].get("type") == "fixed"):
                 problems.append(f"{where}.joint: the master {m.get('joint')!r} is a fixed joint; "
@@ -135,19 +156,20 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                 couplings.append({"joint": name, "master": m.get("joint"), "multiplier": mult,
                                   "offset": off, "_line": m.sourceline, "_file": str(path),
                                   "_label": f"joint[{name}].mimic"})
-        if typ not in ("revolute", "continuous", "prismatic", "fixed"):
+        if typ in ("floating", "planar"):
             problems.append(f"{path}:{e.sourceline}: joint[{short_str(name)}].type: "
                             f"{short_str(typ)} joints are not supported (mechkin joints: revolute, "
                             "continuous, prismatic, fixed); fix: make it type=\"fixed\" (or "
                             "remove it and its parent link, so its child is the base)")
     if problems:
         raise ConfigError(problems)
+    light = _without_geometry(root)
     try:
-        robot = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
-                                   build_collision_scene_graph=False,
+        robot = yourdfpy.URDF.load(io.BytesIO(etree.tostring(light)), build_scene_graph=False,
+                                   load_meshes=False, build_collision_scene_graph=False,
                                    load_collision_meshes=False).robot
     except Exception as exc:  # yourdfpy raises assorted errors on malformed files
-        raise ConfigError(f"{path}:1: robot: not a valid URDF: {exc}") from None
+        raise ConfigError(locate_rejection(light, path, exc)) from None
     links = []
     for lk in robot.links:
         tl = TreeLink(lk.name, line=link_line.get(lk.name, 1))
