@@ -193,3 +193,27 @@ ik:
         mechkin.load_scenario(plain)
     (msg,) = exc.value.problems
     assert msg.startswith(f"{plain}:4: ik: base_pose: holds a floating base in target sets")
+
+
+def test_python_api_ik_frames_with_a_base_pose():
+    from mechkin.spatial.rotations import matrix_from_rpy
+
+    mech = mechkin.load_mechanism(BIPED)
+    B = np.eye(4)
+    B[:3, :3] = matrix_from_rpy(np.array([0.02, -0.05, 0.3]))
+    B[:3, 3] = [0.1, -0.02, 0.82]
+    TL, TR = np.eye(4), np.eye(4)
+    TL[:3, 3], TR[:3, 3] = [0.12, 0.15, 0.0], [0.05, -0.1, 0.0]
+    TL[:3, :3] = TR[:3, :3] = matrix_from_rpy(np.array([0.0, 0.0, 0.3]))
+    r = mechkin.ik_frames(mech, [{"frame": "left_sole", "T": TL}, {"frame": "right_sole",
+                                                                    "T": TR}], base_pose=B)
+    assert r.ok, (r.position_error, r.orientation_error)
+    kin = forward_kinematics(mech, r.q[None])
+    pel = kin.frames(mech, [mech.frame_index("pelvis")])[0, 0]
+    assert np.abs(pel - B).max() < 1e-14  # held exactly where it was given
+    for frame, T in (("left_sole", TL), ("right_sole", TR)):
+        E = kin.frames(mech, [mech.frame_index(frame)])[0, 0]
+        assert np.abs(E - T).max() < 1e-9
+    with pytest.raises(ConfigError, match="no floating base"):
+        mechkin.ik_frames(mechkin.load_mechanism(ROOT / "mechanisms" / "planar3r.yaml"),
+                          [{"frame": "hand", "T": np.eye(4)}], base_pose=np.eye(4))
