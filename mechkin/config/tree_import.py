@@ -192,6 +192,7 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     sidecar.
     """
     path = tree.path
+    renamed = _rename_unsafe(tree)
     problems: list[str] = []
     links = {lk.name: lk for lk in tree.links}
     parent_joint: dict[str, TreeJoint] = {}
@@ -385,7 +386,55 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     if tree.ignored:
         what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
         sys.stderr.write(f"{path.name}: note: ignored {what} (not kinematics)\n")
+    if renamed:
+        eg = ", ".join(f"{a!r} -> {b!r}" for a, b in list(renamed.items())[:2])
+        sys.stderr.write(f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
+                         f"cannot hold (letters, digits, _ . - only): {eg}"
+                         f"{', ...' if len(renamed) > 2 else ''}\n")
     return spec, doc
+
+
+def _rename_unsafe(tree: Tree) -> dict[str, str]:
+    """Give links, joints and frames whose names mechkin names cannot hold (a vendor's
+    ``LFoot/FSR/HeelLeft_sensor``) a safe name (each other character ``_``; a clash gets
+    ``_2``, ``_3`` ...), everywhere they are referred to (joints' ends, couplings, cuts, the
+    sidecar's keys). Returns {old: new}."""
+    import re
+
+    names = ([lk.name for lk in tree.links] + [j.name for j in tree.joints]
+             + [f[0] for f in tree.frames])
+    bad = [n for n in dict.fromkeys(names) if not re.match(_NAME_OK, n or "")]
+    if not bad:
+        return {}
+    taken = set(names)
+    ren: dict[str, str] = {}
+    for n in bad:
+        base = _safe_name(n)
+        new, k = base, 1
+        while new in taken:
+            k += 1
+            new = f"{base}_{k}"
+        taken.add(new)
+        ren[n] = new
+
+    def r(x: Any) -> Any:
+        return ren.get(x, x) if isinstance(x, str) else x
+
+    for lk in tree.links:
+        lk.name = r(lk.name)
+    for j in tree.joints:
+        j.name, j.parent, j.child = r(j.name), r(j.parent), r(j.child)
+    tree.frames = [(r(f[0]), r(f[1]), *f[2:]) for f in tree.frames]
+    for c in tree.couplings:
+        c["joint"], c["master"] = r(c["joint"]), r(c["master"])
+    for c in tree.cuts:
+        c["frames"] = [r(f) for f in c.get("frames", [])]
+    if tree.independent is not None:
+        tree.independent = [r(x) for x in tree.independent]
+    tree.end_effector = r(tree.end_effector)
+    tree.home = {r(k): v for k, v in tree.home.items()}
+    tree.tool_sites = [r(x) for x in tree.tool_sites]
+    return ren
 
 
 @dataclass(frozen=True)

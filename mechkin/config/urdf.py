@@ -6,9 +6,11 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
 - ``<link>`` -> a link; ``<inertial>`` (origin xyz + rpy, mass, inertia about the com in the
   *inertial* frame) -> mechkin's inertial (com in the link frame, inertia about the com in the
   *link* axes: ``R I R^T`` with R the inertial origin's rotation);
-- ``revolute`` (limits), ``continuous`` (no limits), ``prismatic`` -> origin + axis joints (the
-  child link frame is ``T_origin Rot(axis, q)``, the URDF convention); ``fixed`` -> the child
-  link becomes a named frame on the parent link (``mechkin.config.tree_import``);
+- ``revolute`` (limits; beyond +-1e6 both ways: no limit), ``continuous`` (no limits),
+  ``prismatic`` -> origin + axis joints (the child link frame is ``T_origin Rot(axis, q)``, the
+  URDF convention); ``fixed`` -> the child link becomes a named frame on the parent link
+  (``mechkin.config.tree_import``); a name mechkin names cannot hold (``LFoot/FSR/x``) is
+  renamed (``LFoot_FSR_x``) with one note;
 - ``<mimic joint= multiplier= offset=>`` -> a joint coupling ``q = multiplier q_joint + offset``
   (``couplings:``; a constraint row of phi, :mod:`mechkin.model.couplings`); ``floating`` and
   ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming
@@ -47,6 +49,8 @@ from mechkin.config.urdf_check import element_problems, locate_rejection
 from mechkin.errors import ConfigError
 
 NS = "urn:mechkin:urdf"
+#: limits beyond +-1e6 (rad or m) both ways are a vendor's "no limit" (iris.urdf: +-1e16)
+UNLIMITED = 1e6
 _KNOWN = {"link", "joint", "material"}
 
 
@@ -197,7 +201,8 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             if nonfinite or (lo is not None and hi is not None and lo > hi):
                 raise ConfigError(f"{path}:{line}: joint[{j.name}].limit: expected finite "
                                   f"lower <= upper, got lower={lo}, upper={hi}")
-            if lo is not None and hi is not None and lo < hi:
+            if (lo is not None and hi is not None and lo < hi
+                    and min(abs(lo), abs(hi)) < UNLIMITED):
                 limits = (float(lo), float(hi))
         joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line))
     tree = Tree(name=robot.name or path.stem, path=path, links=links, joints=joints,

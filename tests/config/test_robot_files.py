@@ -76,3 +76,29 @@ def test_ik_with_defaults_verified_by_pinocchio(robot):
         assert np.abs(Tp[:3, :3] - T[:3, :3]).max() < 1e-6
         for c in mech.couplings:
             assert abs(r.q[c.joint] - c.multiplier * r.q[c.master] - c.offset) < 1e-10
+
+
+@pytest.mark.parametrize("rel", ["romeo_description/urdf/romeo_laas_small.urdf",
+                                 "iris_description/robots/iris.urdf"])
+def test_vendor_names_with_slashes_and_huge_limits_import(rel, capfd):
+    """Romeo's sensor frames are named ``LFoot/FSR/...`` and Iris' rotors have limits +-1e16:
+    the names are renamed (``/`` -> ``_``, one note) and the limits read as none; FK of every
+    frame equals Pinocchio's, frames matched through the renaming."""
+    path = robots_dir() / rel
+    mech = load_mechanism(path)
+    note = capfd.readouterr().err
+    assert f"{path.name}: note: renamed " in note and "/" in note
+    pin, model, data = pin_model(path)
+    rng = np.random.default_rng(11)
+    res = fk(mech, random_q_v(mech, rng, 20), frames=[])
+    bodies = [f.name for f in model.frames if f.type == pin.FrameType.BODY]  # links
+    pairs = [(n.replace("/", "_"), n) for n in bodies if "/" in n]
+    assert pairs and all(a in mech.frame_names for a, _ in pairs), pairs
+    from mechkin.model.kinematics import frame_poses
+
+    T = frame_poses(mech, res.q, [mech.frame_index(a) for a, _ in pairs])
+    for k in range(20):
+        Tp = pin_frames(pin, model, data, pin_q(model, mech, res.q[k]), [b for _, b in pairs])
+        assert np.abs(T[k] - Tp).max() <= 1e-12
+    if rel.startswith("iris"):
+        assert np.all(np.isinf(mech.lower)) and np.all(np.isinf(mech.upper))

@@ -204,3 +204,20 @@ def test_other_yourdfpy_rejections_are_located_by_element(tmp_path):
     assert msg.startswith(f"{p}:10: joint[j2]: yourdfpy cannot read this element (ValueError: "
                           "could not convert string to float: 'lots')"), msg
     assert "fix: " in msg
+
+
+def test_names_mechkin_cannot_hold_are_renamed_everywhere(tmp_path, capfd):
+    """A vendor's ``a/b`` names: renamed ``a_b`` (``a_b_2`` where ``a_b`` is taken) in the
+    joints' ends, a mimic's master and the frames, with one note."""
+    p = tmp_path / "slash.urdf"
+    p.write_text(ARM.replace('"j1"', '"arm/j1"').replace('<link name="b"/>',
+                 '<link name="b"/><link name="b/tip"/><link name="b_tip"/>').replace(
+                 "</robot>", '  <joint name="t1" type="fixed"><parent link="b"/>'
+                 '<child link="b/tip"/></joint>\n  <joint name="t2" type="fixed">'
+                 '<parent link="b"/><child link="b_tip"/></joint>\n</robot>'))
+    mech = load_mechanism(p)
+    assert "renamed 2 names" in capfd.readouterr().err
+    assert mech.joint_names == ("arm_j1", "j2")
+    assert {"b_tip", "b_tip_2"} <= set(mech.frame_names)
+    (c,) = mech.couplings
+    assert mech.joint_names[c.master] == "arm_j1" and c.multiplier == 0.5
