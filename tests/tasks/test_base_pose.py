@@ -217,3 +217,24 @@ def test_python_api_ik_frames_with_a_base_pose():
     with pytest.raises(ConfigError, match="no floating base"):
         mechkin.ik_frames(mechkin.load_mechanism(ROOT / "mechanisms" / "planar3r.yaml"),
                           [{"frame": "hand", "T": np.eye(4)}], base_pose=np.eye(4))
+
+
+def test_fk_csv_without_base_columns_takes_base_pose(tmp_path):
+    legs = [f"{s}_{j}" for s in ("left", "right") for j in LEG]
+    rows = ["t_s," + ",".join(f"{n}_deg" for n in legs)]
+    rows += [f"{t}," + ",".join(str(LEG[n.split('_', 1)[1]]) for n in legs) for t in (0, 0.5, 1)]
+    (tmp_path / "legs.csv").write_text("\n".join(rows) + "\n")
+    pose = "  base_pose: {xyz: [20, 5, 900], rpy: [2, -4, 30]}\n"
+    a = _fk(tmp_path, "csv.yaml", pose + "  csv: legs.csv\n")
+    ra = mechkin.run(a)
+    b = _fk(tmp_path, "gen.yaml", pose + "  time: {start: 0, stop: 1, step: 0.5}\n  motion:\n"
+            + LEG_MOTION + "\n")
+    assert np.allclose(ra.data.q, mechkin.run(b).data.q, atol=1e-15, rtol=0)
+    (tmp_path / "both.csv").write_text(rows[0] + ",base_z_mm\n"
+                                       + "\n".join(r + ",900" for r in rows[1:]) + "\n")
+    c = _fk(tmp_path, "both.yaml", pose + "  csv: both.csv\n")
+    with pytest.raises(ConfigError) as exc:
+        mechkin.run(c)
+    (msg,) = exc.value.problems
+    assert msg.startswith(f"{c}:6: fk.base_pose: give base_pose or the base joints in the "
+                          "motion, table or csv, not both (named there: base_z)"), msg
