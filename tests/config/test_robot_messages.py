@@ -221,3 +221,36 @@ def test_names_mechkin_cannot_hold_are_renamed_everywhere(tmp_path, capfd):
     assert {"b_tip", "b_tip_2"} <= set(mech.frame_names)
     (c,) = mech.couplings
     assert mech.joint_names[c.master] == "arm_j1" and c.multiplier == 0.5
+
+
+MJCF_ARM = """<mujoco>
+  <worldbody>
+    <body name="a">
+      <joint name="ja" axis="0 0 1"/>
+      <geom size="0.1"/>
+      <body name="b" pos="0.3 0 0">
+        <joint name="jb" axis="0 0 1"/>
+        <geom size="0.1"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("old, new, line, text", [
+    ('<joint name="jb" axis="0 0 1"/>', '<joint name="jb" axis="0 1"/>', 7,
+     "attribute 'axis' does not have enough data Element 'joint'"),
+    ('pos="0.3 0 0"', 'pos="0.3 zero 0"', 6, "bad format in attribute 'pos' Element 'body'"),
+    ('<joint name="jb"', '<joint name="ja"', 7, "repeated name 'ja' in joint"),
+    ('<geom size="0.1"/>\n      </body>', '<geom size="0.1">\n      </body>', 8,
+     "XML_ERROR_MISMATCHED_ELEMENT"),
+])
+def test_mujoco_rejections_name_the_real_line(tmp_path, old, new, line, text):
+    assert old in MJCF_ARM
+    p = tmp_path / "arm.xml"
+    p.write_text(MJCF_ARM.replace(old, new, 1))
+    with pytest.raises(ConfigError) as exc:
+        load_mechanism(p)
+    msg = _one_line(exc)
+    assert msg.startswith(f"{p}:{line}: MJCF: ") and text in msg, msg
