@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import Discriminator, Field, Tag, model_validator
 
 from mechkin.config.scenario import BasePoseSpec, register_task_section
 from mechkin.config.schema import Name, NonNegNum, Num, PosNum, Spec, Units
@@ -89,7 +89,11 @@ class TargetSpec(Spec):
 
 
 #: a floating base's pose in a target set: a known pose (``xyz`` + URDF ``rpy``) or ``free``
-BasePoseTarget = BasePoseSpec | Literal["free"]
+#: (a word goes to the word, a mapping to the pose: one message, not one per branch; the tags
+#: hold "[" so that messages leave them out of the key path, as pydantic's own union tags)
+BasePoseTarget = Annotated[
+    Annotated[BasePoseSpec, Tag("pose[xyz,rpy]")] | Annotated[Literal["free"], Tag("word[free]")],
+    Discriminator(lambda v: "word[free]" if isinstance(v, str) else "pose[xyz,rpy]")]
 
 
 class TargetSetSpec(Spec):

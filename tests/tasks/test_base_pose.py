@@ -238,3 +238,14 @@ def test_fk_csv_without_base_columns_takes_base_pose(tmp_path):
     (msg,) = exc.value.problems
     assert msg.startswith(f"{c}:6: fk.base_pose: give base_pose or the base joints in the "
                           "motion, table or csv, not both (named there: base_z)"), msg
+
+
+def test_a_bad_base_pose_is_one_line_per_key(tmp_path):
+    p = _ik(tmp_path, "typo.yaml", section="  base_pose: fixed\n",
+            set_extra="      base_pose: {xyz: [0, 0], rpy: [0, 0, 0]}\n")
+    with pytest.raises(ConfigError) as exc:
+        mechkin.load_scenario(p)
+    assert sorted(exc.value.problems) == sorted([
+        f"{p}:6: ik.base_pose: Input should be 'free', got 'fixed'",
+        f"{p}:9: ik.target_sets[0].base_pose.xyz: List should have at least 3 items after "
+        "validation, not 2, got [0, 0]"])
