@@ -254,3 +254,19 @@ def test_mujoco_rejections_name_the_real_line(tmp_path, old, new, line, text):
         load_mechanism(p)
     msg = _one_line(exc)
     assert msg.startswith(f"{p}:{line}: MJCF: ") and text in msg, msg
+
+
+def test_a_single_body_robot_names_the_fix_and_takes_it(tmp_path):
+    """hector's quadrotor_base.urdf is one body without joints: refused with the fix (a
+    floating base in the sidecar), and imported with it."""
+    src = robots_dir() / "hector_description" / "robots" / "quadrotor_base.urdf"
+    p = tmp_path / "quadrotor_base.urdf"
+    p.write_text(src.read_text())
+    with pytest.raises(ConfigError) as exc:
+        load_mechanism(p)
+    msg = _one_line(exc)
+    assert msg.startswith(f"{p}:1: joints: a mechanism needs at least one joint") and \
+        "base: floating" in msg and "sidecar" in msg, msg
+    (tmp_path / "quadrotor_base.mechkin.yaml").write_text("base: floating\n")
+    mech = load_mechanism(p)
+    assert mech.floating and mech.n == 6 and len(mech.independent) == 6
