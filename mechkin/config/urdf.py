@@ -16,7 +16,9 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
   ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming
   the joint and the fix;
 - ``<gazebo>``, ``<transmission>`` and other extensions are ignored with one note on stderr;
-  ``<visual>``, ``<collision>``, ``<material>`` carry no kinematics and are skipped silently;
+  ``<collision>`` carries no kinematics and is skipped silently; ``<visual>`` (with its
+  ``<material>`` colour) goes to ``links[].visuals`` (``mechkin.config.visuals_import``; mesh
+  files referenced by URI, never opened);
 - closed chains: cuts, independent joints, end effector and home come from the sidecar
   (``ROBOT.mechkin.yaml`` beside the file, or ``sidecar=``), or from the extension elements
   written by ``mechkin export`` (namespace ``urn:mechkin:urdf``)::
@@ -46,6 +48,7 @@ from mechkin.config.tree_import import (
     tree_to_spec,
 )
 from mechkin.config.urdf_check import element_problems, locate_rejection
+from mechkin.config.visuals_import import attach_urdf_visuals
 from mechkin.errors import ConfigError
 
 NS = "urn:mechkin:urdf"
@@ -89,18 +92,32 @@ def _parse_xml(path: Path):
         raise ConfigError(f"{path}:{line}: XML syntax error: {exc.msg}") from None
 
 
-def _without_geometry(root):
-    """A copy of the ``<robot>`` element without ``<visual>`` and ``<collision>`` (mechkin uses
-    no geometry, so a shape yourdfpy does not know, e.g. a capsule, is no reason to refuse the
-    file); lxml keeps each element's source line in the copy."""
+def _without_geometry(root, path: Path):
+    """A copy of the ``<robot>`` element without ``<collision>`` (mechkin uses none) and without
+    the ``<visual>`` elements yourdfpy cannot read (a shape it does not know, e.g. a capsule: no
+    reason to refuse the kinematics; one note); lxml keeps each element's source line in the
+    copy."""
     import copy
+    import sys
+
+    import yourdfpy
 
     light = copy.deepcopy(root)
     if not light.get("name"):  # xacro output may leave it out (ur3.urdf): the file's stem then
         light.set("name", "")
+    dropped = 0
     for link in light.findall("link"):
-        for e in [*link.findall("visual"), *link.findall("collision")]:
+        for e in link.findall("collision"):
             link.remove(e)
+        for e in link.findall("visual"):
+            try:
+                yourdfpy.URDF._parse_visual(e)
+            except Exception:  # yourdfpy raises assorted errors on shapes it does not read
+                link.remove(e)
+                dropped += 1
+    if dropped:
+        sys.stderr.write(f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
+                         "cannot read (no kinematics in them)\n")
     return light
 
 
@@ -167,7 +184,7 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                             "remove it and its parent link, so its child is the base)")
     if problems:
         raise ConfigError(problems)
-    light = _without_geometry(root)
+    light = _without_geometry(root, path)
     try:
         robot = yourdfpy.URDF.load(io.BytesIO(etree.tostring(light)), build_scene_graph=False,
                                    load_meshes=False, build_collision_scene_graph=False,
@@ -185,6 +202,7 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             tl.com = T[:3, 3].copy()
             tl.inertia = T[:3, :3] @ inertia @ T[:3, :3].T  # inertial axes -> link axes
         links.append(tl)
+    attach_urdf_visuals(links, robot, path)  # <visual> -> links[].visuals (mesh URIs, unopened)
     joints = []
     for j in robot.joints:
         line = joint_el[j.name].sourceline if j.name in joint_el else 1
