@@ -11,10 +11,11 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
 ``M^{-1} p_{7-i}`` and whose end pose is ``M^{-1}``):
 
 * ``spherical wrist`` (axes 4, 5, 6 meet in a point) with h2 || h3 (``POS_PAR23``) or with
-  h1, h2 meeting (``POS_INT12``): PUMA 560, ABB IRB, KUKA KR, Fanuc, Staubli...; reversed:
-  a spherical joint at the base;
-* ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting): the UR family; reversed: h3 || h4 ||
-  h5 with h1, h2 meeting;
+  h1, h2 meeting (``POS_INT12``): PUMA 560, ABB IRB, KUKA KR, Fanuc, Staubli...; with h1 || h2
+  (``POS_PAR12``), h2, h3 meeting (``POS_INT23``) or none of these (``POS_GENERAL``, IK-Geo's
+  Subproblem 5); reversed: a spherical joint at the base (EAIK's seven spherical classes);
+* ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting: the UR family; or h5, h6 skew,
+  IK-Geo's Subproblem 6: EAIK's "three inner parallel"); reversed: h3 || h4 || h5;
 * ``5R`` (5 revolute joints, h2 || h3 || h4, h1 and h5 not parallel to them;
   :mod:`mechkin.solvers.ik.analytic.arm5r`);
 * ``SCARA`` (4 joints: three revolute and one prismatic, every axis parallel;
@@ -41,8 +42,13 @@ from mechkin.solvers.ik.analytic.solve6r import (
     KIND_PAR234,
     KIND_SCARA,
     KIND_SPHERICAL,
+    PAR_GENERAL,
+    PAR_MEET56,
+    POS_GENERAL,
     POS_INT12,
     POS_INT12_P,
+    POS_INT23,
+    POS_PAR12,
     POS_PAR23,
 )
 
@@ -170,11 +176,23 @@ def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray
         o12 = _meet(H[0], P[0], H[1], P[1], tol)
         if o12 is not None:
             return KIND_SPHERICAL, POS_INT12, c45, o12, "spherical wrist, h1 meets h2"
+        if _parallel(H[0], H[1]) and not _parallel(H[1], H[2]):
+            return KIND_SPHERICAL, POS_PAR12, c45, c45, "spherical wrist, h1 || h2"
+        o23 = _meet(H[1], P[1], H[2], P[2], tol)
+        if o23 is not None:
+            return KIND_SPHERICAL, POS_INT23, c45, o23, "spherical wrist, h2 meets h3"
+        if not _parallel(H[0], H[1]) and not _parallel(H[1], H[2]):
+            return (KIND_SPHERICAL, POS_GENERAL, c45, c45,
+                    "spherical wrist, h1..h3 neither parallel nor meeting (Subproblem 5)")
     if _parallel(H[1], H[2]) and _parallel(H[2], H[3]) and not _parallel(H[0], H[1]) \
             and not _parallel(H[4], H[1]):
         o56 = _meet(H[4], P[4], H[5], P[5], tol)
         if o56 is not None:
-            return KIND_PAR234, 0, o56, o56, "three parallel axes h2 || h3 || h4, h5 meets h6"
+            return (KIND_PAR234, PAR_MEET56, o56, o56,
+                    "three parallel axes h2 || h3 || h4, h5 meets h6")
+        if not _parallel(H[4], H[5]):
+            return (KIND_PAR234, PAR_GENERAL, P[5].copy(), P[5].copy(),
+                    "three parallel axes h2 || h3 || h4, h5 and h6 skew (Subproblem 6)")
     return None
 
 
@@ -207,7 +225,7 @@ def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
     return (f"no subproblem decomposition: the axes of {j[3]}, {j[4]}, {j[5]} miss a common "
             f"point by {w:.4g} m (no spherical wrist), those of {j[0]}, {j[1]}, {j[2]} by "
             f"{b:.4g} m (none at the base), and neither {j[1]}, {j[2]}, {j[3]} nor "
-            f"{j[2]}, {j[3]}, {j[4]} are three parallel axes with the other two meeting")
+            f"{j[2]}, {j[3]}, {j[4]} are three parallel axes")
 
 
 def classify(mech: Mechanism, frame: int | None = None,
