@@ -248,7 +248,7 @@ def solve_spherical(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
 @jit
 def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
                  pt_: np.ndarray, T: np.ndarray, g: np.ndarray, out: np.ndarray) -> int:
-    """Every branch of a 6R arm with h2 || h3 || h4 = d for the target T (4, 4): ``PAR_MEET56``
+    r"""Every branch of a 6R arm with h2 || h3 || h4 = d for the target T (4, 4): ``PAR_MEET56``
     (h5, h6 meet at pt = o56; UR family): q1 by SP4 from d^T e^{-xi_1 q_1} G o56 = d^T o56, q5
     by SP4; ``PAR_GENERAL`` (pt a point on h6): (q1, q5) by Subproblem 6 from
 
