@@ -19,9 +19,12 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
 * ``5R`` (5 revolute joints, h2 || h3 || h4, h1 and h5 not parallel to them;
   :mod:`mechkin.solvers.ik.analytic.arm5r`);
 * ``SCARA`` (4 joints: three revolute and one prismatic, every axis parallel;
-  :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place).
+  :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place);
+* prismatic joints among the first three, with a spherical wrist: R-R-P with h1 meeting h2
+  (a Stanford arm, a U-P-S leg), P-P-P (gantry), R-P-P (cylindrical), P-R-R with h2, h3
+  meeting or parallel.
 
-Anything else (an offset wrist such as the Kinova Jaco's, prismatic joints in a 6-joint chain,
+Anything else (an offset wrist such as the Kinova Jaco's, other prismatic joints,
 other joint counts, a closed chain) raises :class:`NotDecomposable` naming the axes that break it.
 
 Design
@@ -50,6 +53,10 @@ from mechkin.solvers.ik.analytic.solve6r import (
     POS_INT23,
     POS_PAR12,
     POS_PAR23,
+    POS_PPP,
+    POS_PRR_INT,
+    POS_PRR_PAR,
+    POS_RPP,
 )
 
 PAR_TOL = 1e-9  # |h_i x h_j| below which two axes are parallel
@@ -196,16 +203,34 @@ def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray
     return None
 
 
-def _try_ups(H: np.ndarray, P: np.ndarray, tol: float
-             ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
-    """A U-P-S chain (h1 meets h2, joint 3 prismatic, axes 4-6 meet), or None."""
+def _try_prismatic(H: np.ndarray, P: np.ndarray, s3: tuple[int, int, int], tol: float
+                   ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
+    """A chain with prismatic joints among the first three and a spherical wrist (axes 4-6
+    revolute, meeting), by the pattern of joints 1-3 (1: prismatic), or None."""
     c45 = _meet(H[3], P[3], H[4], P[4], tol)
-    o12 = _meet(H[0], P[0], H[1], P[1], tol)
-    if c45 is None or o12 is None or _meet(H[4], P[4], H[5], P[5], tol) is None or \
+    if c45 is None or _meet(H[4], P[4], H[5], P[5], tol) is None or \
             np.linalg.norm(np.cross(H[5], c45 - P[5])) >= tol or _parallel(H[3], H[4]) or \
             _parallel(H[4], H[5]):
         return None
-    return KIND_SPHERICAL, POS_INT12_P, c45, o12, "U-P-S: h1 meets h2, prismatic, spherical"
+    if s3 == (0, 0, 1):
+        o12 = _meet(H[0], P[0], H[1], P[1], tol)
+        if o12 is not None:
+            return (KIND_SPHERICAL, POS_INT12_P, c45, o12,
+                    "U-P-S: h1 meets h2, prismatic, spherical")
+    elif s3 == (1, 1, 1):
+        if abs(float(np.linalg.det(H[:3]))) > PAR_TOL:
+            return KIND_SPHERICAL, POS_PPP, c45, c45, "P-P-P (gantry), spherical wrist"
+    elif s3 == (0, 1, 1):
+        nn = np.cross(H[1], H[2])
+        if np.linalg.norm(nn) > PAR_TOL and not _parallel(H[0], nn / np.linalg.norm(nn)):
+            return KIND_SPHERICAL, POS_RPP, c45, c45, "R-P-P (cylindrical), spherical wrist"
+    elif s3 == (1, 0, 0):
+        o23 = _meet(H[1], P[1], H[2], P[2], tol)
+        if o23 is not None:
+            return KIND_SPHERICAL, POS_PRR_INT, c45, o23, "P-R-R, h2 meets h3, spherical wrist"
+        if _parallel(H[1], H[2]) and abs(float(H[0] @ H[1])) > PAR_TOL:
+            return KIND_SPHERICAL, POS_PRR_PAR, c45, c45, "P-R-R, h2 || h3, spherical wrist"
+    return None
 
 
 def _common_miss(H: np.ndarray, P: np.ndarray) -> float:
@@ -270,11 +295,18 @@ def classify(mech: Mechanism, frame: int | None = None,
     tol = MEET_TOL * size
     order = np.array([iv.index(int(j)) if int(j) in iv else k for k, j in enumerate(joints)])
     Hf, Pf, Mf = (np.ascontiguousarray(a) for a in (H, P, M))
-    if pris and pris != [names[2]]:
-        raise NotDecomposable(f"prismatic joint(s) {', '.join(pris)}: the subproblem solvers "
-                              "take 6R chains, and a prismatic third joint after two meeting "
-                              "axes (U-P-S)")
-    found = _try_ups(H, P, tol) if pris else _try(H, P, tol)
+    if pris:
+        s3 = tuple(int(mech.s[j]) for j in joints[:3])
+        found = None if any(mech.s[j] for j in joints[3:]) else \
+            _try_prismatic(H, P, s3, tol)  # type: ignore[arg-type]
+        if found is None:
+            raise NotDecomposable(
+                f"prismatic joint(s) {', '.join(pris)}: with prismatic joints the subproblem "
+                "solvers take a spherical wrist (joints 4-6 revolute, axes meeting) after "
+                "R-R-P with h1 meeting h2, P-P-P, R-P-P, or P-R-R with h2, h3 meeting or "
+                "parallel")
+    else:
+        found = _try(H, P, tol)
     rev = False
     if found is None and not pris:
         Mi = np.linalg.inv(M)

@@ -86,6 +86,10 @@ POS_INT23 = 4  # h2 meets h3 at o (EAIK "spherical, second two intersecting")
 POS_GENERAL = 5  # no parallel, no meeting axes among h1..h3: Subproblem 5
 PAR_MEET56 = 0  # KIND_PAR234 with h5 meeting h6 at o56 (UR family)
 PAR_GENERAL = 1  # KIND_PAR234 with h5, h6 skew: (q1, q5) by Subproblem 6
+POS_PPP = 6  # joints 1-3 prismatic (a gantry): a 3x3 linear solve
+POS_RPP = 7  # revolute, then two prismatic (a cylindrical arm)
+POS_PRR_INT = 8  # prismatic, then two revolute meeting at o
+POS_PRR_PAR = 9  # prismatic, then two parallel revolute
 MAX_BRANCHES = 8
 RAW_BRANCHES = 16  # raw candidates per pose before verification (tangencies add near-copies)
 
@@ -193,6 +197,58 @@ def solve_spherical(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
                     q2 = a2 if i12 == 0 else b2
                     R03 = mm(rotmat(h1, q1), rotmat(h2, q2))
                     n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_PPP:
+        # c_t = c + q1 h1 + q2 h2 + q3 h3 (Cramer's rule)
+        w = sub(ct, c)
+        den = dot(h1, cross(h2, h3))
+        q1 = dot(w, cross(h2, h3)) / den
+        q2 = dot(h1, cross(w, h3)) / den
+        q3 = dot(h1, cross(h2, w)) / den
+        eye = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        n = _wrist(h4, h5, h6, eye, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_RPP:
+        # R1^T (c_t - p1) + p1 - c = q2 h2 + q3 h3 lies in span(h2, h3): q1 by SP4 on
+        # nn = h2 x h3, then (q2, q3) from the 2x2 normal equations
+        nn = cross(h2, h3)
+        m1, a, b = sp4(nn, h1, sub(ct, p1), dot(nn, sub(c, p1)), -g[0])
+        g22, g23, g33 = dot(h2, h2), dot(h2, h3), dot(h3, h3)
+        den = g22 * g33 - g23 * g23
+        for i1 in range(m1):
+            q1 = -(a if i1 == 0 else b)
+            w = sub(_move(h1, p1, -q1, ct), c)
+            r2, r3 = dot(h2, w), dot(h3, w)
+            q2 = (g33 * r2 - g23 * r3) / den
+            q3 = (g22 * r3 - g23 * r2) / den
+            n = _wrist(h4, h5, h6, rotmat(h1, q1), RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_PRR_INT:
+        # ||c_t - q1 h1 - o|| = ||c - o||: q1 from a quadratic, then (q2, q3) by SP2
+        o = vec(o_)
+        w = sub(ct, o)
+        c0 = sub(c, o)
+        bq = dot(h1, w)
+        disc = bq * bq - (dot(w, w) - dot(c0, c0))
+        if disc >= -1e-12 * max(dot(w, w), dot(c0, c0), 1e-300):
+            r = math.sqrt(max(disc, 0.0))
+            for i1 in range(1 if r == 0.0 else 2):
+                q1 = bq + r if i1 == 0 else bq - r
+                m23, a2, a3, b2, b3 = sp2(h2, h3, c0, sub(w, scale(q1, h1)), g[1], g[2])
+                for i23 in range(m23):
+                    q2 = a2 if i23 == 0 else b2
+                    q3 = a3 if i23 == 0 else b3
+                    R03 = mm(rotmat(h2, q2), rotmat(h3, q3))
+                    n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_PRR_PAR:
+        # h2^T (c_t - q1 h1) = h2^T c (rotations about axes || h2 keep it): q1, then the
+        # planar 2R: q3 by SP3, q2 by SP1
+        q1 = dot(h2, sub(ct, c)) / dot(h2, h1)
+        y = sub(ct, scale(q1, h1))
+        m3, c3, d3 = sp3(h3, sub(c, p3), sub(p2, p3), norm(sub(y, p2)), g[2])
+        for i3 in range(m3):
+            q3 = c3 if i3 == 0 else d3
+            y3 = _move(h3, p3, q3, c)
+            q2 = sp1(h2, sub(y3, p2), sub(y, p2), g[1])
+            R03 = mm(rotmat(h2, q2), rotmat(h3, q3))
+            n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
     elif pos_kind == POS_PAR12:
         # h1^T (e3 c) = h1^T c_t (rotations about axes || h1 keep it): q3 by SP4, then
         # ||e2 e3 c - p1|| = ||c_t - p1||: q2 by SP3, q1 by SP1
@@ -304,15 +360,31 @@ def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
 
 
 @jit
+def pris_bits(kind: int, pos_kind: int) -> int:
+    """Bit i set when chain joint i is prismatic (the spherical-wrist position cases)."""
+    if kind != KIND_SPHERICAL:
+        return 0
+    if pos_kind == POS_INT12_P:
+        return 4
+    if pos_kind == POS_PPP:
+        return 7
+    if pos_kind == POS_RPP:
+        return 6
+    if pos_kind == POS_PRR_INT or pos_kind == POS_PRR_PAR:
+        return 1
+    return 0
+
+
+@jit
 def fk_error(H: np.ndarray, P: np.ndarray, M: np.ndarray, q: np.ndarray, T: np.ndarray,
-             pris: int = -1) -> tuple[float, float]:
+             pris: int = 0) -> tuple[float, float]:
     """Position [m] and rotation-angle [rad] error of T(q) = prod e^{xi_i q_i} M (Murray, Li &
-    Sastry Eq. (3.3)) from the target T (4, 4); joint ``pris`` (if >= 0) is a translation
-    along its h."""
+    Sastry Eq. (3.3)) from the target T (4, 4); joint i with bit i of ``pris`` set is a
+    translation along its h (:func:`pris_bits`)."""
     R = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     t = (0.0, 0.0, 0.0)
     for i in range(q.size):
-        if i == pris:
+        if (pris >> i) & 1:
             t = add(t, mv(R, scale(q[i], vec(H[i]))))
             continue
         Ri = rotmat(vec(H[i]), q[i])
@@ -367,7 +439,7 @@ def solve_batch(kind: int, pos_kind: int, reverse: bool, H: np.ndarray, P: np.nd
     e = np.empty((RAW_BRANCHES, 2))
     used = np.zeros(RAW_BRANCHES, dtype=np.bool_)
     g = np.empty(6)
-    pris = 2 if kind == KIND_SPHERICAL and pos_kind == POS_INT12_P else -1
+    pris = pris_bits(kind, pos_kind)
     for r in range(Ts.shape[0]):
         T = Ts[r]
         if reverse:
