@@ -1,4 +1,5 @@
-"""Analytic IK of 6-DOF arms with prismatic joints and a spherical wrist.
+"""Analytic IK of 6-DOF arms with prismatic joints and a spherical wrist, and of 5R arms with
+a two-axis wrist (h4 meeting h5).
 
 EAIK 1.2.2 and ssik 8.2.0 take revolute joints only (their D-H constructors have no joint
 type), so the cross-checks are the model's tree FK at every solution (1000 random poses per
@@ -132,3 +133,53 @@ def test_auto_is_analytic_on_a_stanford_arm_and_singular_wrist_is_finite(arms):
     assert r.q_v[3] == pytest.approx(0.9, abs=1e-12)  # the free q4 kept at the guess
     T_E = frame_poses(mech, r.q_v[None], [mech.end_effector])[0, 0]
     assert np.abs(T_E - T).max() < FK_TOL
+
+
+# 5R arms whose last two axes meet (standard D-H rows (a, alpha, d), constructed): solved as
+# the 6R spherical-wrist arm with a virtual q6 = 0 (mechkin.solvers.ik.analytic.arm5w)
+ARMS5 = {"arm5_par23": [(0, 90, 0.4), (0.4, 0, 0), (0.05, 90, 0), (0, -90, 0.35), (0, 0, 0.1)],
+         "arm5_gen": [(0.1, 90, 0.35), (0.4, 30, 0.05), (0.05, 90, 0), (0, -90, 0.4),
+                      (0, 0, 0.1)]}
+
+
+def arm5_yaml(name: str) -> str:
+    lines = [f"name: {name}", "units: {length: m, angle: deg}", "dh_convention: standard",
+             "links:", "  - name: base"]
+    lines += [f"  - name: l{i + 1}" for i in range(4)]
+    lines += ["  - name: l5", "    frames:", "      - {name: tool, xyz: [0, 0, 0]}", "joints:"]
+    parents = ["base"] + [f"l{i + 1}" for i in range(4)]
+    for i, (a, al, d) in enumerate(ARMS5[name]):
+        lines.append(f"  - {{name: q{i + 1}, type: revolute, parent: {parents[i]}, "
+                     f"child: l{i + 1}, dh: {{a: {a}, alpha: {al}, d: {d}}}, "
+                     "limits: [-180, 180]}")
+    lines += ["independent: [q1, q2, q3, q4, q5]", "end_effector: tool"]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("name", list(ARMS5))
+def test_5r_with_a_two_axis_wrist_exact_and_complete(tmp_path, name):
+    (tmp_path / "a.yaml").write_text(arm5_yaml(name))
+    mech = load_mechanism(tmp_path / "a.yaml")
+    chain = classify(mech)
+    assert chain.description.startswith("5R: h4 meets h5 (two-axis wrist)")
+    m = 1000
+    q = np.random.default_rng(1).uniform(-np.pi, np.pi, (m, 5))
+    T = frame_poses(mech, q, [mech.end_effector])[:, 0]
+    b = analytic_batch(mech, chain, T, np.zeros(5))
+    ok = np.arange(b.q_v.shape[1])[None] < b.count[:, None]
+    assert np.all(b.count >= 1) and not np.isnan(b.q_v[ok]).any()
+    T_E = frame_poses(mech, b.q_v[ok], [mech.end_effector])[:, 0]
+    assert np.abs(T_E - np.repeat(T[:, None], b.q_v.shape[1], axis=1)[ok]).max() < FK_TOL
+    assert np.all(np.nanmin(_dist(mech, b.q_v, q[:, None]), axis=1) < 1e-8)
+    for i in range(3):
+        found = multistart_all(mech, T[i], starts=64, seed=i).q_v
+        mine = b.q_v[i, :b.count[i]]
+        assert len(found) == len(mine)
+        for x in found:
+            assert _dist(mech, mine, x).min() < 1e-4
+    # a pose off the arm's 5-D family: no solution (finite, status unreachable under analytic)
+    T_off = T[0].copy()
+    T_off[:3, :3] = T_off[:3, :3] @ np.array([[1, 0, 0], [0, 0.8, -0.6], [0, 0.6, 0.8]])
+    assert analytic_batch(mech, chain, T_off[None], np.zeros(5)).count[0] == 0
+    r = mechkin.ik(mech, T_off, method="analytic")[0]
+    assert not r.ok and np.all(np.isfinite(r.q_v))

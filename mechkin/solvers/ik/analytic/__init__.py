@@ -11,6 +11,7 @@
 ``finish``     limits, verification, order, merging (compiled); the single-pose entry
 ``scara``      4-DOF SCARA arms (numpy)
 ``arm5r``      5R arms with three parallel axes (numpy)
+``arm5w``      5R arms whose last two axes meet: the 6R wrist solver with a virtual q6 = 0
 ``dispatch``   ``method: auto | analytic`` for one pose (IkResult), nearest the guess
 ``api_ik``     the route of mechkin.ik (single, batched, held joints, sampled self-motion)
 ``legs``       legs of parallel mechanisms from the platform pose (U-P-S)

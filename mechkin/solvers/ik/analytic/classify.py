@@ -17,7 +17,8 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
 * ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting: the UR family; or h5, h6 skew,
   IK-Geo's Subproblem 6: EAIK's "three inner parallel"); reversed: h3 || h4 || h5;
 * ``5R`` (5 revolute joints, h2 || h3 || h4, h1 and h5 not parallel to them;
-  :mod:`mechkin.solvers.ik.analytic.arm5r`);
+  :mod:`mechkin.solvers.ik.analytic.arm5r`; or h4 meeting h5 with any position case of the
+  spherical-wrist arms for h1..h3: :mod:`mechkin.solvers.ik.analytic.arm5w`);
 * ``SCARA`` (4 joints: three revolute and one prismatic, every axis parallel;
   :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place);
 * prismatic joints among the first three, with a spherical wrist: R-R-P with h1 meeting h2
@@ -40,6 +41,7 @@ import numpy as np
 
 from mechkin.errors import ModelError
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.analytic.arm5w import WRIST5_BASE, virtual_six
 from mechkin.solvers.ik.analytic.solve6r import (
     KIND_ARM5,
     KIND_PAR234,
@@ -366,19 +368,33 @@ def _scara(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
 
 def _arm5(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
           P: np.ndarray, M: np.ndarray) -> AnalyticChain:
-    """A 5R arm with h2 || h3 || h4 and h1, h5 not parallel to them (else NotDecomposable)."""
-    if not (_parallel(H[1], H[2]) and _parallel(H[2], H[3])) or _parallel(H[0], H[1]) or \
-            _parallel(H[4], H[1]):
-        raise NotDecomposable(f"5 joints ({', '.join(names)}): the 5R solver needs the axes of "
-                              f"{names[1]}, {names[2]}, {names[3]} parallel and those of "
-                              f"{names[0]}, {names[4]} not parallel to them")
+    """A 5R arm with h2 || h3 || h4 and h1, h5 not parallel to them, or with h4 meeting h5 and
+    a position case for the first three axes (:mod:`mechkin.solvers.ik.analytic.arm5w`), else
+    NotDecomposable."""
     iv = list(mech.independent)
     order = np.array([iv.index(int(j)) for j in joints])
     H, P, M = (np.ascontiguousarray(a) for a in (H, P, M))
-    return AnalyticChain(kind=KIND_ARM5, pos_kind=-1, reversed=False, H=H, P=P, M=M, Hf=H,
-                         Pf=P, Mf=M, point=np.zeros(3), point2=np.zeros(3),
-                         joints=np.asarray(joints), order=order,
-                         description="5R: three parallel axes h2 || h3 || h4",
+    pos, pt, pt2 = -1, np.zeros(3), np.zeros(3)
+    desc = "5R: three parallel axes h2 || h3 || h4"
+    if not (_parallel(H[1], H[2]) and _parallel(H[2], H[3])) or _parallel(H[0], H[1]) or \
+            _parallel(H[4], H[1]):
+        size = max(1.0, float(np.abs(P).max()), float(np.abs(M[:3, 3]).max()))
+        w = _meet(H[3], P[3], H[4], P[4], MEET_TOL * size)
+        found = None
+        if w is not None:
+            H6, P6 = virtual_six(H, P, w)
+            found = _try(H6, P6, MEET_TOL * size)
+        if found is None or found[0] != KIND_SPHERICAL:
+            raise NotDecomposable(
+                f"5 joints ({', '.join(names)}): the 5R solvers need the axes of {names[1]}, "
+                f"{names[2]}, {names[3]} parallel (those of {names[0]}, {names[4]} not), or "
+                f"those of {names[3]}, {names[4]} meeting with a position case for "
+                f"{names[0]}..{names[2]}")
+        pos, pt, pt2 = WRIST5_BASE + found[1], w, found[3]
+        desc = "5R: h4 meets h5 (two-axis wrist), " + found[4].replace("spherical wrist, ", "")
+    return AnalyticChain(kind=KIND_ARM5, pos_kind=pos, reversed=False, H=H, P=P, M=M, Hf=H,
+                         Pf=P, Mf=M, point=np.asarray(pt, float), point2=np.asarray(pt2, float),
+                         joints=np.asarray(joints), order=order, description=desc,
                          packed=np.zeros(0), identity=bool(np.array_equal(order, np.arange(5))),
                          limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
                          limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()))
