@@ -141,7 +141,7 @@ def test_sp5_random_instances_exact_and_complete():
         p0 = rot(k2, t[1]) @ (p2 + rot(k3, t[2]) @ p3) - rot(k1, t[0]) @ p1
         n = sp5(tup(p0), tup(p1), tup(p2), tup(p3), tup(k1), tup(k2), tup(k3), 0.0, 0.0, 0.0,
                 out)
-        assert 1 <= n <= 6 and np.all(np.isfinite(out[:n]))
+        assert 1 <= n <= 8 and np.all(np.isfinite(out[:n]))
         for a, b, c in out[:n]:
             res = p0 + rot(k1, a) @ p1 - rot(k2, b) @ (p2 + rot(k3, c) @ p3)
             worst = max(worst, float(np.abs(res).max()))
@@ -180,7 +180,7 @@ def test_sp6_random_instances_exact_and_complete():
         d1 = H[0] @ rot(K[0], t[0]) @ P[0] + H[1] @ rot(K[1], t[1]) @ P[1]
         d2 = H[2] @ rot(K[2], t[0]) @ P[2] + H[3] @ rot(K[3], t[1]) @ P[3]
         n = sp6(*map(tup, H), *map(tup, K), *map(tup, P), d1, d2, 0.0, 0.0, out)
-        assert 1 <= n <= 6 and np.all(np.isfinite(out[:n]))
+        assert 1 <= n <= 8 and np.all(np.isfinite(out[:n]))
         for a, b in out[:n]:
             e1 = H[0] @ rot(K[0], a) @ P[0] + H[1] @ rot(K[1], b) @ P[1] - d1
             e2 = H[2] @ rot(K[2], a) @ P[2] + H[3] @ rot(K[3], b) @ P[3] - d2

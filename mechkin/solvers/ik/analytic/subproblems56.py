@@ -14,9 +14,9 @@ eliminated by a 2x2 solve and the unit-norm condition of the other leaves
 
 a trigonometric polynomial of degree 2 (at most 4 roots: IK-Geo's quartic; in SP6 it is the
 intersection of two ellipses of IK-Geo §III-F, in SP5 the quartic in the height ``H`` of
-§III-E). Its roots are found by the half-angle substitution on two bounded intervals
-(``t = tan(theta / 2)`` in [-1, 1] and ``s = cot(theta / 2)`` in [-1, 1], so no root is lost
-at infinity) as the real roots of a quartic in [-1, 1], isolated between the roots of its
+§III-E). Its roots are found by the half-angle substitution on two bounded, overlapping intervals
+(``t = tan(theta / 2)`` and ``s = cot(theta / 2)``, each in [-1.2, 1.2], so no root is lost
+at infinity or at their common ends) as the real roots of a quartic in [-1, 1], isolated between the roots of its
 derivatives (each polynomial is monotone between them) and refined by safeguarded Newton
 steps to round-off; a double root (tangency) is kept when the polynomial vanishes to round-off
 at a critical point. An identically vanishing f (a continuum of solutions: a degenerate circle,
@@ -25,7 +25,7 @@ poses get a finite answer. Of the two eliminations the better-conditioned 2x2 bl
 when both blocks are singular (both pairs of cones degenerate at once, a measure-zero set of
 targets) no solution is returned.
 
-Functions write their solutions into ``out`` (at least (6, 3)) and return how many.
+Functions write their solutions into ``out`` (at least (8, 3)) and return how many.
 
 References
 ----------
@@ -46,7 +46,9 @@ from mechkin.solvers.ik.analytic.subproblems import Vec, cross, dot, scale, sp1
 
 ZERO_TOL = 1e-11  # relative size of f (or of a polynomial) taken as zero (round-off)
 COND_TOL = 1e-10  # normalised |det| below which a 2x2 block is singular
-MAX_SOL = 6  # roots kept per call (4 generic; 2 more only at tangencies)
+MAX_SOL = 8  # roots kept per call (4 generic; critical points added only at tangencies)
+OVERLAP = 1.2  # |t| and |1/t| searched up to this: the two intervals overlap, so a root at
+# theta = +-pi/2 (t = +-1, where round-off can put it just outside either) is not lost
 
 
 @jit
@@ -87,8 +89,10 @@ def _bracketed(c: np.ndarray, n: int, a: float, b: float, fa: float) -> float:
 def _segment_roots(c: np.ndarray, n: int, brk: np.ndarray, nb: int, out: np.ndarray,
                    tangents: bool) -> int:
     """Roots of p (degree n) in [brk[0], brk[nb-1]], p monotone between consecutive breakpoints
-    (sorted); ``tangents``: also interior breakpoints where p vanishes to round-off and does
-    not change sign nearby (double roots). Writes sorted roots into out; returns the count."""
+    (sorted); ``tangents``: also interior breakpoints (critical points) where p vanishes to
+    round-off: a double root, which round-off either lifts off zero or splits into two close
+    roots known only to ~sqrt(eps), while the critical point is known to ~eps. Writes sorted
+    roots into out; returns the count."""
     k = 0
     fa, _ = _poly(c, n, brk[0])
     if fa == 0.0:
@@ -104,22 +108,20 @@ def _segment_roots(c: np.ndarray, n: int, brk: np.ndarray, nb: int, out: np.ndar
             out[k] = b
             k += 1
         elif tangents and 0 < i + 1 < nb - 1:
-            mag = 0.0
+            mag = 0.0  # the coefficients' size: c[0] is a difference of larger terms
             for j in range(n + 1):
-                mag += abs(c[j]) * abs(b) ** j
+                mag += abs(c[j]) * max(1.0, abs(b)) ** j
             if abs(fb) <= ZERO_TOL * mag:
-                fn, _ = _poly(c, n, brk[i + 2])
-                if (fn > 0.0) == (fb > 0.0) and (fa > 0.0) == (fb > 0.0):
-                    out[k] = b
-                    k += 1
+                out[k] = b  # also beside a split pair: its value is the accurate one
+                k += 1
         fa = fb
     return k
 
 
 @jit
-def quartic_roots_pm1(c: np.ndarray, out: np.ndarray) -> int:
-    """Real roots in [-1, 1] of c[0] + c[1] t + ... + c[4] t^4 (any leading coefficients,
-    also zero), sorted, into out (>= 6); returns the count. Each derivative's roots bound the
+def quartic_roots_pm1(c: np.ndarray, out: np.ndarray, L: float = 1.0) -> int:
+    """Real roots in [-L, L] of c[0] + c[1] t + ... + c[4] t^4 (any leading coefficients,
+    also zero), sorted, into out (>= 8); returns the count. Each derivative's roots bound the
     monotone pieces of the one above it (p''' linear, p'', p', p)."""
     d = np.empty((4, 5))
     for i in range(5):
@@ -129,7 +131,7 @@ def quartic_roots_pm1(c: np.ndarray, out: np.ndarray) -> int:
             d[lev, i] = (i + 1) * d[lev - 1, i + 1]
     brk = np.empty(8)
     roots = np.empty(8)
-    brk[0], brk[1] = -1.0, 1.0
+    brk[0], brk[1] = -L, L
     nb = 2
     for lev in range(3, -1, -1):
         n = 4 - lev
@@ -142,13 +144,13 @@ def quartic_roots_pm1(c: np.ndarray, out: np.ndarray) -> int:
                     m += 1
             return m
         nb = 0
-        brk[nb] = -1.0
+        brk[nb] = -L
         nb += 1
         for i in range(k):
-            if -1.0 < roots[i] < 1.0 and roots[i] > brk[nb - 1]:
+            if -L < roots[i] < L and roots[i] > brk[nb - 1]:
                 brk[nb] = roots[i]
                 nb += 1
-        brk[nb] = 1.0
+        brk[nb] = L
         nb += 1
     return 0
 
@@ -157,13 +159,14 @@ def quartic_roots_pm1(c: np.ndarray, out: np.ndarray) -> int:
 def unit_circle_roots(u0: float, u1: float, v00: float, v01: float, v10: float, v11: float,
                       default: float, out: np.ndarray) -> int:
     r"""Every theta with ||u + V x(theta)|| = 1, x = (sin theta, cos theta), u (2,), V (2, 2)
-    given by entries; into out (>= 6), returns the count. With W = V^T V, w = V^T u,
+    given by entries; into out (>= 8), returns the count. With W = V^T V, w = V^T u,
     e = u^T u - 1 and t = tan(theta / 2), (1 + t^2)^2 f is the quartic
 
     .. math:: (W_{22} - 2w_2 + e)t^4 + 4(w_1 - W_{12})t^3 + (4W_{11} - 2W_{22} + 2e)t^2
               + 4(W_{12} + w_1)t + (W_{22} + 2w_2 + e)
 
-    solved for |t| <= 1 and, reversed, for s = 1/t with |s| <= 1. f identically zero to
+    solved for |t| <= :data:`OVERLAP` and, reversed, for s = 1/t with |s| <= OVERLAP (roots
+    found twice are merged). f identically zero to
     round-off: one solution, ``default``."""
     W11 = v00 * v00 + v10 * v10
     W12 = v00 * v01 + v10 * v11
@@ -185,15 +188,15 @@ def unit_circle_roots(u0: float, u1: float, v00: float, v01: float, v10: float, 
         out[0] = default
         return 1
     r = np.empty(8)
-    k = quartic_roots_pm1(c, r)
+    k = quartic_roots_pm1(c, r, OVERLAP)
     n = 0
-    for i in range(k):
+    for i in range(min(k, MAX_SOL)):
         out[n] = 2.0 * math.atan(r[i])
         n += 1
     rc = np.empty(5)
     for i in range(5):
         rc[i] = c[4 - i]
-    k = quartic_roots_pm1(rc, r)
+    k = quartic_roots_pm1(rc, r, OVERLAP)
     for i in range(k):
         th = 2.0 * math.atan2(1.0, r[i])
         dup = False
