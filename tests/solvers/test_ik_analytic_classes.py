@@ -305,3 +305,29 @@ ik:
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = t["target"]["R"], t["target"]["xyz_m"]
         assert len(q) >= 1 and np.abs(T_E - T).max() < FK_TOL
+
+
+@pytest.mark.parametrize("name", list(NEW))
+def test_special_poses_are_finite_and_exact(arms, name):
+    """Joints on the grid {0, +-pi/2, pi} (wrist and elbow singularities, axes made parallel):
+    never NaN, every returned solution exact by FK (1e-8: double roots are accurate to the
+    critical point), and a solution at every pose, except (three parallel axes with h5, h6
+    skew) where h6 turns parallel to h2 || h3 || h4 (q4 = -pi/2 here) with the elbow stretched
+    (q3 = 0): q6 is then free with the reach of the planar chain depending on it, and the
+    guess kept for q6 can leave the elbow out of reach."""
+    mech = arms[name]
+    vals = np.array([0.0, np.pi / 2, -np.pi / 2, np.pi])
+    rng = np.random.default_rng(0)
+    grid = np.stack(np.meshgrid(*[vals] * 6, indexing="ij"), -1).reshape(-1, 6)
+    q = grid[rng.random(len(grid)) < 0.25]
+    T = frame_poses(mech, q, [mech.end_effector])[:, 0]
+    b = analytic_batch(mech, classify(mech), T, np.zeros(6))
+    ok = np.arange(8)[None] < b.count[:, None]
+    assert not np.isnan(b.q_v[ok]).any()
+    T_E = frame_poses(mech, b.q_v[ok], [mech.end_effector])[:, 0]
+    assert np.abs(T_E - np.repeat(T[:, None], 8, axis=1)[ok]).max() < 1e-8
+    none = b.count == 0
+    if name == "par_general":
+        assert np.all((q[none, 2] == 0.0) & (q[none, 3] == -np.pi / 2)) and none.sum() < 30
+    else:
+        assert not none.any()

@@ -370,7 +370,7 @@ def pris_bits(kind: int, pos_kind: int) -> int:
         return 7
     if pos_kind == POS_RPP:
         return 6
-    if pos_kind == POS_PRR_INT or pos_kind == POS_PRR_PAR:
+    if pos_kind >= POS_PRR_INT:  # POS_PRR_INT, POS_PRR_PAR
         return 1
     return 0
 

@@ -14,13 +14,15 @@ eliminated by a 2x2 solve and the unit-norm condition of the other leaves
 
 a trigonometric polynomial of degree 2 (at most 4 roots: IK-Geo's quartic; in SP6 it is the
 intersection of two ellipses of IK-Geo §III-F, in SP5 the quartic in the height ``H`` of
-§III-E). Its roots are found by the half-angle substitution on two bounded, overlapping intervals
-(``t = tan(theta / 2)`` and ``s = cot(theta / 2)``, each in [-1.2, 1.2], so no root is lost
-at infinity or at their common ends) as the real roots of a quartic in [-1, 1], isolated between the roots of its
-derivatives (each polynomial is monotone between them) and refined by safeguarded Newton
-steps to round-off; a double root (tangency) is kept when the polynomial vanishes to round-off
-at a critical point. An identically vanishing f (a continuum of solutions: a degenerate circle,
-e.g. the wrist centre on the first axis) returns ``default`` for the free angle, so singular
+§III-E). Its roots are found by the half-angle substitution on two bounded, overlapping
+intervals (``t = tan(theta / 2)`` and ``s = cot(theta / 2)``, each in [-1.2, 1.2], so no root
+is lost at infinity or at their common ends) as the real roots of a quartic, isolated between
+the roots of its derivatives (each polynomial is monotone between them) and refined by
+safeguarded Newton steps to round-off; a double root (tangency) is also kept at the critical
+point where the polynomial vanishes to round-off (accurate to eps where the split pair of
+roots is accurate to sqrt(eps); the caller's FK check and merging decide). An identically
+vanishing f (a continuum of solutions: a degenerate circle, e.g. the wrist centre on the first
+axis) returns ``default`` for the free angle, so singular
 poses get a finite answer. Of the two eliminations the better-conditioned 2x2 block is used;
 when both blocks are singular (both pairs of cones degenerate at once, a measure-zero set of
 targets) no solution is returned.
