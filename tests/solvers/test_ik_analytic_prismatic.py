@@ -183,3 +183,28 @@ def test_5r_with_a_two_axis_wrist_exact_and_complete(tmp_path, name):
     assert analytic_batch(mech, chain, T_off[None], np.zeros(5)).count[0] == 0
     r = mechkin.ik(mech, T_off, method="analytic")[0]
     assert not r.ok and np.all(np.isfinite(r.q_v))
+
+
+@pytest.mark.parametrize("name", ["stanford", "cylindrical", "arm5_gen"])
+def test_auto_picks_analytic_and_solutions_all_is_complete(tmp_path, name):
+    (tmp_path / "arm.yaml").write_text(arm5_yaml(name) if name in ARMS5 else mech_yaml(name))
+    (tmp_path / "sc.yaml").write_text(f"""name: t_{name}
+task: ik
+mechanism: arm.yaml
+units: {{length: m, angle: deg}}
+ik:
+  method: auto
+  random_targets: {{count: 4, seed: 3}}
+  solutions: all
+  solution_starts: 64
+""")
+    s = mechkin.run(tmp_path / "sc.yaml").summary
+    assert s["status"] == "ok" and s["methods_used"] == ["analytic"]
+    assert s["solutions"]["complete"] is True and s["solutions"]["source"] == ["analytic"]
+    mech = load_mechanism(tmp_path / "arm.yaml")
+    for t in s["targets"]:
+        q = np.array([[sol["q"][n] for n in mech.joint_names] for sol in t["solutions"]])
+        T_E = frame_poses(mech, q, [mech.end_effector])[:, 0]
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = t["target"]["R"], t["target"]["xyz_m"]
+        assert len(q) >= 1 and np.abs(T_E - T).max() < FK_TOL
