@@ -14,7 +14,8 @@ arXiv 2409.14815; the class names are those EAIK 1.2.2 reports, asserted below):
 * ``par_general``: the UR5's D-H with a5 = 0.03 m, alpha5 = -90 deg, so h5 and h6 are skew
   (6R-THREE_INNER_PARALLEL; IK-Geo's Subproblem 6);
 * ``base_general``: the first three axes meet (a spherical joint at the base), the rest
-  general (reversed chain: Subproblem 5).
+  general (reversed chain: Subproblem 5);
+* ``par_base``: h3 || h4 || h5, h1 and h2 skew (reversed chain: Subproblem 6).
 
 Cross-checks independent of the solver: the model's tree FK at every solution; EAIK's solution
 sets (1000 poses per arm); ssik's (60 poses; ssik runs in Python; on ``sph_par12`` ssik 8.2.0
@@ -51,6 +52,8 @@ NEW = {
                     (0.03, -90, 0.09465), (0, 0, 0.0823)],
     "base_general": [(0, 90, 0.3), (0, -90, 0), (0.3, 30, 0.1), (0.25, 90, 0.05),
                      (0.1, -60, 0.02), (0, 0, 0.08)],
+    "par_base": [(0.1, 90, 0.3), (0.05, -60, 0.1), (0.4, 0, 0), (0.35, 0, 0), (0, 90, 0.1),
+                 (0, 0, 0.08)],
 }
 EAIK_FAMILY = {
     "sph_general": "6R-SPHERICAL_NO_PARALLEL_NO_INTERSECTING",
@@ -58,6 +61,7 @@ EAIK_FAMILY = {
     "sph_int23": "6R-SPHERICAL_SECOND_TWO_INTERSECTING",
     "par_general": "6R-THREE_INNER_PARALLEL",
     "base_general": "6R-SPHERICAL_NO_PARALLEL_NO_INTERSECTING",
+    "par_base": "6R-THREE_INNER_PARALLEL",
 }
 DESCRIPTION = {
     "sph_general": "spherical wrist, h1..h3 neither parallel nor meeting (Subproblem 5)",
@@ -66,6 +70,8 @@ DESCRIPTION = {
     "par_general": "three parallel axes h2 || h3 || h4, h5 and h6 skew (Subproblem 6)",
     "base_general": "spherical wrist, h1..h3 neither parallel nor meeting (Subproblem 5) "
                     "(reversed chain: at the base)",
+    "par_base": "three parallel axes h2 || h3 || h4, h5 and h6 skew (Subproblem 6) "
+                "(reversed chain: at the base)",
 }
 
 
@@ -224,9 +230,12 @@ def test_every_solution_exact_and_the_set_equals_eaik(arms, name):
     err = np.abs(T_E - np.repeat(T[:, None], 8, axis=1)[ok]).max(axis=(1, 2))
     near = np.repeat(np.abs(np.sin(q[:, 4]))[:, None], 8, axis=1)[ok] < NEAR_SINGULAR
     assert err[~near].max() < FK_TOL and err.max() < 1e-8
-    d = np.abs(wrapped(b.q_v - q[:, None])).max(axis=-1)
-    found = np.nanmin(d, axis=1) < 1e-8
-    assert np.all(found | (np.abs(np.sin(q[:, 4])) < NEAR_SINGULAR))
+    d = np.nanmin(np.abs(wrapped(b.q_v - q[:, None])).max(axis=-1), axis=1)
+    # two exact solutions closer than SAME_TOL (1e-3 rad, near a tangency) are merged into
+    # the one nearer the guess: the generating joints are then within 1e-3 of a solution
+    merged = (d >= 1e-8) & (d < 1e-3)
+    assert np.all((d < 1e-8) | merged | (np.abs(np.sin(q[:, 4])) < NEAR_SINGULAR))
+    assert merged.sum() <= 3
     dh = np.array(NEW[name], float)
     bot = DhRobot(np.radians(dh[:, 1]), dh[:, 0], dh[:, 2])
     equal, flagged = 0, 0

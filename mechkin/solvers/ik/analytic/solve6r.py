@@ -302,6 +302,37 @@ def solve_spherical(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
 
 
 @jit
+def _free_q6(h3: Vec, p2: Vec, p3: Vec, p4: Vec, p5: Vec, p6: Vec, h5: Vec, h6: Vec, h1: Vec,
+             p1: Vec, q1: float, q5: float, RG: Mat, pG: Vec, guess: float) -> float:
+    """q6 where h6 is parallel to h2 || h3 || h4 (q6 and q2 + q3 + q4 turn about parallel
+    axes: a continuum): the guess when it leaves the elbow within reach, else the q6 nearest
+    to it that puts the elbow distance ||y - p2|| on the nearest end of its range (SP4 on
+    ||y(q6) - p2||^2, y = e^{-xi_1 q_1} G e^{-xi_6 q_6} e^{-xi_5 q_5} p4)."""
+    u = sub(p4, p3)
+    w = sub(p2, p3)
+    uh, wh = dot(u, h3), dot(w, h3)
+    up = math.sqrt(max(dot(u, u) - uh * uh, 0.0))
+    wp = math.sqrt(max(dot(w, w) - wh * wh, 0.0))
+    base = dot(u, u) + dot(w, w) - 2.0 * uh * wh
+    lo, hi = base - 2.0 * up * wp, base + 2.0 * up * wp
+    A = mtm(rotmat(h1, q1), RG)  # R1^T RG
+    vv = sub(_move(h5, p5, -q5, p4), p6)
+    b0 = add(mtv(rotmat(h1, q1), sub(add(mv(RG, p6), pG), p1)), sub(p1, p2))
+    y0 = add(mv(A, rot(h6, -guess, vv)), b0)
+    dg = dot(y0, y0)
+    if lo <= dg <= hi:
+        return guess
+    target = lo if dg < lo else hi
+    hh = mtv(A, b0)
+    m, a, b = sp4(hh, h6, vv, 0.5 * (target - dot(vv, vv) - dot(b0, b0)), -guess)
+    if m == 0:
+        return guess
+    da = abs((-a - guess + math.pi) % (2.0 * math.pi) - math.pi)
+    db = abs((-b - guess + math.pi) % (2.0 * math.pi) - math.pi)
+    return -a if da <= db else -b
+
+
+@jit
 def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
                  pt_: np.ndarray, T: np.ndarray, g: np.ndarray, out: np.ndarray) -> int:
     r"""Every branch of a 6R arm with h2 || h3 || h4 = d for the target T (4, 4): ``PAR_MEET56``
@@ -346,6 +377,8 @@ def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
         Rr = mtm(rotmat(h1, q1), RG)  # R_234 R_5 R_6
         vd = mtv(Rr, d)
         q6 = sp1(h6, vd, rot(h5, -q5, d), g[5])
+        if norm(cross(h6, vd)) < 1e-9:  # h6 turned parallel to d: q6 is free
+            q6 = _free_q6(h3, p2, p3, p4, p5, p6, h5, h6, h1, p1, q1, q5, RG, pG, g[5])
         w = mv(Rr, rot(h6, -q6, rot(h5, -q5, v)))  # R_234 v
         th = sp1(d, v, w, g[1] + s3 * g[2] + s4 * g[3])
         z = _move(h6, p6, -q6, _move(h5, p5, -q5, p4))

@@ -221,10 +221,13 @@ def _affine(k: Vec, p: Vec) -> tuple[Vec, Vec, Vec]:
 
 
 @jit
-def _ncond(a00: float, a01: float, a10: float, a11: float) -> float:
-    """|det| of a 2x2 over the product of its row norms (0: singular, 1: orthogonal rows)."""
-    r = math.sqrt((a00 * a00 + a01 * a01) * (a10 * a10 + a11 * a11))
-    return abs(a00 * a11 - a01 * a10) / r if r > 0.0 else 0.0
+def _ncond(A: np.ndarray, j: int) -> float:
+    """|det| of the 2x2 block A[:, j:j+2] over the product of the norms of A's full rows
+    (0: singular; a row that is round-off in this block but not in the other counts as
+    singular here, however orthogonal its noise looks)."""
+    r = math.sqrt((A[0, 0] ** 2 + A[0, 1] ** 2 + A[0, 2] ** 2 + A[0, 3] ** 2)
+                  * (A[1, 0] ** 2 + A[1, 1] ** 2 + A[1, 2] ** 2 + A[1, 3] ** 2))
+    return abs(A[0, j] * A[1, j + 1] - A[0, j + 1] * A[1, j]) / r if r > 0.0 else 0.0
 
 
 @jit
@@ -288,8 +291,8 @@ def sp5(p0: Vec, p1: Vec, p2: Vec, p3: Vec, k1: Vec, k2: Vec, k3: Vec, default1:
     A[1, 2], A[1, 3] = 2.0 * dot(c3, a3), 2.0 * dot(c3, b3)
     h0 = dot(k2, c1) - dot(k2, c3)
     h1 = dot(c1, c1) + r1 - dot(c3, c3) - r3
-    q1 = _ncond(A[0, 0], A[0, 1], A[1, 0], A[1, 1])
-    q3 = _ncond(A[0, 2], A[0, 3], A[1, 2], A[1, 3])
+    q1 = _ncond(A, 0)
+    q3 = _ncond(A, 2)
     th = np.empty(8)
     sol = np.empty((8, 2))
     if max(q1, q3) < COND_TOL:
@@ -341,8 +344,8 @@ def sp6(h1: Vec, h2: Vec, h3: Vec, h4: Vec, k1: Vec, k2: Vec, k3: Vec, k4: Vec, 
     A[1, 0], A[1, 1], A[1, 2], A[1, 3] = dot(h3, ac), dot(h3, bc), dot(h4, ad), dot(h4, bd)
     b0 = d1 - dot(h1, sa) - dot(h2, sb)
     b1 = d2 - dot(h3, sc) - dot(h4, sd)
-    q1 = _ncond(A[0, 0], A[0, 1], A[1, 0], A[1, 1])
-    q2 = _ncond(A[0, 2], A[0, 3], A[1, 2], A[1, 3])
+    q1 = _ncond(A, 0)
+    q2 = _ncond(A, 2)
     if max(q1, q2) < COND_TOL:
         return 0
     th = np.empty(8)
