@@ -186,3 +186,95 @@ def legs_all_solutions(mech: Mechanism, legs: Any, T: np.ndarray, qv: np.ndarray
                 np.asarray(qv, float), TOL_POS_ALL, TOL_ORI_ALL, SAME_TOL, "analytic legs",
                 len(q), t0)
     return replace(a, complete=True)
+
+
+#: Targets from which the ik task solves an analytic sequence in one compiled loop
+#: (:func:`solve_sequence_batched`); fewer go one by one (same answers, no extra compile).
+BATCH_MIN = 200
+
+
+def solve_sequence_batched(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndarray,
+                           method: str, opts: IkOptions, qv0: np.ndarray, qw0: np.ndarray,
+                           warm: bool) -> tuple[list[IkResult],
+                                                list[tuple[np.ndarray, np.ndarray]]] | None:
+    """The ik task's sequence (:func:`mechkin.tasks.ik_solve.solve_sequence`) of an open chain
+    that decomposes (``auto`` / ``analytic``, all six weights positive), solved in one compiled
+    loop (:func:`mechkin.solvers.ik.analytic.sequence.solve_sequence_into`): each target from
+    the previous answer when ``warm`` (else from the initial guess), every answer, status and
+    error identical to the per-target route; a target the loop cannot settle (beyond reach,
+    no analytic solution) goes through the per-target route there, and its answer becomes the
+    next guess as in the sequence. None when the route does not apply (the caller goes one by
+    one)."""
+    from mechkin.solvers.ik.analytic.dispatch import solve_ik_method
+    from mechkin.solvers.ik.analytic.finish import solve_one
+    from mechkin.solvers.ik.analytic.sequence import solve_sequence_into
+    from mechkin.solvers.ik.analytic.solve6r import KIND_ARM5, KIND_SCARA
+    from mechkin.solvers.ik.results import IkStatus
+    from mechkin.tasks.ik_solve import _out_of_reach
+
+    if method not in ANALYTIC_METHODS or len(T_P) < BATCH_MIN or not bool((W > 0).all()):
+        return None
+    chain = chain_for(mech, method, W[0])
+    if chain is None or chain.kind in (KIND_SCARA, KIND_ARM5) or not chain.identity:
+        return None
+    from mechkin.solvers.ik.accel import announce
+
+    announce(solve_one, "analytic IK (finish.solve_one)")
+    announce(solve_sequence_into, "analytic IK (sequence.solve_sequence_into)")
+    t0 = time.perf_counter()
+    m = len(T_P)
+    Ts = np.ascontiguousarray(T_P, dtype=np.float64)
+    q6 = np.empty((m, 6))
+    e3 = np.empty((m, 3))
+    mask = np.zeros(m, dtype=np.int64)
+    settled = np.zeros(m, dtype=bool)
+    lone: dict[int, IkResult] = {}
+    guess_of: list[tuple[np.ndarray, np.ndarray]] = [None] * m  # type: ignore[list-item]
+    skip = np.ascontiguousarray(far, dtype=bool)
+    qv, qw = np.asarray(qv0, dtype=np.float64), np.asarray(qw0, dtype=np.float64)
+    start = 0
+    while start < m:
+        stop = int(solve_sequence_into(chain.packed, Ts, np.ascontiguousarray(qv), skip,
+                                       float(opts.tol_pos), float(opts.tol_ori), bool(warm),
+                                       start, q6, e3, mask))
+        settled[start:stop] = True
+        for r in range(start, stop):  # the guesses the sequence had
+            guess_of[r] = (qv, qw)
+            if warm:
+                qv = q6[r]
+        if stop == m:
+            break
+        guess_of[stop] = (qv, qw)
+        if far[stop]:
+            res = _out_of_reach(mech, qv, qw)
+        else:
+            res = solve_ik_method(mech, T_P[stop], method=method, q_v0=qv, q_w0=qw,
+                                  weights=W[stop], options=opts)
+            if warm and res.status is not IkStatus.SINGULAR:
+                qv, qw = res.q_v, res.q_w
+        lone[stop] = res
+        start = stop + 1
+    per = (time.perf_counter() - t0) / m
+    iv, dep = mech.independent, mech.dependent
+    names = [mech.joint_names[j] for j in iv]
+    Q = np.array(q6) if chain.all_joints else np.repeat(mech.home[None].astype(np.float64),
+                                                        m, axis=0)
+    if not chain.all_joints:
+        Q[:, iv] = q6
+    QV = np.array(q6)
+    QW = np.zeros((m, 0)) if chain.all_joints else Q[:, dep]
+    PE, OE = e3[:, 0].copy(), e3[:, 1].copy()
+    # the per-target route's f, elementwise in the same order of operations
+    F = 0.5 * ((W[:, 0] + W[:, 1] + W[:, 2]) * PE * PE + (W[:, 3] + W[:, 4] + W[:, 5]) * OE
+               * OE) / 3.0
+    FH = F[:, None].copy()
+    ok = IkStatus.OK
+    results: list[IkResult] = [
+        lone[r] if not settled[r] else IkResult(
+            q_v=QV[r], q_w=QW[r], q=Q[r], status=ok, position_error=float(PE[r]),
+            orientation_error=float(OE[r]), f=float(F[r]), grad_norm=0.0, iterations=0,
+            evaluations=1, time_s=per, f_history=FH[r],
+            at_limit=tuple(names[j] for j in range(6) if int(mask[r]) >> j & 1),
+            method="analytic")
+        for r in range(m)]
+    return results, guess_of
