@@ -216,12 +216,12 @@ def _pose2r_branches(leg: Leg, T: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     return q, np.ones(r, dtype=np.int64), err
 
 
-def _leg_solutions_batch(mech: Mechanism, leg: Leg, T: np.ndarray, ref: np.ndarray
-                         ) -> tuple[np.ndarray, np.ndarray]:
+def _leg_solutions_batch(mech: Mechanism, leg: Leg, T: np.ndarray, ref: np.ndarray,
+                         tol: float = 1e-8) -> tuple[np.ndarray, np.ndarray]:
     """Every solution within the limits of the leg's targets T (r, 4, 4), nearest ref (r, k)
-    first: q (r, nb, k) and count (r,)."""
+    first, each reaching its target within ``tol`` [m], [rad]: q (r, nb, k) and count (r,)."""
     if leg.kind == "chain":
-        b = analytic_batch(mech, leg.chain, T, ref)
+        b = analytic_batch(mech, leg.chain, T, ref, tol_pos=tol, tol_ori=tol)
         return b.q_v, b.count
     qb, cnt, err = _branches(leg, T)
     r, nb, k = qb.shape
@@ -231,23 +231,24 @@ def _leg_solutions_batch(mech: Mechanism, leg: Leg, T: np.ndarray, ref: np.ndarr
     j = leg.joints
     finish_batch(np.ascontiguousarray(qb), cnt.astype(np.int64), np.ascontiguousarray(err),
                  np.ascontiguousarray(ref, dtype=np.float64), mech.lower[j].astype(float),
-                 mech.upper[j].astype(float), mech.s[j] == 0, 1e-8, 1e-8, 1e-3, out, pe, oe,
-                 dist, n)
+                 mech.upper[j].astype(float), mech.s[j] == 0, tol, tol, 1e-3, out, pe, oe, dist,
+                 n)
     return out, n
 
 
-def solve_legs(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.ndarray
-               ) -> tuple[np.ndarray, bool]:
+def solve_legs(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.ndarray,
+               tol: float = 1e-8) -> tuple[np.ndarray, bool]:
     """Every joint (n,) of the mechanism with {E} at T_0_E (4, 4): each leg's solution
-    nearest q_ref (n,) (revolute joints at the turn nearest it, within the limits). Returns
-    (q, ok); ok is False when a leg has no solution within its limits (q keeps q_ref there)."""
+    nearest q_ref (n,) (revolute joints at the turn nearest it, within the limits; each leg's
+    end within ``tol`` [m], [rad] of its target). Returns (q, ok); ok is False when a leg has
+    no solution within its limits (q keeps q_ref there)."""
     e = int(mech.end_effector)
     T_0_plat = (T_0_E @ np.linalg.inv(mech.frame_offset[e]))[None]
     q = np.array(q_ref, dtype=np.float64)
     ok = True
     for leg in legs:
         T_end = _leg_targets(mech, leg, T_0_plat, q[None])
-        sols, n = _leg_solutions_batch(mech, leg, T_end, q[leg.joints][None])
+        sols, n = _leg_solutions_batch(mech, leg, T_end, q[leg.joints][None], tol)
         if n[0] == 0:
             ok = False
             continue
@@ -296,19 +297,20 @@ def legs_ik(mech: Mechanism, legs: list[Leg], T_P: np.ndarray, q_v0: np.ndarray,
                     method="analytic legs")
 
 
-def legs_all(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.ndarray
-             ) -> np.ndarray:
+def legs_all(mech: Mechanism, legs: list[Leg], T_0_E: np.ndarray, q_ref: np.ndarray,
+             tol: float = 1e-8) -> np.ndarray:
     """Every configuration (k, n) of the mechanism with {E} at T_0_E: every combination of
     the legs' solutions within their limits (once the platform pose is given a leg depends
     only on the legs before it that solve its first joints, so the list is complete). Built
     leg by leg on arrays: each partial configuration is repeated once per solution of the
-    next leg (no loop over combinations). Unverified here: the caller verifies and orders."""
+    next leg (no loop over combinations); each leg's end within ``tol`` of its target.
+    Unverified here: the caller verifies and orders."""
     e = int(mech.end_effector)
     T_0_plat = (np.asarray(T_0_E, dtype=np.float64) @ np.linalg.inv(mech.frame_offset[e]))[None]
     rows = np.array(q_ref, dtype=np.float64)[None]
     for leg in legs:
         T_end = _leg_targets(mech, leg, np.broadcast_to(T_0_plat, (len(rows), 4, 4)), rows)
-        sols, n = _leg_solutions_batch(mech, leg, T_end, rows[:, leg.joints])
+        sols, n = _leg_solutions_batch(mech, leg, T_end, rows[:, leg.joints], tol)
         rows = np.repeat(rows, n, axis=0)
         rows[:, leg.joints] = sols[np.arange(sols.shape[1])[None] < n[:, None]]
         if not len(rows):
