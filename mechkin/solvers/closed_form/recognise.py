@@ -7,7 +7,8 @@ leg, any 6-6 or 3-6 platform; direct-drive: d1 and the link lengths; lee: radii,
 and stroke) and raises :class:`ClosedFormMismatch` (a ModelError) naming the joint, frame or
 dimension that does not fit. :func:`recognise_closed_form` checks the declared form, or, with
 none declared, returns the first form that fits (or None). :func:`closed_form_ik` and
-:func:`closed_form_solutions` solve poses with it.
+:func:`closed_form_solutions` solve poses with it, through the leg decomposition
+(:mod:`mechkin.solvers.ik.analytic.legs`) of which these closed forms are cases.
 
 DESIGN: the Mechanism object does not carry the declaration (mechkin.model builds it from the
 spec); :func:`declared_closed_form` reads it from ``mech.closed_form`` when the model provides

@@ -221,7 +221,8 @@ def _leg_solutions_batch(mech: Mechanism, leg: Leg, T: np.ndarray, ref: np.ndarr
     """Every solution within the limits of the leg's targets T (r, 4, 4), nearest ref (r, k)
     first, each reaching its target within ``tol`` [m], [rad]: q (r, nb, k) and count (r,)."""
     if leg.kind == "chain":
-        b = analytic_batch(mech, leg.chain, T, ref, tol_pos=tol, tol_ori=tol)
+        b = analytic_batch(mech, leg.chain, T, ref[0] if len(T) == 1 else ref, tol_pos=tol,
+                           tol_ori=tol)  # one target: the shortest compiled call
         return b.q_v, b.count
     qb, cnt, err = _branches(leg, T)
     r, nb, k = qb.shape
