@@ -119,3 +119,56 @@ def test_few_targets_or_a_zero_weight_go_one_by_one():
     assert ik_analytic.solve_sequence_batched(mech, T, W, far, "auto", *args) is None
     assert ik_analytic.solve_sequence_batched(mech, T, np.ones((300, 6)), far, "lm",
                                               *args) is None
+
+
+@pytest.mark.parametrize("method,warm", [("auto", True), ("analytic", False)])
+def test_stewart_legs_sequence_equals_one_by_one(tmp_path, monkeypatch, method, warm):
+    """A Stewart platform (every leg a compiled U-P-S arm): the legs' sequences in compiled
+    loops give the same joints (bit for bit), statuses and ik.csv as the per-target legs
+    route, with a target beyond reach and one beyond the strokes in the sequence."""
+    from mechkin.solvers.ik import accel
+
+    monkeypatch.setenv("MECHKIN_JIT", "0")
+    accel.reset_job()
+    p = tmp_path / f"stewart_{method}_{warm}.yaml"
+    p.write_text(f"""name: seq_stewart
+task: ik
+mechanism: {ROOT / "mechanisms" / "kim1995_stewart.yaml"}
+units: {{length: m, angle: deg}}
+ik:
+  method: {method}
+  warm_start: {str(warm).lower()}
+  restarts: 1
+  targets:
+    - {{name: far, xyz: [400, 0, 0], rpy: [0, 0, 90]}}
+    - {{name: beyond_strokes, xyz: [0, 0, 30], rpy: [0, 0, 90]}}
+  random_targets: {{count: 220, seed: 5}}
+outputs: {{csv: true, plots: false, mcap: false}}
+""")
+    sc = load_scenario(p)
+    calls = []
+    real = ik_analytic._legs_sequence_batched
+
+    def spy(*a, **k):
+        out = real(*a, **k)
+        calls.append(out is not None)
+        return out
+
+    monkeypatch.setattr(ik_analytic, "_legs_sequence_batched", spy)
+    monkeypatch.setattr(ik_analytic, "BATCH_MIN", 20)  # 39 of the 220 random leg lengths assemble
+    batched = ik_task.run(sc, progress=False)
+    assert calls == [True]
+    monkeypatch.setattr(ik_analytic, "BATCH_MIN", 10**9)
+    single = ik_task.run(sc, progress=False)
+    a, b = batched.summary, single.summary
+    assert a["counts"] == b["counts"] and a["methods_used"] == b["methods_used"]
+    assert "analytic legs" in a["methods_used"] and a["counts"].get("ok", 0) >= 35
+    assert a["targets"][0]["status"] != "ok" and a["targets"][1]["status"] != "ok"
+    for ta, tb in zip(a["targets"], b["targets"], strict=True):
+        for key in ("status", "q", "q_v", "position_error", "orientation_error",
+                    "closure_residual", "end_effector"):
+            assert ta[key] == tb[key], (ta["name"], key)
+    out_a, out_b = tmp_path / "a", tmp_path / "b"
+    batched.write(out_a, plots=False)
+    single.write(out_b, plots=False)
+    assert (out_a / "ik.csv").read_bytes() == (out_b / "ik.csv").read_bytes()
