@@ -66,8 +66,9 @@ from mechkin.tasks.prepare import Prepared
 
 def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
     """The closed form of the mechanism by structure (recognised once: by the validation
-    when it ran); a declared one that does not fit, or none that fits, is bad input naming
-    the mismatch."""
+    when it ran), or ``legs`` for a parallel mechanism without a named closed form whose legs
+    decompose; a declared one that does not fit, or none that fits, is bad input naming the
+    mismatch."""
     from mechkin.solvers.closed_form.recognise import ClosedFormMismatch
 
     mech = prepared.mechanism
@@ -76,9 +77,14 @@ def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
     except ClosedFormMismatch as exc:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: {exc}") from None
     if kind is None:
+        from mechkin.tasks.validate import _legs_decompose
+
+        if _legs_decompose(mech):
+            return "legs"  # any parallel mechanism whose legs decompose: the legs route
         raise ConfigError(f"{scenario.doc.where(('ik', 'method'))}: no closed form fits "
                           f"mechanism {mech.name} (declare closed_form: stewart | direct_drive | "
-                          "lee_spherical in the mechanism file, or use method: lm)")
+                          "lee_spherical in the mechanism file, give a parallel mechanism whose "
+                          "legs decompose, or use method: lm)")
     return kind
 
 

@@ -211,3 +211,52 @@ def test_legs_all_is_every_combination(name):
         for q in got:
             _closes(mech, q, t)
     assert min(counts) >= {"delta": 8, "planar_3rrr": 8, "kim1995_direct_drive": 2}[name]
+
+
+@pytest.mark.parametrize("name", ["delta", "planar_3rrr"])
+def test_method_closed_form_on_any_mechanism_whose_legs_decompose(tmp_path, name):
+    """``method: closed-form`` is no longer limited to the three named closed forms: a
+    parallel mechanism whose legs decompose (Delta, 3-RRR) is solved through its legs (the
+    same joints as ``method: analytic``, 1e-12), checks clean, and ``solutions: all`` lists
+    every combination of the legs' branches (complete); a serial arm is still refused."""
+    from mechkin.errors import ConfigError
+    from mechkin.tasks import run_file
+    from mechkin.tasks.validate import _legs_decompose
+
+    mech = load_mechanism(ROOT / "mechanisms" / f"{name}.yaml")
+    iv = mech.independent
+    qv = mech.home[iv] + np.random.default_rng(25).uniform(-0.1, 0.1, size=(4, len(iv)))
+    res = solve_closure(mech, qv, np.broadcast_to(mech.home[mech.dependent],
+                                                  (4, len(mech.dependent))).copy())
+    T = forward_kinematics(mech, res.q[res.ok]).frames(mech, [mech.end_effector])[:, 0]
+    rows = "\n".join(f"    - {{name: P{i}, matrix: {np.round(t, 15).tolist()}}}"
+                     for i, t in enumerate(T))
+
+    def scenario(method: str, extra: str = "") -> Path:
+        p = tmp_path / f"{method}{bool(extra)}.yaml"
+        p.write_text(f"""name: cf_{name}
+task: ik
+mechanism: {ROOT / "mechanisms" / f"{name}.yaml"}
+units: {{length: m, angle: deg}}
+ik:
+  method: {method}
+{extra}  targets:
+{rows}
+outputs: {{csv: false, plots: false, mcap: false}}
+""")
+        return p
+
+    assert _legs_decompose(mech)
+    cf = run_file(scenario("closed-form"), "ik").summary
+    an = run_file(scenario("analytic"), "ik").summary
+    assert cf["status"] == an["status"] == "ok" and cf["methods_used"] == ["closed-form"]
+    for a, b in zip(cf["targets"], an["targets"], strict=True):
+        assert max(abs(a["q"][k] - b["q"][k]) for k in a["q"]) < 1e-12
+    al = run_file(scenario("closed-form", "  solutions: all\n"), "ik").summary
+    assert al["solutions"]["complete"] is True and al["solutions"]["source"] == ["analytic legs"]
+    puma = ROOT / "mechanisms" / "puma560.yaml"
+    bad = scenario("closed-form").read_text().replace(str(ROOT / "mechanisms" / f"{name}.yaml"),
+                                                      str(puma))
+    (tmp_path / "bad.yaml").write_text(bad)
+    with pytest.raises(ConfigError, match="no closed form fits mechanism 'puma560'"):
+        run_file(tmp_path / "bad.yaml", "ik")
