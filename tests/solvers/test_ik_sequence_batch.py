@@ -172,3 +172,23 @@ outputs: {{csv: true, plots: false, mcap: false}}
     batched.write(out_a, plots=False)
     single.write(out_b, plots=False)
     assert (out_a / "ik.csv").read_bytes() == (out_b / "ik.csv").read_bytes()
+
+
+def test_warmup_compiles_the_sequence_signature_the_task_uses():
+    """``mechkin warmup`` lists the sequence kernel and compiles it with the types the ik task
+    calls it with (no second compilation on the first long run)."""
+    from mechkin.solvers.ik import warm
+    from mechkin.solvers.ik.analytic import sequence
+
+    mech = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
+    assert "sequence.solve_sequence_into" in [n for n, _ in warm.kernels_for(mech)]
+    warm._analytic_runner("sequence.solve_sequence_into")()
+    if not hasattr(sequence.solve_sequence_into, "signatures"):
+        pytest.skip("compiled kernels off (MECHKIN_JIT=0 at import)")
+    sigs = list(sequence.solve_sequence_into.signatures)
+    T = np.repeat(frame_poses(mech, mech.home[None], [mech.end_effector])[:, 0], 250, axis=0)
+    for warm_start in (True, False):
+        ik_analytic.solve_sequence_batched(mech, T, np.ones((250, 6)), np.zeros(250, bool),
+                                           "auto", IkOptions(), mech.home[mech.independent],
+                                           mech.home[mech.dependent], warm_start)
+    assert list(sequence.solve_sequence_into.signatures) == sigs
