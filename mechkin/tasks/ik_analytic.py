@@ -134,18 +134,17 @@ def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray,
     t0 = time.perf_counter()
     b = analytic_batch(mech, chain, T_P, refs)
     per = (time.perf_counter() - t0) / max(len(T_P), 1)
-    out = []
     iv = mech.independent
-    for i in range(len(T_P)):
-        n = int(b.count[i])
-        q = np.repeat(np.where(np.isfinite(mech.home), mech.home, 0.0)[None], n, axis=0)
-        q[:, iv] = b.q_v[i, :n]
-        out.append(IkSolutions(q=q, q_v=b.q_v[i, :n].copy(),
-                               position_error=b.position_error[i, :n].copy(),
-                               orientation_error=b.orientation_error[i, :n].copy(),
-                               distance=b.distance[i, :n].copy(), source="analytic", starts=8,
-                               time_s=per, complete=True))
-    return out
+    # every target's rows at once (views of fresh arrays, one per field), no per-row work
+    Q = np.broadcast_to(np.where(np.isfinite(mech.home), mech.home, 0.0),
+                        b.q_v.shape[:2] + (mech.n,)).copy()
+    Q[:, :, iv] = b.q_v
+    QV, PE = b.q_v.copy(), b.position_error.copy()
+    OE, D = b.orientation_error.copy(), b.distance.copy()
+    return [IkSolutions(q=Q[i, :n], q_v=QV[i, :n], position_error=PE[i, :n],
+                        orientation_error=OE[i, :n], distance=D[i, :n], source="analytic",
+                        starts=8, time_s=per, complete=True)
+            for i, n in enumerate(b.count.tolist())]
 
 
 def methods_used(results: list[IkResult]) -> list[str]:

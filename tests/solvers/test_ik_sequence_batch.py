@@ -192,3 +192,30 @@ def test_warmup_compiles_the_sequence_signature_the_task_uses():
                                            "auto", IkOptions(), mech.home[mech.independent],
                                            mech.home[mech.dependent], warm_start)
     assert list(sequence.solve_sequence_into.signatures) == sigs
+
+
+def test_analytic_all_records_equal_the_branches():
+    """``solutions: all`` of an open chain (analytic_all, records built on arrays): each
+    target's solutions are its analytic branches (rows [:count]), q the home configuration with
+    the independent joints set, errors and distances the batch's."""
+    from mechkin.solvers.ik.analytic.classify import analytic_chain
+    from mechkin.solvers.ik.analytic.solutions import analytic_batch
+
+    mech = load_mechanism(ROOT / "mechanisms" / "puma560.yaml")
+    iv = mech.independent
+    q = np.random.default_rng(6).uniform(mech.lower[iv], mech.upper[iv], (40, 6))
+    T = frame_poses(mech, q, [mech.end_effector])[:, 0]
+    refs = q + 0.01
+    out = ik_analytic.analytic_all(mech, T, refs)
+    b = analytic_batch(mech, analytic_chain(mech), T, refs)
+    assert len(out) == 40 and sum(a.count for a in out) > 40
+    for i, a in enumerate(out):
+        n = int(b.count[i])
+        assert a.count == n and a.complete and a.source == "analytic"
+        want = np.repeat(np.where(np.isfinite(mech.home), mech.home, 0.0)[None], n, axis=0)
+        want[:, iv] = b.q_v[i, :n]
+        assert np.array_equal(a.q, want) and np.array_equal(a.q_v, b.q_v[i, :n])
+        assert np.array_equal(a.position_error, b.position_error[i, :n])
+        assert np.array_equal(a.orientation_error, b.orientation_error[i, :n])
+        assert np.array_equal(a.distance, b.distance[i, :n])
+        assert min(np.abs((s - q[i] + np.pi) % (2 * np.pi) - np.pi).max() for s in a.q_v) < 1e-9
