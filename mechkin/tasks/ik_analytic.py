@@ -115,6 +115,12 @@ def solve_batch_analytic(mech: Mechanism, method: str, T_P: np.ndarray, W: np.nd
     lm), or None when the route does not apply to every target."""
     from mechkin.solvers.ik.analytic.api_ik import ik_analytic
 
+    if mech.cuts and method in ANALYTIC_METHODS and bool((W > 0).all()):
+        # Stewart-type legs: each leg's targets in one compiled loop, each from the guess
+        seq = _legs_sequence_batched(mech, T_P, W, np.zeros(len(T_P), dtype=bool), method,
+                                     opts, qv0, qw0, False)
+        if seq is not None:
+            return seq[0]
     rows = analytic_rows(mech, method, W)
     if not rows.all() or not np.allclose(W, W[:1]):
         return None
