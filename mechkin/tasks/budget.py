@@ -142,7 +142,16 @@ _ESTIMATES: contextvars.ContextVar[list[dict[str, Any]] | None] = contextvars.Co
     "mechkin_estimates", default=None)
 _START: contextvars.ContextVar[float | None] = contextvars.ContextVar("mechkin_start",
                                                                       default=None)
+_STOP: contextvars.ContextVar[dict[str, Any] | None] = contextvars.ContextVar("mechkin_stop",
+                                                                              default=None)
 _DURATION_UNITS = {"": 1.0, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+def _clock() -> float:
+    """The run's clock (``time.monotonic``; tests replace it to make a run overrun)."""
+    import time
+
+    return time.monotonic()
 
 
 def parse_duration(text: str) -> float:
@@ -176,41 +185,72 @@ def time_limit() -> float | None:
 def time_budget(max_seconds: float | None) -> Iterator[list[dict[str, Any]]]:
     """Set the run's time limit (None: the environment's) and collect the run's estimates
     (``{"where", "what", "seconds"}``) in the yielded list."""
-    import time
-
     found: list[dict[str, Any]] = []
     t1 = _TIME.set(max_seconds)
     t2 = _ESTIMATES.set(found)
-    t3 = _START.set(time.monotonic())
+    t3 = _START.set(_clock())
+    t4 = _STOP.set({})
     try:
         yield found
     finally:
+        _STOP.reset(t4)
         _START.reset(t3)
         _ESTIMATES.reset(t2)
         _TIME.reset(t1)
 
 
 class TimeLimitExceeded(MechkinError):
-    """The run went past ``--max-time``: stopped between two jobs, nothing written (exit 1)."""
+    """The run went past ``--max-time`` on a path that keeps no partial result (a motion or a
+    target sequence split over workers): stopped between two jobs, nothing written (exit 1)."""
 
     exit_code = 1
 
 
+def overrun() -> bool:
+    """True once the run has used its ``--max-time``: the task stops at its next safe point
+    (between samples, targets, sweep chunks, DP stages), keeps the finished rows and says how
+    many with :func:`note_done`; :func:`stop_info` then holds the stop for the summary."""
+    lim, start, info = _TIME.get(), _START.get(), _STOP.get()
+    if lim is None or start is None or info is None:
+        return False
+    if info:
+        return True
+    used = _clock() - start
+    if used <= lim:
+        return False
+    info.update({"reason": "max-time", "limit_s": lim, "after_s": round(used, 3)})
+    return True
+
+
+def note_done(done: int, total: int, unit: str) -> None:
+    """After a stop: ``done`` of ``total`` rows (``unit``: steps, targets, poses, samples,
+    grids) were finished and are kept."""
+    info = _STOP.get()
+    if info:
+        info.update({"done": int(done), "total": int(total), "unit": unit})
+
+
+def stop_info() -> dict[str, Any] | None:
+    """The run's stop (``reason``, ``limit_s``, ``after_s`` and the rows done), or None."""
+    info = _STOP.get()
+    return dict(info) if info else None
+
+
 def check_deadline() -> None:
     """Raise :class:`TimeLimitExceeded` once the run has used its ``--max-time`` (called
-    between the jobs of a split run)."""
-    import time
-
+    between the jobs of a split run that keeps no partial result)."""
     lim, start = _TIME.get(), _START.get()
     if lim is None or start is None:
         return
-    used = time.monotonic() - start
+    used = _clock() - start
     if used > lim:
         raise TimeLimitExceeded(f"--max-time: stopped after {human_time(used)} (limit "
                                 f"{human_time(lim)}) between two jobs; no output was changed")
 
 
 def human_time(sec: float) -> str:
+    if sec < 10:
+        return f"{sec:.2g} s"
     if sec < 120:
         return f"{sec:.0f} s"
     if sec < 7200:
@@ -240,3 +280,28 @@ def estimate_time(where: str, seconds: float, what: str) -> None:
         sys.stderr.write(f"mechkin: {what}: estimated about {human_time(seconds)} "
                          f"({where.split(': ', 1)[0]}); --max-time bounds a run\n")
         sys.stderr.flush()
+
+
+#: ``summary["status"]`` of a run stopped by ``--max-time`` (exit 1, the finished rows written).
+STOPPED = "stopped: max-time"
+
+
+def mark_stopped(rep: Any, path: Any) -> Any:
+    """A task's report after :func:`overrun` stopped it: status :data:`STOPPED`, the stop under
+    ``summary["stopped"]`` (``reason``, ``limit_s``, ``after_s``, ``done``, ``total``,
+    ``unit``), no ``expect:`` results (a part of the job proves nothing), exit 1 and one line
+    saying what was kept. The rows kept are complete (the task truncated its tables)."""
+    info = stop_info()
+    if info is None:
+        return rep
+    rep.summary["status"] = STOPPED
+    rep.summary["stopped"] = info
+    rep.summary.pop("expect", None)
+    rep.checks = []
+    rep.solver_ok = False
+    kept = (f"{info['done']} of {info['total']} {info['unit']} finished and written"
+            if "done" in info else "the finished part written")
+    rep.messages = [f"{path}: --max-time {human_time(info['limit_s'])}: stopped after "
+                    f"{human_time(info['after_s'])} at a safe point; {kept} (status "
+                    f"'{STOPPED}')"]
+    return rep

@@ -220,6 +220,10 @@ def _check_steps(scenario: Scenario, mech: Mechanism, m: int) -> None:
 CHUNK_STEPS = 20_000
 
 
+#: Steps per chunk under ``--max-time`` (the run may stop between two chunks).
+TIMED_CHUNK_STEPS = 1_000
+
+
 #: Fewest steps per chunk of a motion split over workers (``--workers`` / ``--scheduler``).
 SPLIT_MIN_STEPS = 2_000
 
@@ -275,22 +279,32 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
         first = solve_motion(mech, qv[:1], q_w0=q_w0, guess=guess, **kw)
         start_w = first.q[0, mech.dependent] if first.ok[0] else q_w0
         return _solve_split(mech, qv, start_w, kw, ex)
-    if m <= CHUNK_STEPS:
+    from mechkin.tasks import budget
+
+    # under --max-time: shorter chunks, the run stops between two (budget.overrun)
+    timed = budget.time_limit() is not None
+    size = TIMED_CHUNK_STEPS if timed else CHUNK_STEPS
+    if m <= size:
         return solve_motion(mech, qv, q_w0=q_w0, guess=guess, **kw)
     parts = []
-    with progress_bar(progress, f"fk: {m} steps") as update:
+    with progress_bar(progress, f"fk: {m} steps", deadline=False) as update:
         start_q = None
-        for k in range(0, m, CHUNK_STEPS):
-            r = solve_motion(mech, qv[k:k + CHUNK_STEPS], q_w0=q_w0, guess=guess,
+        for k in range(0, m, size):
+            r = solve_motion(mech, qv[k:k + size], q_w0=q_w0, guess=guess,
                              q_start=start_q, **kw)
             parts.append(r)
             good = np.flatnonzero(r.ok)
             if good.size:
                 start_q = r.q[good[-1]]
             if update is not None:
-                update(min(k + CHUNK_STEPS, m), m)
+                update(min(k + size, m), m)
+            if timed and k + size < m and budget.overrun():
+                budget.note_done(k + size, m, "steps")
+                break
     first = parts[0]
-    return type(first)(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
+    # the optional fields (T_links, jacobian) only when every chunk has them
+    return type(first)(**{f.name: None if any(getattr(p, f.name) is None for p in parts)
+                          else np.concatenate([getattr(p, f.name) for p in parts])
                           for f in fields(first)})
 
 
@@ -311,6 +325,10 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         res = _solve_in_chunks(mech, qv, q_w0, tol, progress,
                                guess=bool(scenario.section.initial_guess))
+        if len(res.q) < len(t):  # stopped by --max-time: the finished steps only
+            k = len(res.q)
+            t, qv, qd_v, qdd_v = t[:k], qv[:k], qd_v[:k], qdd_v[:k]
+            base = base_trajectory(scenario, mech, t)
         res = with_limits(mech, _finite_closure(mech, res, q_w0))
         solve_s = time.perf_counter() - t0
         kin = forward_kinematics(mech, res.q)

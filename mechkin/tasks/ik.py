@@ -40,6 +40,7 @@ from mechkin.solvers.ik.all_solutions import (
     TOL_ORI_ALL,
     TOL_POS_ALL,
 )
+from mechkin.tasks import budget
 from mechkin.tasks.common import (
     check_motion_budget,
     expect_messages,
@@ -227,10 +228,15 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
         from mechkin.tasks.progress import progress_bar
 
         show = progress if progress is not None or len(T_P) >= 1000 else False
-        with progress_bar(show, f"ik: {len(T_P)} targets") as update:
+        with progress_bar(show, f"ik: {len(T_P)} targets", deadline=False) as update:
             results, guesses, _ = solve_sequence(mech, T_P, W, far, spec.method, kind, opts,
-                                                 qv0, qw0, spec.warm_start, update)
+                                                 qv0, qw0, spec.warm_start, update,
+                                                 stop=budget.overrun)
     solve_s = time.perf_counter() - t0
+    if len(results) < len(T_P):  # stopped by --max-time: the solved targets only
+        budget.note_done(len(results), len(T_P), "targets")
+        k = len(results)
+        T_P, W, labels, far, guesses = T_P[:k], W[:k], labels[:k], far[:k], guesses[:k]
     all_sols = (_all_solutions(scenario, prepared, T_P, W, results, guesses, far, opts)
                 if spec.solutions == "all" else None)
     q = np.array([r.q for r in results])

@@ -95,6 +95,7 @@ def run_jobs(
     workers: int | None = None,
     address: str | None = None,
     progress: ProgressCallback | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> list[R]:
     """Run ``fn(job)`` for every job and return the results in job order.
 
@@ -112,11 +113,15 @@ def run_jobs(
         (``pip install mechkin[dask]``).
     progress : callable, optional
         ``progress(done, total)``.
+    stop : callable, optional
+        ``stop()`` after every finished job: when True, no further job starts (local
+        processes: the pending ones are cancelled) and the results of the first jobs that
+        finished in a row are returned (a prefix of the list; the caller keeps those rows).
 
     Returns
     -------
     list
-        ``[fn(job) for job in jobs]``, whatever the executor.
+        ``[fn(job) for job in jobs]``, whatever the executor (a prefix of it after a stop).
 
     Raises
     ------
@@ -137,21 +142,37 @@ def run_jobs(
             out.append(fn(job))
             if progress is not None:
                 progress(i + 1, total)
+            if stop is not None and i + 1 < total and stop():
+                break
         return out
-    results: list[Any] = [None] * total
+    results: list[Any] = [_NOT_RUN] * total
     with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
                              initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures: dict[Future[R], int] = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
-        _collect(as_completed(futures), futures, results, total, progress)
+        if _collect(as_completed(futures), futures, results, total, progress, stop):
+            pool.shutdown(wait=True, cancel_futures=True)
+            for fut, i in futures.items():  # finished while the others were cancelled
+                if results[i] is _NOT_RUN and fut.done() and not fut.cancelled():
+                    results[i] = fut.result()
+            k = next((i for i, r in enumerate(results) if r is _NOT_RUN), total)
+            return results[:k]
     return results
 
 
+_NOT_RUN: Any = object()
+
+
 def _collect(done_iter: Iterable[Any], index: Mapping[Any, int], results: list[Any], total: int,
-             progress: ProgressCallback | None) -> None:
+             progress: ProgressCallback | None, stop: Callable[[], bool] | None = None
+             ) -> bool:
+    """Gather the results as they finish; True when ``stop()`` asked to stop early."""
     for k, fut in enumerate(done_iter, start=1):
         results[index[fut]] = fut.result()
         if progress is not None:
             progress(k, total)
+        if stop is not None and k < total and stop():
+            return True
+    return False
 
 
 #: Seconds to reach a scheduler and to see a worker (``MECHKIN_DASK_TIMEOUT`` overrides).
