@@ -42,6 +42,7 @@ from mechkin.solvers.dynamics.from_mechanism import (
     planar_two_link_from_mechanism,
 )
 from mechkin.solvers.dynamics.open_chain import InverseDynamics
+from mechkin.solvers.result import Stopped
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
@@ -58,6 +59,7 @@ from mechkin.solvers.track.path_geometry import (
 from mechkin.solvers.track.path_ik import HandLineIK, HandPathIK, PathIKError
 from mechkin.solvers.track.plan import plan_track
 from mechkin.spatial.rotations import matrix_from_rpy
+from mechkin.tasks import budget
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 from mechkin.tasks.track_cases import case_record, case_traces, dp_options, solve_cases
 
@@ -260,7 +262,12 @@ def run(scenario: Scenario) -> Report:
         except ConfigError as exc:
             raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
 
-    res = _solve(spec, spec.grid, dyn, path, ref, limits, list(mech.joint_names))
+    n_plans = 1 + len(spec.grid_study or []) + len(spec.cases or [])
+    try:
+        res = _solve(spec, spec.grid, dyn, path, ref, limits, list(mech.joint_names))
+    except Stopped:  # --max-time between two DP stages: no plan, the summary says so
+        budget.note_done(0, n_plans, "plans")
+        return _stopped_report(scenario, mech)
     study: list[dict[str, Any]] | None = None
     study_results: list[TrackResult] = []
     if spec.grid_study is not None:
@@ -271,11 +278,15 @@ def run(scenario: Scenario) -> Report:
         todo = [g for g in spec.grid_study if g != spec.grid]
         solved = iter(map_jobs(call, [(_solve, (spec, g, dyn, path, ref, limits,
                                                 list(mech.joint_names))) for g in todo],
-                               f"track: grid study ({len(todo)} grids)"))
-        study_results = [res if g == spec.grid else next(solved) for g in spec.grid_study]
+                               f"track: grid study ({len(todo)} grids)", partial=True))
+        # after a --max-time stop: the grids solved so far
+        study_results = [r for r in (res if g == spec.grid else next(solved, None)
+                                     for g in spec.grid_study) if r is not None]
         study = [_grid_record(r) for r in study_results]
     cases = solve_cases(scenario, mech, res, lambda lm, dp: _solve(
         spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # track.cases
+    if budget.stop_info() is not None:
+        budget.note_done(1 + len(study_results) + len(cases), n_plans, "plans")
 
     summary: dict[str, Any] = {
         "scenario": scenario.name,
@@ -343,6 +354,18 @@ def run(scenario: Scenario) -> Report:
     return Report(task="track", scenario=scenario.name, summary=summary, checks=checks,
                   solver_ok=ok, writer="track", data=rec, outputs=output_flags(scenario),
                   scenario_path=scenario.path, messages=messages)
+
+
+def _stopped_report(scenario: Scenario, mech: Mechanism) -> Report:
+    """The report of a run stopped by ``--max-time`` inside the scenario's own DP: no plan
+    (only summary.json; :func:`mechkin.tasks.budget.mark_stopped` adds the status)."""
+    g = scenario.section.grid
+    summary = {"scenario": scenario.name, "task": "track", "mechanism": mech.name,
+               "dynamics": scenario.section.dynamics, "status": "stopped",
+               "grid": {"N1": g.N1, "N2": g.N2}}
+    return Report(task="track", scenario=scenario.name, summary=summary, solver_ok=False,
+                  writer="track", data=None, outputs=output_flags(scenario),
+                  scenario_path=scenario.path)
 
 
 def _record(scenario: Scenario, mech: Mechanism, res: TrackResult, others: list[TrackResult],

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mechkin.solvers.result import stop_point
 from mechkin.solvers.track.dp_limits import (
     _diagnose,
     _joint_names,
@@ -35,7 +36,6 @@ from mechkin.solvers.track.dp_problem import (
     step_arrays,
     wait_cost,
 )
-from mechkin.solvers.result import stop_point
 from mechkin.solvers.track.path import PhaseCoefficients
 
 logger = logging.getLogger(__name__)

@@ -1,0 +1,120 @@
+"""A run that overruns --max-time stops at its next safe point (between fk chunks, ik targets,
+sweep chunks, DP stages), writes the rows finished so far as whole files with status
+'stopped: max-time' and exits 1 (issue 28). The clock is replaced so that the time is used as
+soon as the job starts: the partial shape is the same on any machine."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from mechkin.cli import shell
+from mechkin.io.csv_out import read_csv
+from mechkin.solvers.workspace.jobs import run_jobs
+from mechkin.tasks import budget
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _scenario(tmp_path: Path, name: str, **section: object) -> Path:
+    d = yaml.safe_load((ROOT / "scenarios" / name).read_text())
+    d["mechanism"] = str((ROOT / "scenarios" / d["mechanism"]).resolve())
+    sec = d["task"] if d["task"] != "ik" else "ik"
+    for k, v in section.items():
+        d[sec][k] = v
+    d["outputs"] = {"csv": True, "plots": False, "mcap": False}
+    p = tmp_path / name
+    p.write_text(yaml.safe_dump(d, sort_keys=False))
+    return p
+
+
+@pytest.fixture
+def time_is_up(monkeypatch):
+    """The run's clock: 0 when the run starts, then 1e6 s (the limit is used at once)."""
+    calls = itertools.count()
+    monkeypatch.setattr(budget, "_clock", lambda: 0.0 if next(calls) == 0 else 1e6)
+
+
+def _run(task: str, sc: Path, out: Path, capsys) -> tuple[int, dict, list[str]]:
+    capsys.readouterr()
+    code = shell.execute(task, sc, out, False, False, lambda s: s["status"], max_time="1h")
+    err = capsys.readouterr().err.strip().splitlines()
+    summary = json.loads((out / "summary.json").read_text())
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".")], "staging left"
+    return code, summary, err
+
+
+def _check_stop(summary: dict, err: list[str], sc: Path, done: int, total: int, unit: str):
+    assert summary["status"] == "stopped: max-time"
+    st = summary["stopped"]
+    assert (st["reason"], st["done"], st["total"], st["unit"]) == ("max-time", done, total, unit)
+    assert "expect" not in summary  # a part of the job proves nothing
+    assert len(err) == 1 and sc.name in err[0] and "stopped" in err[0], err
+    assert f"{done} of {total} {unit}" in err[0]
+
+
+def test_fk_keeps_the_finished_chunks(tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "five_bar_fk.yaml", time={"start": 0, "stop": 2, "step": 0.0004})
+    code, summary, err = _run("fk", sc, tmp_path / "o", capsys)
+    assert code == 1
+    _check_stop(summary, err, sc, 1000, 5001, "steps")
+    assert summary["n_steps"] == 1000
+    cols = read_csv(tmp_path / "o" / "fk.csv")
+    assert len(cols["t_s"]) == 1000 and float(cols["t_s"][-1]) == pytest.approx(999 * 0.0004)
+    assert set(cols["status"]) == {"converged"}
+
+
+def test_ik_keeps_the_solved_targets(tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "puma560_random_ik.yaml", restarts=2)
+    code, summary, err = _run("ik", sc, tmp_path / "o", capsys)
+    assert code == 1
+    _check_stop(summary, err, sc, 1, 50, "targets")
+    assert summary["n_targets"] == 1 and len(summary["targets"]) == 1
+    assert len(read_csv(tmp_path / "o" / "ik.csv")["t_s"]) == 1
+
+
+def test_track_stops_between_dp_stages(tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "park_conveyor_torque.yaml")
+    code, summary, err = _run("track", sc, tmp_path / "o", capsys)
+    assert code == 1
+    _check_stop(summary, err, sc, 0, 1, "plans")
+    assert summary["files"] == ["summary.json"]  # no plan: no table
+
+
+def test_joint_sweep_keeps_the_evaluated_chunks(tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "puma560_workspace.yaml", samples=3000, chunk=1000)
+    code, summary, err = _run("workspace", sc, tmp_path / "o", capsys)
+    assert code == 1
+    _check_stop(summary, err, sc, 1000, 3000, "samples")
+    assert summary["n_samples"] == 1000
+    assert len(read_csv(tmp_path / "o" / "points.csv")["x_m"]) == 1000
+
+
+def test_task_space_sweep_keeps_the_finished_chunks(tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "puma560_reachability.yaml", chunk=8, restarts=1, workers=1)
+    code, summary, err = _run("workspace", sc, tmp_path / "o", capsys)
+    assert code == 1
+    _check_stop(summary, err, sc, 8, 121, "poses")
+    assert summary["n_poses"] == 8
+    assert len(read_csv(tmp_path / "o" / "task_points.csv")["x_m"]) == 8
+
+
+def test_a_run_within_its_time_is_not_stopped(tmp_path, capsys):
+    sc = _scenario(tmp_path, "five_bar_fk.yaml")
+    code, summary, err = _run("fk", sc, tmp_path / "o", capsys)
+    assert code == 0 and summary["status"] == "ok" and "stopped" not in summary
+
+
+def test_run_jobs_returns_the_finished_prefix_on_stop():
+    asked = []
+
+    def stop() -> bool:
+        asked.append(1)
+        return len(asked) >= 2
+
+    assert run_jobs(abs, [-1, -2, -3, -4], workers=1, stop=stop) == [1, 2]
+    assert run_jobs(abs, [-1, -2], workers=1, stop=lambda: False) == [1, 2]
