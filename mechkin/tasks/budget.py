@@ -262,9 +262,10 @@ def human_time(sec: float) -> str:
 
 def estimate_time(where: str, seconds: float, what: str) -> None:
     """Before a job: refuse it when its estimated run time exceeds ``--max-time`` (one line,
-    exit 2); when it exceeds :data:`NOTICE_S`, print it on stderr and keep it for the summary
-    (``estimated_time_s``). The estimate is an order of magnitude (this machine's speed
-    is not measured), so the refusal has a factor of 2 of slack."""
+    exit 2); keep it for the summary (``estimated_time_s``, the sum of the run's estimates);
+    when it exceeds :data:`NOTICE_S`, print it on stderr. The estimate
+    (:mod:`mechkin.tasks.estimates`) is within a factor of a few of this machine's time, so
+    the refusal has a factor of 2 of slack."""
     import sys
 
     seconds = float(seconds) if seconds == seconds else 0.0
@@ -274,8 +275,8 @@ def estimate_time(where: str, seconds: float, what: str) -> None:
                           f"more than --max-time {human_time(lim)} (raise it, or make the job "
                           "smaller)")
     found = _ESTIMATES.get()
-    if seconds > NOTICE_S and found is not None:  # a short job's summary stays as it was
-        found.append({"where": where, "what": what, "seconds": round(seconds, 1)})
+    if found is not None:
+        found.append({"where": where, "what": what, "seconds": seconds})
     if seconds > NOTICE_S:
         sys.stderr.write(f"mechkin: {what}: estimated about {human_time(seconds)} "
                          f"({where.split(': ', 1)[0]}); --max-time bounds a run\n")
@@ -290,17 +291,17 @@ def mark_stopped(rep: Any, path: Any) -> Any:
     """A task's report after :func:`overrun` stopped it: status :data:`STOPPED`, the stop under
     ``summary["stopped"]`` (``reason``, ``limit_s``, ``after_s``, ``done``, ``total``,
     ``unit``), no ``expect:`` results (a part of the job proves nothing), exit 1 and one line
-    saying what was kept. The rows kept are complete (the task truncated its tables)."""
+    saying what was kept. The rows kept are complete (the task truncated its tables). A task
+    that noted no partial result (:func:`note_done`) finished every row: its report stands."""
     info = stop_info()
-    if info is None:
+    if info is None or "done" not in info:  # not stopped, or every row finished anyway
         return rep
     rep.summary["status"] = STOPPED
     rep.summary["stopped"] = info
     rep.summary.pop("expect", None)
     rep.checks = []
     rep.solver_ok = False
-    kept = (f"{info['done']} of {info['total']} {info['unit']} finished and written"
-            if "done" in info else "the finished part written")
+    kept = f"{info['done']} of {info['total']} {info['unit']} finished and written"
     rep.messages = [f"{path}: --max-time {human_time(info['limit_s'])}: stopped after "
                     f"{human_time(info['after_s'])} at a safe point; {kept} (status "
                     f"'{STOPPED}')"]

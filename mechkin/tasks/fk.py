@@ -33,7 +33,7 @@ from mechkin.model.continuation import solve_motion, with_limits
 from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
-from mechkin.tasks.budget import MAX_TIME_S
+from mechkin.tasks.budget import MAX_TIME_S, estimate_time
 from mechkin.tasks.common import (
     UNIT_TO_SI,
     check_motion_budget,
@@ -43,6 +43,7 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
+from mechkin.tasks.estimates import fk_seconds
 from mechkin.tasks.fk_base import (
     base_into_record,
     base_into_summary,
@@ -214,6 +215,8 @@ def _check_steps(scenario: Scenario, mech: Mechanism, m: int) -> None:
     """m fk steps with their rates (qd, qdd, twists) against the memory budget."""
     check_motion_budget(scenario, mech, m, ("fk",), "fk steps", extra_per_item=
                         8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
+    estimate_time(scenario.doc.where(("fk",)), fk_seconds(mech, m, scenario.spec.outputs),
+                  f"{m} fk steps of {mech.name}")
 
 
 #: Steps per loop-closure chunk of a long motion (progress and Ctrl-C between chunks).

@@ -201,15 +201,10 @@ def _grid_record(res: TrackResult) -> dict[str, Any]:
     return rec
 
 
-#: Seconds per DP transition (N1 x N2 x N2 of a grid): 50 x 100 solves in 0.13 s, 50 x 500 in
-#: 2.2 s on a loaded 2-core machine (1.8e-7 to 2.6e-7 s each); for the estimate before a job.
-DP_S_PER_TRANSITION = 3e-7
-
-
 def _check_budget(scenario: Scenario, mech: Any) -> None:
     """The DP's memory before any work: N1 x N2 states (cost, predecessor, times, joint
     values, rates and torques per state) plus one stage's N2 x N2 transitions per joint."""
-    from mechkin.tasks import budget
+    from mechkin.tasks.estimates import dp_seconds
 
     spec: TrackSpec = scenario.section
     grids = [spec.grid] + list(spec.grid_study or [])
@@ -219,7 +214,7 @@ def _check_budget(scenario: Scenario, mech: Any) -> None:
         key = ("track", "grid") if k == 0 else ("track", "grid_study", str(k - 1))
         budget.check(scenario.doc.where(key), 2.0 * (states + stage),
                      f"a {g.N1} x {g.N2} DP grid for {mech.n} joints")
-        budget.estimate_time(scenario.doc.where(key), DP_S_PER_TRANSITION * g.N1 * g.N2 ** 2,
+        budget.estimate_time(scenario.doc.where(key), dp_seconds(g.N1, g.N2, k == 0),
                              f"a {g.N1} x {g.N2} DP grid")
 
 
@@ -285,8 +280,9 @@ def run(scenario: Scenario) -> Report:
         study = [_grid_record(r) for r in study_results]
     cases = solve_cases(scenario, mech, res, lambda lm, dp: _solve(
         spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # track.cases
-    if budget.stop_info() is not None:
-        budget.note_done(1 + len(study_results) + len(cases), n_plans, "plans")
+    done = 1 + len(study_results) + len(cases)
+    if budget.stop_info() is not None and done < n_plans:  # stopped before the last plan
+        budget.note_done(done, n_plans, "plans")
 
     summary: dict[str, Any] = {
         "scenario": scenario.name,
