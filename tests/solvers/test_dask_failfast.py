@@ -231,6 +231,48 @@ def test_a_worker_stopped_mid_job_fails_fast():
             _stop_worker(worker)
 
 
+def test_the_cli_stops_with_one_line_and_the_folder_unchanged(tmp_path):
+    """The same through ``mechkin workspace --scheduler``: the worker is stopped once it runs
+    a job; exit 1, one line, no output folder (nothing written)."""
+    import signal
+
+    import yaml
+
+    d = yaml.safe_load((ROOT / "scenarios" / "puma560_reachability.yaml").read_text())
+    d["mechanism"] = str(ROOT / "mechanisms" / "puma560.yaml")
+    d["workspace"]["chunk"] = 4
+    d["outputs"] = {"csv": True, "plots": False, "mcap": False}
+    sc = tmp_path / "reach.yaml"
+    sc.write_text(yaml.safe_dump(d))
+    out = tmp_path / "o"
+    with _cluster(0) as cluster:
+        env = dict(os.environ, PYTHONPATH=str(ROOT), MECHKIN_DASK_TIMEOUT="3")
+        worker = subprocess.Popen([sys.executable, "-c", WORKER, cluster.scheduler_address],
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        run = None
+        try:
+            with distributed.Client(cluster.scheduler_address, set_as_default=False) as c:
+                c.wait_for_workers(1, timeout=60)
+                run = subprocess.Popen([sys.executable, "-m", "mechkin", "workspace", str(sc),
+                                        "--out", str(out), "--scheduler",
+                                        cluster.scheduler_address], env=env, text=True,
+                                       stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                t0 = time.perf_counter()
+                while not any(c.processing().values()) and time.perf_counter() - t0 < 120:
+                    time.sleep(0.05)  # until the worker holds a job
+                os.kill(worker.pid, signal.SIGSTOP)
+            _, err = run.communicate(timeout=120)
+            lines = [ln for ln in err.splitlines() if ln.strip()]
+            assert run.returncode == 1, err
+            assert len(lines) == 1 and "stopped answering" in lines[0], lines
+            assert not out.exists() and not list(tmp_path.glob(".*"))
+        finally:
+            if run is not None and run.poll() is None:
+                run.kill()
+                run.wait()
+            _stop_worker(worker)
+
+
 def test_a_busy_worker_is_not_taken_for_a_lost_one(monkeypatch):
     """Jobs longer than the timeout on a live worker: it answers the ping, the run goes on."""
     from mechkin.solvers.workspace.jobs import run_jobs
