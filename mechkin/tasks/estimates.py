@@ -3,9 +3,11 @@
 Every task calls :func:`mechkin.tasks.budget.estimate_time` with one of these before any work:
 the estimate is printed beyond 30 s, by ``mechkin check``, kept in summary.json
 (``estimated_time_s``) and compared with ``--max-time``. It is an order of magnitude: the
-constants below were measured on the development machine (2 shared cores, load 3-6, numba
-caches warm, so the first run of a new install also pays numba's compilation, up to ~90 s
-once); tests/tasks/test_estimates.py keeps them within a factor of 5 of a medium job here.
+constants below were measured on the development machine (2 cores shared with other jobs, load
+5-7, numba caches warm, so the first run of a new install also pays numba's compilation, up to
+~90 s once); the same jobs ran 2-4 times faster when the load dropped, so an estimate is high
+on an idle machine and small jobs (a few seconds) are dominated by :data:`RUN_OVERHEAD_S`;
+tests/tasks/test_estimates.py keeps a medium job within a factor of 5.
 
 How they were measured (2026-12-03): ``mechkin fk|ik|workspace|track SCENARIO --no-plots
 --json --force`` on bundled scenarios made larger (fk: 20000-100000 steps; ik: the bundled
@@ -21,9 +23,9 @@ from __future__ import annotations
 from typing import Any
 
 #: A run's fixed cost beyond the command's start-up: the task's imports (scipy, numba, the
-#: writers), the compiled kernels' load, the writers' setup (2.5-5 s on small jobs of every
-#: task: e.g. 4 ik targets of the delta in 6.0 s, a 50 x 100 DP in 2.6 s).
-RUN_OVERHEAD_S = 3.0
+#: writers), the compiled kernels' load, the writers' setup (0.2-5 s on small jobs of every
+#: task with the load: e.g. 4 ik targets of the delta in 0.2 s at load 5, 6.0 s at load 7).
+RUN_OVERHEAD_S = 1.5
 
 #: fk, per step. Closed chains: the loop closure (Newton from the previous step) costs about
 #: ``FK_CLOSED_STEP_S + FK_CLOSED_EQ_S`` x equations (five-bar, 2 equations: 1.5e-4 s;
@@ -49,19 +51,19 @@ IK_CLOSED_EQ_S = 1e-3
 IK_CLOSED_FIRST_S = 0.5
 #: cg-golden (kim1995 §5.2) per start: ~2000 function evaluations, 0.13-0.47 s per target.
 IK_CG_START_S = 0.4
-#: analytic / closed-form per target (PUMA: 50 targets in 1.7 s, nearly all of it loading the
-#: compiled subproblems once: ``COMPILED_LOAD_S``).
+#: analytic / closed-form per target (PUMA: 50 targets in 0.3-1.7 s, nearly all of it loading
+#: the compiled subproblems once: ``COMPILED_LOAD_S``).
 IK_ANALYTIC_S = 1e-3
-COMPILED_LOAD_S = 1.5
+COMPILED_LOAD_S = 0.5
 #: Of the allowed restarts, the share a target uses on average (random targets with cold
 #: starts: PUMA 0.62, Panda 0.36 of 30; precision points: 0).
 IK_RESTART_SHARE = 0.2
 
 #: Joint sweeps, per sample: the frame's FK and dexterity (open chains: PUMA 20000 samples in
-#: 1.5 s) or the loop closure from a neighbour too (``SWEEP_CLOSED_S + SWEEP_CLOSED_EQ_S`` x
+#: 0.9-1.5 s) or the loop closure from a neighbour too (``SWEEP_CLOSED_S + SWEEP_CLOSED_EQ_S`` x
 #: equations: five-bar 1e-3 s, delta 2.3e-3 s, Stewart 6e-3 s), points.csv and MCAP 5e-5 s;
 #: plus ``COMPILED_LOAD_S`` once.
-SWEEP_OPEN_S = 7.5e-5
+SWEEP_OPEN_S = 5e-5
 SWEEP_CLOSED_S = 5e-4
 SWEEP_CLOSED_EQ_S = 2e-4
 SWEEP_WRITE_S = 5e-5
@@ -71,10 +73,11 @@ TASK_SPACE_START_S = 1e-2
 
 #: The phase-plane DP per transition (N1 x N2 x N2 of a grid) with the compiled stage
 #: (solvers/track/dp_stage.py, dp_jit.py): 100 x 400 in 2.0 s, 200 x 600 in 2.3 s,
-#: 400 x 1000 in 3.1 s, 100 x 2000 in 4.6 s, time-optimal 200 x 1000 in 3.2 s: about 1e-8 s
-#: each beyond a fixed ~1.5 s (the kernel's load, the path ik and dynamics); small grids run
-#: the numpy stage (1e-7 s per transition, 50 x 100 in 0.2 s) and load nothing.
-DP_S_PER_TRANSITION = 1e-8
+#: 400 x 1000 in 3.1 s (2.0 s at a lower load), 100 x 2000 in 4.6 s, time-optimal 200 x 1000 in
+#: 3.2 s (1.3 s): about 5e-9 s each beyond a fixed 0.5-1.5 s (the kernel's load, the path ik
+#: and dynamics); small grids run the numpy stage (1e-7 s per transition, 50 x 100 in 0.2 s)
+#: and load nothing. (The constant before the compiled stage was 3e-7 s per transition.)
+DP_S_PER_TRANSITION = 5e-9
 DP_NUMPY_S_PER_TRANSITION = 1e-7
 
 
