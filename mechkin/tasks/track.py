@@ -42,7 +42,7 @@ from mechkin.solvers.dynamics.from_mechanism import (
     planar_two_link_from_mechanism,
 )
 from mechkin.solvers.dynamics.open_chain import InverseDynamics
-from mechkin.solvers.result import Stopped
+from mechkin.solvers.result import Stopped, stop_when
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
@@ -191,6 +191,13 @@ def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandPath
     )
 
 
+def _solve_whole(*args: Any) -> TrackResult:
+    """:func:`_solve` of one grid of a grid study (a job): never stopped inside its DP (the
+    run stops between two grids, keeping the grids solved)."""
+    with stop_when(None):
+        return _solve(*args)
+
+
 def _grid_record(res: TrackResult) -> dict[str, Any]:
     s = res.summary()
     keys = ("status", "message", "t_a_s", "t_start_s", "duration_s", "peak_torque", "limits_ok",
@@ -257,7 +264,8 @@ def run(scenario: Scenario) -> Report:
         except ConfigError as exc:
             raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
 
-    n_plans = 1 + len(spec.grid_study or []) + len(spec.cases or [])
+    n_plans = (1 + len([g for g in spec.grid_study or [] if g != spec.grid])
+               + len(spec.cases or []))  # the scenario's grid, the other grids, the cases
     try:
         res = _solve(spec, spec.grid, dyn, path, ref, limits, list(mech.joint_names))
     except Stopped:  # --max-time between two DP stages: no plan, the summary says so
@@ -271,7 +279,7 @@ def run(scenario: Scenario) -> Report:
         from mechkin.tasks.distributed import call, map_jobs
 
         todo = [g for g in spec.grid_study if g != spec.grid]
-        solved = iter(map_jobs(call, [(_solve, (spec, g, dyn, path, ref, limits,
+        solved = iter(map_jobs(call, [(_solve_whole, (spec, g, dyn, path, ref, limits,
                                                 list(mech.joint_names))) for g in todo],
                                f"track: grid study ({len(todo)} grids)", partial=True))
         # after a --max-time stop: the grids solved so far
@@ -280,7 +288,7 @@ def run(scenario: Scenario) -> Report:
         study = [_grid_record(r) for r in study_results]
     cases = solve_cases(scenario, mech, res, lambda lm, dp: _solve(
         spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # track.cases
-    done = 1 + len(study_results) + len(cases)
+    done = 1 + len([r for r in study_results if r is not res]) + len(cases)
     if budget.stop_info() is not None and done < n_plans:  # stopped before the last plan
         budget.note_done(done, n_plans, "plans")
 

@@ -118,3 +118,28 @@ def test_run_jobs_returns_the_finished_prefix_on_stop():
 
     assert run_jobs(abs, [-1, -2, -3, -4], workers=1, stop=stop) == [1, 2]
     assert run_jobs(abs, [-1, -2], workers=1, stop=lambda: False) == [1, 2]
+
+
+def test_a_grid_study_keeps_the_grids_solved(tmp_path, monkeypatch, capsys):
+    """The scenario's own grid solves, then the time is up: the study stops between two grids
+    (never inside a study grid's DP), the plan and the grids done so far are kept."""
+    from mechkin.tasks import track
+
+    real = track._solve
+    state = {"solved": 0}
+
+    def solve_then_time_is_up(*args, **kw):
+        res = real(*args, **kw)
+        state["solved"] += 1
+        monkeypatch.setattr(budget, "_clock", lambda: 1e6)  # used up after the first plan
+        return res
+
+    monkeypatch.setattr(budget, "_clock", lambda: 0.0)
+    monkeypatch.setattr(track, "_solve", solve_then_time_is_up)
+    sc = _scenario(tmp_path, "park_grid_study.yaml")
+    code, summary, err = _run("track", sc, tmp_path / "o", capsys)
+    assert code == 1
+    st = summary["stopped"]
+    assert (st["unit"], st["done"], st["total"]) == ("plans", 2, 3), st  # own grid, 30 x 50
+    assert [(g["N1"], g["N2"]) for g in summary["grid_study"]] == [(30, 50), (50, 100)]
+    assert summary["files"] and "track.csv" in summary["files"]
