@@ -33,6 +33,7 @@ from mechkin.model.continuation import solve_motion, with_limits
 from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
+from mechkin.tasks import budget
 from mechkin.tasks.budget import MAX_TIME_S, estimate_time
 from mechkin.tasks.common import (
     UNIT_TO_SI,
@@ -243,11 +244,13 @@ def _solve_split(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, kw: dict[str
     m = len(qv)
     n = ex.n_workers(1) or 8
     chunk = int(min(CHUNK_STEPS, max(SPLIT_MIN_STEPS, -(-m // (2 * n)))))
-    with progress_bar(ex.progress, f"fk: {m} steps in chunks") as update:
+    stop = budget.overrun if budget.time_limit() is not None else None  # keep the chunks done
+    with progress_bar(ex.progress, f"fk: {m} steps in chunks", deadline=False) as update:
         res, _ = solve_trajectory_chunks(
             mech, qv, q_w0, chunk_steps=chunk, progress=update,
             run_jobs=lambda fn, jobs, prog: run_jobs(fn, jobs, workers=ex.n_workers(1),
-                                                     address=ex.address, progress=prog),
+                                                     address=ex.address, progress=prog,
+                                                     stop=stop),
             **kw)
     return res
 
@@ -282,8 +285,6 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
         first = solve_motion(mech, qv[:1], q_w0=q_w0, guess=guess, **kw)
         start_w = first.q[0, mech.dependent] if first.ok[0] else q_w0
         return _solve_split(mech, qv, start_w, kw, ex)
-    from mechkin.tasks import budget
-
     # under --max-time: shorter chunks, the run stops between two (budget.overrun)
     timed = budget.time_limit() is not None
     size = TIMED_CHUNK_STEPS if timed else CHUNK_STEPS
@@ -302,8 +303,7 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
             if update is not None:
                 update(min(k + size, m), m)
             if timed and k + size < m and budget.overrun():
-                budget.note_done(k + size, m, "steps")
-                break
+                break  # the run notes the steps done
     first = parts[0]
     # the optional fields (T_links, jacobian) only when every chunk has them
     return type(first)(**{f.name: None if any(getattr(p, f.name) is None for p in parts)
@@ -330,6 +330,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
                                guess=bool(scenario.section.initial_guess))
         if len(res.q) < len(t):  # stopped by --max-time: the finished steps only
             k = len(res.q)
+            budget.note_done(k, len(t), "steps")
             t, qv, qd_v, qdd_v = t[:k], qv[:k], qd_v[:k], qdd_v[:k]
             base = base_trajectory(scenario, mech, t)
         res = with_limits(mech, _finite_closure(mech, res, q_w0))

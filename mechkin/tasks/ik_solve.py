@@ -214,7 +214,7 @@ def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
         jobs.append({"mechanism": mspec, "T_P": T_P[sl], "W": W[sl], "far": far[sl],
                      "method": spec.method, "kind": kind, "options": opts, "q_v0": qv0,
                      "q_w0": qw0, "warm": warm, "overlap": o, "start": a})
-    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex)
+    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex, partial=True)
     repaired = []
     for j in range(1, len(parts)):
         if warm and not _same_start(mech, parts[j]["entry"], parts[j - 1]["last"]):

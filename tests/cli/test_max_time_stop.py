@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import itertools
 import json
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -143,3 +145,51 @@ def test_a_grid_study_keeps_the_grids_solved(tmp_path, monkeypatch, capsys):
     assert (st["unit"], st["done"], st["total"]) == ("plans", 2, 3), st  # own grid, 30 x 50
     assert [(g["N1"], g["N2"]) for g in summary["grid_study"]] == [(30, 50), (50, 100)]
     assert summary["files"] and "track.csv" in summary["files"]
+
+
+def _run_split(task: str, sc: Path, out: Path, capsys) -> tuple[int, dict, list[str]]:
+    capsys.readouterr()
+    code = shell.execute(task, sc, out, False, False, lambda s: s["status"], max_time="1h",
+                         workers=2)
+    err = capsys.readouterr().err.strip().splitlines()
+    return code, json.loads((out / "summary.json").read_text()), err
+
+
+def test_a_split_fk_motion_keeps_a_prefix_of_chunks():
+    """solve_trajectory_chunks after a stop: run_jobs returned the first chunk only; the
+    motion solved is that chunk's steps (the same rows as a whole run)."""
+    from mechkin.model import load_mechanism
+    from mechkin.solvers.distributed import solve_trajectory_chunks
+
+    mech = load_mechanism(ROOT / "mechanisms" / "five_bar.yaml")
+    t = np.linspace(0.0, 2.0, 5001)
+    qv = np.column_stack([np.radians(135 + 15 * np.sin(np.pi * t)),
+                          np.radians(45 + 15 * np.cos(np.pi * t))])
+    q_w0 = mech.home[mech.dependent]
+    whole, _ = solve_trajectory_chunks(mech, qv, q_w0, chunk_steps=2000,
+                                       run_jobs=lambda fn, jobs, prog: [fn(j) for j in jobs])
+    part, _ = solve_trajectory_chunks(mech, qv, q_w0, chunk_steps=2000,
+                                      run_jobs=lambda fn, jobs, prog: [fn(jobs[0])])
+    assert len(part.q) == 2000 and len(whole.q) == 5001
+    np.testing.assert_allclose(part.q, whole.q[:2000], atol=1e-9)
+
+
+def test_a_process_pool_stops_between_jobs():
+    stop_now = []
+
+    def stop() -> bool:
+        stop_now.append(1)
+        return True
+
+    out = run_jobs(time.sleep, [0.3] * 24, workers=2, stop=stop)
+    assert 1 <= len(out) < 24 and stop_now  # the jobs already handed to the pool finish
+
+
+def test_a_split_ik_sequence_keeps_the_finished_chunks(tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "puma560_random_ik.yaml", restarts=2,
+                   random_targets={"count": 200, "seed": 1})
+    code, summary, err = _run_split("ik", sc, tmp_path / "o", capsys)
+    st = summary["stopped"]
+    assert code == 1 and st["total"] == 200 and st["unit"] == "targets", st
+    assert 0 < st["done"] < 200 and st["done"] % 25 == 0, st  # whole chunks of 25 targets
+    assert len(summary["targets"]) == st["done"]
