@@ -29,7 +29,6 @@ May import: config, spatial, errors, numpy, yourdfpy, lxml.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
