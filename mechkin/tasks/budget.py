@@ -206,11 +206,20 @@ class TimeLimitExceeded(MechkinError):
     exit_code = 1
 
 
+def _limit_now() -> float | None:
+    """:func:`time_limit` (``--max-time``, else ``MECHKIN_MAX_TIME``), None if unusable (a bad
+    ``MECHKIN_MAX_TIME`` is refused, with its line, where the run's estimates are checked)."""
+    try:
+        return time_limit()
+    except ConfigError:
+        return None
+
+
 def overrun() -> bool:
     """True once the run has used its ``--max-time``: the task stops at its next safe point
     (between samples, targets, sweep chunks, DP stages), keeps the finished rows and says how
     many with :func:`note_done`; :func:`stop_info` then holds the stop for the summary."""
-    lim, start, info = _TIME.get(), _START.get(), _STOP.get()
+    lim, start, info = _limit_now(), _START.get(), _STOP.get()
     if lim is None or start is None or info is None:
         return False
     if info:
@@ -239,7 +248,7 @@ def stop_info() -> dict[str, Any] | None:
 def check_deadline() -> None:
     """Raise :class:`TimeLimitExceeded` once the run has used its ``--max-time`` (called
     between the jobs of a split run that keeps no partial result)."""
-    lim, start = _TIME.get(), _START.get()
+    lim, start = _limit_now(), _START.get()
     if lim is None or start is None:
         return
     used = _clock() - start

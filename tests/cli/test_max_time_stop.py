@@ -105,6 +105,15 @@ def test_task_space_sweep_keeps_the_finished_chunks(tmp_path, time_is_up, capsys
     assert len(read_csv(tmp_path / "o" / "task_points.csv")["x_m"]) == 8
 
 
+def test_max_time_from_the_environment_stops_too(tmp_path, time_is_up, monkeypatch, capsys):
+    monkeypatch.setenv("MECHKIN_MAX_TIME", "1h")
+    sc = _scenario(tmp_path, "puma560_random_ik.yaml", restarts=2)
+    capsys.readouterr()
+    code = shell.execute("ik", sc, tmp_path / "o", False, False, lambda s: s["status"])
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert code == 1 and summary["stopped"]["done"] == 1, summary.get("stopped")
+
+
 def test_a_run_within_its_time_is_not_stopped(tmp_path, capsys):
     sc = _scenario(tmp_path, "five_bar_fk.yaml")
     code, summary, err = _run("fk", sc, tmp_path / "o", capsys)
