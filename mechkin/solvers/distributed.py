@@ -145,7 +145,8 @@ def solve_trajectory_chunks(
     parts = run_jobs(trajectory_job, jobs, progress)
     kept: list[ClosureResult] = []
     repaired: list[int] = []
-    for k, (job, r) in enumerate(zip(jobs, parts, strict=True)):
+    for k, (job, r) in enumerate(zip(jobs[:len(parts)], parts, strict=True)):  # a prefix
+        # after a stop (run_jobs' stop=): the chunks finished
         sk = job["skip"]
         if k > 0:
             prev = kept[-1]

@@ -33,7 +33,8 @@ from mechkin.model.continuation import solve_motion, with_limits
 from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
 from mechkin.records import Report
-from mechkin.tasks.budget import MAX_TIME_S
+from mechkin.tasks import budget
+from mechkin.tasks.budget import MAX_TIME_S, estimate_time
 from mechkin.tasks.common import (
     UNIT_TO_SI,
     check_motion_budget,
@@ -43,6 +44,7 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
+from mechkin.tasks.estimates import fk_seconds
 from mechkin.tasks.fk_base import (
     base_into_record,
     base_into_summary,
@@ -227,10 +229,16 @@ def _check_steps(scenario: Scenario, mech: Mechanism, m: int) -> None:
     """m fk steps with their rates (qd, qdd, twists) against the memory budget."""
     check_motion_budget(scenario, mech, m, ("fk",), "fk steps", extra_per_item=
                         8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
+    estimate_time(scenario.doc.where(("fk",)), fk_seconds(mech, m, scenario.spec.outputs),
+                  f"{m} fk steps of {mech.name}")
 
 
 #: Steps per loop-closure chunk of a long motion (progress and Ctrl-C between chunks).
 CHUNK_STEPS = 20_000
+
+
+#: Steps per chunk under ``--max-time`` (the run may stop between two chunks).
+TIMED_CHUNK_STEPS = 1_000
 
 
 #: Fewest steps per chunk of a motion split over workers (``--workers`` / ``--scheduler``).
@@ -249,11 +257,13 @@ def _solve_split(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, kw: dict[str
     m = len(qv)
     n = ex.n_workers(1) or 8
     chunk = int(min(CHUNK_STEPS, max(SPLIT_MIN_STEPS, -(-m // (2 * n)))))
-    with progress_bar(ex.progress, f"fk: {m} steps in chunks") as update:
+    stop = budget.overrun if budget.time_limit() is not None else None  # keep the chunks done
+    with progress_bar(ex.progress, f"fk: {m} steps in chunks", deadline=False) as update:
         res, _ = solve_trajectory_chunks(
             mech, qv, q_w0, chunk_steps=chunk, progress=update,
             run_jobs=lambda fn, jobs, prog: run_jobs(fn, jobs, workers=ex.n_workers(1),
-                                                     address=ex.address, progress=prog),
+                                                     address=ex.address, progress=prog,
+                                                     stop=stop),
             **kw)
     return res
 
@@ -288,22 +298,29 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
         first = solve_motion(mech, qv[:1], q_w0=q_w0, guess=guess, **kw)
         start_w = first.q[0, mech.dependent] if first.ok[0] else q_w0
         return _solve_split(mech, qv, start_w, kw, ex)
-    if m <= CHUNK_STEPS:
+    # under --max-time: shorter chunks, the run stops between two (budget.overrun)
+    timed = budget.time_limit() is not None
+    size = TIMED_CHUNK_STEPS if timed else CHUNK_STEPS
+    if m <= size:
         return solve_motion(mech, qv, q_w0=q_w0, guess=guess, **kw)
     parts = []
-    with progress_bar(progress, f"fk: {m} steps") as update:
+    with progress_bar(progress, f"fk: {m} steps", deadline=False) as update:
         start_q = None
-        for k in range(0, m, CHUNK_STEPS):
-            r = solve_motion(mech, qv[k:k + CHUNK_STEPS], q_w0=q_w0, guess=guess,
+        for k in range(0, m, size):
+            r = solve_motion(mech, qv[k:k + size], q_w0=q_w0, guess=guess,
                              q_start=start_q, **kw)
             parts.append(r)
             good = np.flatnonzero(r.ok)
             if good.size:
                 start_q = r.q[good[-1]]
             if update is not None:
-                update(min(k + CHUNK_STEPS, m), m)
+                update(min(k + size, m), m)
+            if timed and k + size < m and budget.overrun():
+                break  # the run notes the steps done
     first = parts[0]
-    return type(first)(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
+    # the optional fields (T_links, jacobian) only when every chunk has them
+    return type(first)(**{f.name: None if any(getattr(p, f.name) is None for p in parts)
+                          else np.concatenate([getattr(p, f.name) for p in parts])
                           for f in fields(first)})
 
 
@@ -324,6 +341,11 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         res = _solve_in_chunks(mech, qv, q_w0, tol, progress,
                                guess=bool(scenario.section.initial_guess))
+        if len(res.q) < len(t):  # stopped by --max-time: the finished steps only
+            k = len(res.q)
+            budget.note_done(k, len(t), "steps")
+            t, qv, qd_v, qdd_v = t[:k], qv[:k], qd_v[:k], qdd_v[:k]
+            base = base_trajectory(scenario, mech, t)
         res = with_limits(mech, _finite_closure(mech, res, q_w0))
         solve_s = time.perf_counter() - t0
         kin = forward_kinematics(mech, res.q)

@@ -40,6 +40,7 @@ from mechkin.solvers.ik.all_solutions import (
     TOL_ORI_ALL,
     TOL_POS_ALL,
 )
+from mechkin.tasks import budget
 from mechkin.tasks.common import (
     check_motion_budget,
     expect_messages,
@@ -49,6 +50,7 @@ from mechkin.tasks.common import (
     with_expect,
 )
 from mechkin.tasks.distributed import resolve as resolve_execution
+from mechkin.tasks.estimates import ik_seconds
 from mechkin.tasks.ik_all import _all_solutions, _clean, _solution_rows, _solutions_record
 from mechkin.tasks.ik_analytic import (
     analytic_problem,
@@ -172,11 +174,24 @@ def beyond_reach(mech: Mechanism, T_P: np.ndarray, W: np.ndarray) -> np.ndarray:
 
 
 def check_budget(scenario: Scenario) -> None:
-    """The run's memory budget check (random targets), without solving."""
-    rt = scenario.section.random_targets
+    """The run's memory budget check (random targets) and time estimate, without solving."""
+    spec: IkSpec = scenario.section
+    if has_target_sets(spec):
+        return
+    rt = spec.random_targets
+    mech = load_mechanism(scenario.mechanism_path)
     if rt is not None:
-        mech = load_mechanism(scenario.mechanism_path)
-        _check_targets(scenario, mech, rt.count + len(scenario.section.targets))
+        _check_targets(scenario, mech, rt.count + len(spec.targets))
+    _estimate(scenario, mech, (rt.count if rt is not None else 0) + len(spec.targets))
+
+
+def _estimate(scenario: Scenario, mech: Mechanism, k: int) -> None:
+    """k targets' time before any work (:func:`mechkin.tasks.estimates.ik_seconds`)."""
+    spec: IkSpec = scenario.section
+    key = ("ik", "random_targets") if spec.random_targets is not None else ("ik", "targets")
+    budget.estimate_time(scenario.doc.where(key), ik_seconds(
+        mech, k, spec.method, spec.restarts, scenario.spec.outputs),
+        f"{k} ik targets ({spec.method}, up to {spec.restarts} restarts each)")
 
 
 def _check_targets(scenario: Scenario, mech: Mechanism, k: int) -> None:
@@ -211,6 +226,7 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     T_P, W, labels = _targets(scenario, mech)
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
+    _estimate(scenario, mech, len(T_P))
     qv0, qw0 = _initial(scenario, mech)
     far = beyond_reach(mech, T_P, W)
     opts = ik_options(spec, scenario.spec.units)
@@ -241,10 +257,15 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
         from mechkin.tasks.progress import progress_bar
 
         show = progress if progress is not None or len(T_P) >= 1000 else False
-        with progress_bar(show, f"ik: {len(T_P)} targets") as update:
+        with progress_bar(show, f"ik: {len(T_P)} targets", deadline=False) as update:
             results, guesses, _ = solve_sequence(mech, T_P, W, far, spec.method, kind, opts,
-                                                 qv0, qw0, spec.warm_start, update)
+                                                 qv0, qw0, spec.warm_start, update,
+                                                 stop=budget.overrun)
     solve_s = time.perf_counter() - t0
+    if len(results) < len(T_P):  # stopped by --max-time: the solved targets only
+        budget.note_done(len(results), len(T_P), "targets")
+        k = len(results)
+        T_P, W, labels, far, guesses = T_P[:k], W[:k], labels[:k], far[:k], guesses[:k]
     all_sols = (_all_solutions(scenario, prepared, T_P, W, results, guesses, far, opts)
                 if spec.solutions == "all" else None)
     q = np.array([r.q for r in results])

@@ -127,7 +127,8 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
                    method: str, kind: str | None, opts: IkOptions, qv: np.ndarray,
                    qw: np.ndarray, warm: bool, update: Any = None, offset: int = 0,
                    total: int | None = None,
-                   cold: tuple[np.ndarray, np.ndarray] | None = None
+                   cold: tuple[np.ndarray, np.ndarray] | None = None,
+                   stop: Any = None,
                    ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]],
                               tuple[np.ndarray, np.ndarray]]:
     """Solve the targets in order, each warm-started from the previous solution when
@@ -160,6 +161,8 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
                 qv, qw = r.q_v, r.q_w
         if update is not None and (i % 50 == 49 or i == len(T_P) - 1):
             update(offset + i + 1, total)
+        if stop is not None and i + 1 < len(T_P) and stop():
+            break  # --max-time: the targets solved so far are kept
     return results, guesses, (qv, qw)
 
 
@@ -222,7 +225,7 @@ def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
         jobs.append({"mechanism": mspec, "T_P": T_P[sl], "W": W[sl], "far": far[sl],
                      "method": spec.method, "kind": kind, "options": opts, "q_v0": qv0,
                      "q_w0": qw0, "warm": warm, "overlap": o, "start": a})
-    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex)
+    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex, partial=True)
     repaired = []
     for j in range(1, len(parts)):
         if warm and not _same_start(mech, parts[j]["entry"], parts[j - 1]["last"]):
@@ -262,6 +265,6 @@ def _solve_batch(sc: Scenario, T_P: np.ndarray, W: np.ndarray, qv0: np.ndarray,
     mspec = mechanism_spec(sc.mechanism_path)
     jobs = [{"mechanism": mspec, "T_P": T_P[a:a + BATCH_CHUNK], "W": W[a:a + BATCH_CHUNK],
              "q_v0": qv0, "q_w0": qw0, "options": opts} for a in range(0, k, BATCH_CHUNK)]
-    parts = map_jobs(_batch_job, jobs, f"ik: {k} targets (batch)", ex)
+    parts = map_jobs(_batch_job, jobs, f"ik: {k} targets (batch)", ex, partial=True)
     info = ({**ex.describe(len(jobs)), "chunk": BATCH_CHUNK} if ex.split else None)
     return [r for p in parts for r in p], info

@@ -496,8 +496,16 @@ _JOINT_SWEEP_KEYS = _HEAD | {"mechanism", "method", "seed", "swept_joints", "ful
                              "isotropy_normalized", "isotropy_position"}
 
 
+#: Keys of every task's summary: a --max-time stop (budget.mark_stopped), the time estimate.
+_RUN_KEYS = {"stopped", "estimated_time_s"}
+
+
 def summary_top_keys(sc: Any) -> set[str]:
     """The top-level keys a run of ``sc`` can put in summary.json before the expects."""
+    return _task_top_keys(sc) | _RUN_KEYS
+
+
+def _task_top_keys(sc: Any) -> set[str]:
     name = sc.section_name
     if name == "fk":
         return _FK_KEYS
