@@ -4,6 +4,7 @@ loses a target the same defaults solve alone."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import mechkin
 from tests.model import closed_chain_models as M
@@ -47,3 +48,42 @@ def test_batch_ik_never_reports_ok_outside_passive_limits(tmp_path):
             assert _passive_inside(mech, r.q)[0]
         if not _passive_inside(mech, r.q)[0]:
             assert r.status.value != "ok" and r.at_limit
+
+
+@pytest.mark.parametrize("name", ["xarm", "robotiq", "cassie", "slider", "watt"])
+def test_sequential_ik_with_the_defaults_loses_no_target(tmp_path, name):
+    # the five models (default passive limits), targets at random within-limit q_v: the same
+    # defaults (no restarts given) solve every target alone, in a warm-started sequence and in a
+    # batch
+    text = {"xarm": M.XARM, "robotiq": M.ROBOTIQ, "cassie": M.CASSIE, "slider": M.SLIDER,
+            "watt": M.WATT}[name]
+    mech, _ = load(tmp_path, text)
+    T = mechkin.fk(mech, random_qv(mech, 10, seed=7)).poses["end_effector"]
+    alone = [mechkin.ik(mech, T[k], weights=W_POS)[0].status.value for k in range(len(T))]
+    seq = [r.status.value for r in mechkin.ik(mech, T, weights=W_POS,
+                                              q_v0=mech.home[mech.independent])]
+    batch = [r.status.value for r in mechkin.ik(mech, T, weights=W_POS, batch=True)]
+    assert alone == ["ok"] * len(T)
+    assert seq == alone and batch == alone
+
+
+def test_a_passive_limit_that_blocks_the_target_is_reported_at_a_limit(tmp_path):
+    # the xArm gripper's finger joint limited to [0, 0.5] rad: driver 0.7 puts the pad where
+    # the parallelogram needs finger_joint = 0.7 (its limit blocks it); single, sequential and
+    # batch IK all say "at a limit" and name the joint (single used to say "unreachable")
+    mech, _ = load(tmp_path, M.XARM, **{"[0.035465, 0.042039, 0]}, limits: [0, 0.85]":
+                                         "[0.035465, 0.042039, 0]}, limits: [0, 0.5]"})
+    assert mech.upper[mech.joint_index("finger_joint")] == 0.5
+    fk = mechkin.fk(mech, [[0.7], [0.3]])
+    assert fk.status == ["outside limits", "converged"]
+    T = fk.poses["end_effector"]
+    runs = {"single": mechkin.ik(mech, T[0], weights=W_POS),
+            "sequence": mechkin.ik(mech, T, weights=W_POS, q_v0=[0.0]),
+            "batch": mechkin.ik(mech, T, weights=W_POS, batch=True)}
+    for how, res in runs.items():
+        r = res[0]
+        assert r.status.value == "at a limit", how
+        assert "finger_joint" in r.at_limit, how
+        assert r.position_error > 1e-4, how  # the target is not reached: never ok
+        if len(res) > 1:
+            assert res[1].status.value == "ok", how
