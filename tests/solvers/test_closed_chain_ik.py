@@ -87,3 +87,28 @@ def test_a_passive_limit_that_blocks_the_target_is_reported_at_a_limit(tmp_path)
         assert r.position_error > 1e-4, how  # the target is not reached: never ok
         if len(res) > 1:
             assert res[1].status.value == "ok", how
+
+
+def test_the_ik_task_names_the_passive_joint_at_its_limit_for_every_target(tmp_path):
+    # mechkin ik on the xArm gripper (finger_joint limited to 0.5 rad): a target the finger
+    # limit blocks, then one beyond any reach (answered with the previous joints): both name
+    # finger_joint in joints_at_limit (the far one used to name none)
+    load(tmp_path, M.XARM, "xarm.yaml", **{"[0.035465, 0.042039, 0]}, limits: [0, 0.85]":
+                                           "[0.035465, 0.042039, 0]}, limits: [0, 0.5]"})
+    mech = mechkin.load_mechanism(tmp_path / "xarm.yaml")
+    p = mechkin.fk(mech, [[0.7]]).poses["end_effector"][0, :3, 3].tolist()
+    sc = tmp_path / "ik.yaml"
+    sc.write_text("name: xarm_ik\ntask: ik\nmechanism: xarm.yaml\n"
+                  "units: {length: m, angle: rad}\nik:\n  weights: [1, 1, 1, 0, 0, 0]\n"
+                  "  targets:\n"
+                  f"    - {{name: blocked, xyz: [{p[0]!r}, {p[1]!r}, 0.0], "
+                  "euler: {convention: XYZ, angles: [0, 0, 0]}}\n"
+                  "    - {name: far, xyz: [2.0, 2.0, 0.0], euler: {convention: XYZ, "
+                  "angles: [0, 0, 0]}}\n"
+                  "outputs: {plots: false, mcap: false, csv: false}\n")
+    rep = mechkin.run(sc)
+    t = {x["name"]: x for x in rep.summary["targets"]}
+    assert t["blocked"]["status"] == "at a limit" and t["far"]["status"] == "unreachable"
+    for x in t.values():
+        assert "finger_joint" in x["joints_at_limit"], x
+    assert rep.exit_code == 1
