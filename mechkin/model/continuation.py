@@ -381,22 +381,22 @@ def _on_branch(mech: Mechanism, q: np.ndarray, ok: np.ndarray
     :func:`solve_motion` reaches it from the last regular sample instead (the predictor then
     steps across the crossing along the incoming tangent: the smooth continuation).
     Singular base: sample k is assembled and at such a constraint singularity."""
-    from mechkin.model.closure import dependent_sensitivity
-
     m = q.shape[0]
     out = np.ones(m, dtype=bool)
     sing = np.zeros(m, dtype=bool)
     iv, iw = mech.independent, mech.dependent
     done = np.flatnonzero(ok)
-    if done.size:
-        with np.errstate(all="ignore"):
-            _, J = closure_jacobian(mech, forward_kinematics(mech, q[done]))
-            sing[done] = _scaled_ratio(mech, J[:, :, iw]) < RATIO_SINGULAR
+    if done.size == 0:
+        return out, sing
+    with np.errstate(all="ignore"):
+        _, J = closure_jacobian(mech, forward_kinematics(mech, q[done]))
+        sing[done] = _scaled_ratio(mech, J[:, :, iw]) < RATIO_SINGULAR
     both = np.flatnonzero(ok[:-1] & ok[1:]) if m > 1 else np.zeros(0, dtype=int)
     if both.size == 0:
         return out, sing
     with np.errstate(all="ignore"):
-        S = dependent_sensitivity(mech, q[both])
+        Jb = J[np.searchsorted(done, both)]  # dq_w/dq_v = -Phi_w^+ Phi_v at the bases
+        S = -np.linalg.pinv(Jb[:, :, iw]) @ Jb[:, :, iv]
         move = np.einsum("kwv,kv->kw", S, q[both + 1][:, iv] - q[both][:, iv])
         corr = np.linalg.norm(q[both + 1][:, iw] - q[both][:, iw] - move, axis=1)
         out[both + 1] = ((corr <= 0.5 * np.linalg.norm(move, axis=1) + ABS_CORRECTION)
