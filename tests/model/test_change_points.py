@@ -214,3 +214,21 @@ def test_triple_rocker_limit_position_stops_the_motion(tmp_path):
     # stopped at the limit position, not somewhere else
     assert np.allclose(np.abs(out.q[:, 0]), TRIPLE_LIMIT, atol=1e-4)
     json.dumps(rep.summary["singularity"])
+
+
+def test_chunked_motion_through_change_points_matches_one_run(tmp_path):
+    # the fk split over workers (mechkin.solvers.distributed): chunks and the coarse warm-start
+    # pass go through the same branch checks; 3 deg steps sample the change points exactly
+    from mechkin.solvers.distributed import solve_trajectory_chunks
+    from mechkin.solvers.workspace.sweeps import run_jobs
+
+    mech, _ = load(tmp_path, PARALLELOGRAM)
+    th = np.radians(np.arange(60.0, 60.0 - 3 * 600, -3.0))
+    res, info = solve_trajectory_chunks(
+        mech, th[:, None], mech.home[mech.dependent], chunk_steps=100,
+        run_jobs=lambda fn, jobs, prog: run_jobs(fn, jobs, workers=1, progress=prog))
+    assert info["chunks"] == 6
+    assert all(s is ClosureStatus.CONVERGED for s in res.status)
+    e = err(res.q, parallelogram_ref(th))
+    on_point = np.isclose(np.cos(th) ** 2, 1.0, atol=1e-12)
+    assert e[~on_point].max() <= 1e-9 and e[on_point].max() <= 1e-5
