@@ -188,6 +188,10 @@ def test_cli_tables_and_summaries_never_ok_outside_passive_limits(mechs, tmp_pat
     assert s["steps"]["outside limits"] == status.count("outside limits")
     assert (s["status"] == "ok") == (status.count("converged") == len(status))
     assert r.exit_code == (0 if s["status"] == "ok" else 1), r.output
+    n_out = s["steps"]["outside limits"]
+    SEEN[f"cli fk {s['status']}"] = SEEN.get(f"cli fk {s['status']}", 0) + 1
+    if n_out and s["status"] == "outside limits":  # the one line says how many and which
+        assert f"{n_out} outside limits ({', '.join(s['joints_outside_limits'])})" in r.output
     # ik of the end effector positions of the assembled rows
     ee = [[float(row[f"ee_{a}_m"]) for a in "xyz"] for row, s_k in zip(rows, status, strict=True)
           if s_k in ("converged", "outside limits")]
@@ -222,3 +226,5 @@ def test_the_properties_saw_every_outcome():
         pytest.skip("run with the property tests above")
     for key in ("fk converged", "fk outside limits", "ik ok", "ik at a limit"):
         assert SEEN.get(key, 0) >= 3, SEEN
+    if any(k.startswith("cli") for k in SEEN):
+        assert SEEN.get("cli fk ok", 0) and SEEN.get("cli fk outside limits", 0), SEEN
