@@ -1,9 +1,11 @@
 """Closed-chain inverse dynamics per configuration: python benchmarks/bench_closed_rnea.py [reps].
 
-:class:`mechkin.solvers.dynamics.closed_chain.ClosedChainDynamics` (tree Newton-Euler projected on the
+:class:`mechkin.solvers.dynamics.closed_chain.ClosedChainDynamics` (tree Newton-Euler projected on
+the
 independent joints, the dependent rates and accelerations from the closure, kim1995 Eq. (3)-(4))
 on the kim1995 direct-drive arm (6 joints, 1 cut) and Stewart platform (36 joints, 5 cuts),
-against the open-chain recursion :class:`mechkin.solvers.dynamics.open_chain.SerialChainDynamics` of the
+against the open-chain recursion :class:`mechkin.solvers.dynamics.open_chain.SerialChainDynamics`
+of the
 PUMA 560 (6 joints) as the reference, and the same tree recursion on the PUMA (no closure).
 
 Each case is timed as the DP calls it: one batched ``inverse_dynamics(q, qd, qdd)`` over m

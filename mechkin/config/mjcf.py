@@ -50,6 +50,7 @@ from mechkin.config.tree_import import (
     tool_rank,
     tree_to_spec,
 )
+from mechkin.config.visuals_import import attach_mjcf_visuals
 from mechkin.errors import ConfigError
 
 
@@ -171,6 +172,7 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
                                     line=line))
     if problems:
         raise ConfigError(problems)
+    attach_mjcf_visuals(links, mujoco, path, bodies)  # visible geoms -> links[].visuals
     kept = {bodies[root_body]} | {lk.name for lk in links}
     frames = []
     for s in range(m.nsite):
@@ -303,7 +305,7 @@ def _compile(mujoco, path: Path):
     except ValueError:
         raise fail(first) from None
     sys.stderr.write(f"{path.name}: note: compiled without its {n} mesh / texture assets "
-                     "(missing on disk; mechkin needs no geometry)\n")
+                     "(missing on disk; the kinematics need none; visuals still reference them)\n")
     return model, n
 
 

@@ -22,6 +22,7 @@ from pydantic import (
 
 from mechkin.config.drawing_spec import DrawingSpec
 from mechkin.config.load import YamlDoc, format_key_path
+from mechkin.config.visual_spec import VisualSpec
 from mechkin.errors import ConfigError
 
 Num = Annotated[float, Field(strict=True, allow_inf_nan=False)]
@@ -97,6 +98,7 @@ class LinkSpec(Spec):
     description: str | None = None
     frames: list[FrameSpec] = Field(default_factory=list)
     inertial: InertialSpec | None = None
+    visuals: list[VisualSpec] = Field(default_factory=list)  # what viewers draw (visual_spec)
 
 
 class DHSpec(Spec):

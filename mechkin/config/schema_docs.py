@@ -90,6 +90,23 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "description": "Free text about the link.",
         "frames": "Named frames fixed on the link (tool points, cut-link frames).",
         "inertial": "Mass, centre of mass and inertia (needed by track dynamics: rnea).",
+        "visuals": "What viewers draw for the link (URDF <visual>; written by mechkin import "
+                   "from a URDF's visuals or an MJCF file's geoms); without it, geometry is "
+                   "generated from the joints and frames.",
+    },
+    "VisualSpec": {
+        "mesh": "Mesh file: a package://, file:// or http(s):// URI, or a path relative to "
+                "this file (written as a file:// URI). Never opened by mechkin; the viewer "
+                "loads it.",
+        "scale": "Scale of the mesh along x, y, z (dimensionless: the mesh keeps its own "
+                 "unit).",
+        "box": f"A box: full sizes along x, y, z {_L}.",
+        "cylinder": f"A cylinder along z: [radius, length] {_L}.",
+        "sphere": f"A sphere: radius {_L}.",
+        "xyz": f"Position of the geometry in the link frame {_L}.",
+        "rpy": f"Orientation: URDF roll-pitch-yaw about the link's x, y, z {_A}.",
+        "rgba": "Colour, red green blue alpha in 0..1; without it a mesh keeps its own "
+                "colours.",
     },
     "DHSpec": {
         "a": f"D-H link length a {_L}.",

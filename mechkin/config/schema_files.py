@@ -101,6 +101,10 @@ RULES: dict[str, list[dict]] = {
                                                                      _present("axis")]}}),
         _when("type", ["revolute", "prismatic"], {"not": _present("axes")}),
     ],
+    "VisualSpec": [
+        {"oneOf": [_present("mesh"), _present("box"), _present("cylinder"), _present("sphere")]},
+        {"if": _present("scale"), "then": _present("mesh")},
+    ],
     "ExpectSpec": [
         {"anyOf": [_present("value"), _present("min"), _present("max")]},
         {"not": {"allOf": [_present("value"), {"anyOf": [_present("min"), _present("max")]}]}},

@@ -54,6 +54,9 @@ class TreeLink:
     mass: float = 0.0
     com: np.ndarray | None = None
     inertia: np.ndarray | None = None
+    #: visual elements {"T": (4, 4) in the body frame, mesh|box|cylinder|sphere, scale?, rgba?}
+    #: (mechkin.config.visuals_import)
+    visuals: list[dict] = field(default_factory=list)
 
 
 @dataclass
@@ -265,11 +268,20 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
         com = T[:3, :3] @ (lk.com if lk.com is not None else np.zeros(3)) + T[:3, 3]
         inertia = lk.inertia if lk.inertia is not None else np.zeros((3, 3))
         parts[ob].append((lk.mass, com, T[:3, :3] @ inertia @ T[:3, :3].T))
+    visuals: dict[str, list[dict]] = {n: [] for n in mech_links}
+    for n in order:  # a fixed body's visuals move onto its link, poses composed
+        ob, T = owner[n]
+        for v in links[n].visuals:
+            Tv = T @ v["T"]
+            visuals[ob].append({k: x for k, x in v.items() if k != "T"}
+                               | {"xyz": _clean(Tv[:3, 3]), "rpy": _clean(rpy_of(Tv[:3, :3]))})
     spec_links = []
     for i, n in enumerate(mech_links):
         d: dict[str, Any] = {"name": n}
         if frames[n]:
             d["frames"] = frames[n]
+        if visuals[n]:
+            d["visuals"] = visuals[n]
         if parts[n]:
             m, c, inertia = _inertia_sum(parts[n]) if len(parts[n]) > 1 else parts[n][0]
             d["inertial"] = {"mass": float(m), "com": _clean(c),

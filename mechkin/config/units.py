@@ -44,6 +44,11 @@ def mechanism_to_si(spec: MechanismSpec) -> MechanismSpec:
         if link.get("inertial"):
             link["inertial"]["com"] = _scale(link["inertial"]["com"], L)
             link["inertial"]["inertia"] = _scale(link["inertial"]["inertia"], L * L)
+        for v in link.get("visuals") or ():  # a mesh's scale is dimensionless
+            v["xyz"], v["rpy"] = _scale(v["xyz"], L), _scale(v["rpy"], A)
+            for key in ("box", "cylinder", "sphere"):
+                if v.get(key) is not None:
+                    v[key] = _scale(v[key], L)
     for j in d["joints"]:
         f = L if j["type"] == "prismatic" else A
         if j.get("dh"):

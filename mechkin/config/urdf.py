@@ -14,7 +14,9 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
   ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming
   the joint and the fix;
 - ``<gazebo>``, ``<transmission>`` and other extensions are ignored with one note on stderr;
-  ``<visual>``, ``<collision>``, ``<material>`` carry no kinematics and are skipped silently;
+  ``<collision>`` carries no kinematics and is skipped silently; ``<visual>`` (with its
+  ``<material>`` colour) goes to ``links[].visuals`` (``mechkin.config.visuals_import``; mesh
+  files referenced by URI, never opened);
 - closed chains: cuts, independent joints, end effector and home come from the sidecar
   (``ROBOT.mechkin.yaml`` beside the file, or ``sidecar=``), or from the extension elements
   written by ``mechkin export`` (namespace ``urn:mechkin:urdf``)::
@@ -42,6 +44,7 @@ from mechkin.config.tree_import import (
     merge_sidecar,
     tree_to_spec,
 )
+from mechkin.config.visuals_import import attach_urdf_visuals
 from mechkin.errors import ConfigError
 
 NS = "urn:mechkin:urdf"
@@ -159,6 +162,7 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             tl.com = T[:3, 3].copy()
             tl.inertia = T[:3, :3] @ inertia @ T[:3, :3].T  # inertial axes -> link axes
         links.append(tl)
+    attach_urdf_visuals(links, robot, path)  # <visual> -> links[].visuals (mesh URIs, unopened)
     joints = []
     for j in robot.joints:
         line = joint_el[j.name].sourceline if j.name in joint_el else 1

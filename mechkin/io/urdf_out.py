@@ -21,7 +21,8 @@ revolute joints ``<name>_1..3`` with their inner links ``<name>_link1..2``:
 - with ``visuals`` (:func:`robot_urdf`, :mod:`mechkin.tasks.robot`) every link carries the
   generated ``<visual>`` elements (cylinders, spheres, boxes, meshes by URI, plates as
   COLLADA meshes in ``data:`` URIs: :mod:`mechkin.io.collada`) and the robot the
-  ``<material>`` colours they name (``mechkin_<name>``).
+  ``<material>`` colours they name (``mechkin_<name>``); generated visuals are named
+  ``mechkin_generated`` so that importing the file again keeps only the source's visuals.
 
 Cuts (and the independent joints, end effector, home values) do not exist in URDF: they are
 written twice, as an XML comment for the reader and as elements in the namespace
@@ -45,6 +46,8 @@ if TYPE_CHECKING:
     from mechkin.records.robot import RobotDescription
 
 NS = "urn:mechkin:urdf"
+#: the name of generated ``<visual>`` elements (``mechkin import`` leaves them out)
+GENERATED = "mechkin_generated"
 AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
 
 
@@ -77,8 +80,10 @@ def _visual_xml(visuals: Sequence[Any]) -> str:
             geo = f"<mesh filename={quoteattr(uri)}/>"
         else:
             geo = f"<mesh filename={quoteattr(v.uri)} scale=\"{_vec(size)}\"/>"
-        out.append(f"<visual>{_origin(np.asarray(v.T, dtype=float))}<geometry>{geo}</geometry>"
-                   f"<material name={quoteattr('mechkin_' + v.material)}/></visual>")
+        mat = f"<material name={quoteattr('mechkin_' + v.material)}/>" if v.material else ""
+        tag = f'<visual name="{GENERATED}">' if getattr(v, "generated", True) else "<visual>"
+        out.append(f"{tag}{_origin(np.asarray(v.T, dtype=float))}<geometry>{geo}</geometry>"
+                   f"{mat}</visual>")
     return "".join(out)
 
 

@@ -10,6 +10,7 @@ from mechkin.config.load import YamlDoc, short, short_list
 from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.errors import ConfigError
 from mechkin.model.mechanism import AXIS_NAMES, Coupling, Cut, JointGroup, Mechanism
+from mechkin.model.visuals import link_visuals_of
 from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import rot_z
 from mechkin.spatial.transforms import T_from, transform_from_xyz_rpy
@@ -470,6 +471,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         gravity=gravity,
         virtual_links=frozenset(link_idx.get(v, -1) for v in virtual) if virtual else frozenset(),
         description=spec.description or "",
+        visuals=link_visuals_of(spec, doc.path if doc is not None else None),
         couplings=couplings,
         floating=floating,
         end_effector_note=(spec.notes[len(EE_NOTE):] if spec.notes and ee is not None

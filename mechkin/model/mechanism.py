@@ -108,6 +108,8 @@ class Mechanism:
     # kind "frame" or "joint"; auto_plates: convex-hull plates on the other links
     plates: tuple = ()
     auto_plates: bool = True
+    #: the file's visuals of its links (mechkin.model.visuals.LinkVisual): what viewers draw
+    visuals: tuple = ()
 
     # ---- sizes -------------------------------------------------------------------------------
     @property

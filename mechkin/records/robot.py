@@ -35,11 +35,15 @@ class Visual:
         cylinder (radius, length), sphere (radius,), box (x, y, z), mesh (sx, sy, sz) scale,
         prism (thickness,) [m].
     material : str
-        Name of a colour in :attr:`RobotDescription.materials`.
+        Name of a colour in :attr:`RobotDescription.materials`; ``""``: none (a mesh keeps
+        its own colours).
     uri : str
         Mesh file URI (``package://``, ``file://``, ``http(s)://``) for ``mesh``.
     polygon : array (p, 2), optional
         A prism's outline in the xy plane of ``T`` [m].
+    generated : bool
+        Generated from the kinematics (written as ``<visual name="mechkin_generated">``, which
+        ``mechkin import`` skips), or False: the mechanism file's own visual.
     """
 
     link: str
@@ -49,6 +53,7 @@ class Visual:
     material: str
     uri: str = ""
     polygon: np.ndarray | None = None
+    generated: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,8 +65,9 @@ class RobotDescription:
     mechanism : object
         The built mechanism (duck-typed: names, ``A``, ``B``, limits, frames, cuts).
     visuals : tuple of Visual
-        Generated geometry: link cylinders between joint points, joint cylinders along their
-        axes, plates, the end-effector triad.
+        The mechanism file's own visuals (imported meshes, primitives) on their links, and
+        generated geometry on the others: link cylinders between joint points, joint cylinders
+        along their axes, plates; the end-effector triad.
     materials : dict of str to RGBA
         Colours the visuals name.
     rate_limits : dict of str to (velocity, effort)

@@ -2,7 +2,8 @@
 inclined planes, one case or a walk -> skate -> roll switching sequence.
 
 :func:`run` converts the section to SI steps, solves them with
-:func:`mechkin.solvers.biped.sequence.solve_sequence` (closed forms of hwang2023 §2.2-§2.4), checks every
+:func:`mechkin.solvers.biped.sequence.solve_sequence` (closed forms of hwang2023 §2.2-§2.4), checks
+every
 leg by forward kinematics (the closed-form chain and the mechanism file's model), evaluates the
 ``expect:`` entries and returns a :class:`~mechkin.records.Report` whose
 :class:`~mechkin.records.biped.BipedRecord` ``mechkin.io.biped_out`` writes (``leg_right.csv``,

@@ -13,6 +13,11 @@ Geometry, every piece fixed in the link it belongs to (so a URDF viewer moves it
   spoked from the hub;
 * the end effector: an x/y/z triad (red, green, blue) on its frame.
 
+A link whose file gives visuals (``links[].visuals``: imported meshes and primitives,
+:mod:`mechkin.config.visuals_import`) is drawn with those instead (the triad stays), unless one
+of its meshes is a ``file://`` URI of a file missing on this machine: then it is drawn with
+both (the viewer reports the missing mesh and still shows the link).
+
 Sizes scale with the mechanism (the largest extent of its joint points and frames at home).
 
 Imports: model (drawing, kinematics), records.robot.
@@ -26,7 +31,8 @@ import numpy as np
 
 from mechkin.records.robot import RobotDescription, RobotSnapshot, Visual
 
-__all__ = ["link_visuals", "rate_limits", "robot_description", "robot_snapshot"]
+__all__ = ["link_visuals", "rate_limits", "robot_description", "robot_snapshot",
+           "source_visuals"]
 
 MATERIALS = {
     "link": (0.55, 0.6, 0.68, 1.0),
@@ -217,10 +223,47 @@ def rate_limits(mech: Any, limits: dict[str, tuple[np.ndarray, np.ndarray]]
 
 def robot_description(mech: Any, rate_limits: dict[str, tuple[float, float]] | None = None
                       ) -> RobotDescription:
-    """The robot model of ``mech`` with its generated visuals (and velocity / effort limits
-    where the run knows them)."""
-    return RobotDescription(mechanism=mech, visuals=link_visuals(mech),
-                            materials=dict(MATERIALS), rate_limits=dict(rate_limits or {}))
+    """The robot model of ``mech``: the visuals its file gives (``links[].visuals``, e.g.
+    imported meshes) on their links, generated visuals on every other link, the end-effector
+    triad always (and velocity / effort limits where the run knows them)."""
+    materials = dict(MATERIALS)
+    given, own = source_visuals(mech, materials)
+    visuals = given + tuple(v for v in link_visuals(mech)
+                            if v.link not in own or v.material.startswith("axis_"))
+    return RobotDescription(mechanism=mech, visuals=visuals, materials=materials,
+                            rate_limits=dict(rate_limits or {}))
+
+
+def source_visuals(mech: Any, materials: dict[str, Any]) -> tuple[tuple[Visual, ...], set[str]]:
+    """(the file's visuals of ``mech`` as records, the links they draw); their colours are
+    added to ``materials`` as ``source_<k>`` (one per distinct rgba); a visual without a colour
+    names no material (the mesh's own colours). A link with a ``file://`` mesh that is not on
+    this machine (looked up, never opened) is not counted as drawn: it keeps its generated
+    geometry beside the reference, so the robot shows even where a viewer cannot load it."""
+    out = []
+    missing: set[str] = set()
+    colour_name: dict[tuple, str] = {}
+    for v in getattr(mech, "visuals", ()):
+        material = ""
+        if v.rgba is not None:
+            key = tuple(float(x) for x in v.rgba)
+            if key not in colour_name:
+                colour_name[key] = f"source_{len(colour_name)}"
+                materials[colour_name[key]] = key
+            material = colour_name[key]
+        out.append(Visual(v.link, v.shape, np.asarray(v.T, dtype=float), tuple(v.size),
+                          material, uri=v.uri, generated=False))
+        if v.uri.startswith("file:") and not _file_exists(v.uri):
+            missing.add(v.link)
+    return tuple(out), {v.link for v in out} - missing
+
+
+def _file_exists(uri: str) -> bool:
+    """Whether a ``file://`` URI names a regular file here (``os.stat``; nothing is opened)."""
+    import os
+    from urllib.parse import unquote, urlparse
+
+    return os.path.isfile(unquote(urlparse(uri).path))
 
 
 def robot_snapshot(mech: Any) -> RobotSnapshot:

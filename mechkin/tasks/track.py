@@ -1,13 +1,14 @@
 """The track task: conveyor tracking (or minimum time) by DP in the phase plane (park §2-§5).
 
-The hand moves on a path of :mod:`mechkin.solvers.track.path_geometry` (a straight line, park Eq. (7),
-a circular arc or a C2 spline, r its normalised arc length) with its orientation held, slerped
-or free; the joints follow it by the path inverse kinematics of :mod:`mechkin.solvers.track.path_ik`
+The hand moves on a path of :mod:`mechkin.solvers.track.path_geometry` (a straight line, park
+Eq. (7), a circular arc or a C2 spline, r its normalised arc length) with its orientation
+held, slerped or free; the joints follow it by the path inverse kinematics of
+:mod:`mechkin.solvers.track.path_ik`
 (continued along the path from the start solution, on the branch the scenario names); the
 torques come from the mechanism's inertial parameters
 (recursive Newton-Euler, park Eq. (8)); :func:`mechkin.solvers.track.plan.plan_track` plans
-``r(t)`` by the DP of :func:`mechkin.solvers.track.dpct.solve_conveyor_tracking` or, for the time and
-intercept objectives without a jerk limit (``planner: auto``), by TOPP-RA
+``r(t)`` by the DP of :func:`mechkin.solvers.track.dpct.solve_conveyor_tracking` or, for the
+time and intercept objectives without a jerk limit (``planner: auto``), by TOPP-RA
 (:mod:`mechkin.solvers.track.intercept`). Returns a
 :class:`mechkin.records.Report` whose record (:class:`mechkin.records.track.TrackRecord`) the
 writer :mod:`mechkin.io.track_out` turns into ``track.csv``, plots like park Figs. 4-8 and

@@ -49,7 +49,9 @@ def test_single_case_scenarios_agree_with_the_cases(overlay, tmp_path: Path) -> 
     assert res.exit_code == 0, res.output
     single = json.loads(res.stdout)
     assert single["t_a_s"] == summary["cases"][1]["t_a_s"]
-    assert single["peak_torque"] == summary["cases"][1]["peak_torque"]
+    # the same plan; the torques agree to round-off (the summation order of the inverse dynamics
+    # may differ between the two runs' routes: once 1e-12 apart under load)
+    assert single["peak_torque"] == pytest.approx(summary["cases"][1]["peak_torque"], rel=1e-9)
 
 
 def test_dp_block_selects_the_literal_eq26(tmp_path: Path) -> None:

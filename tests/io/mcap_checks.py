@@ -230,3 +230,43 @@ def point_cloud_arrays(msg: Any) -> dict[str, np.ndarray]:
         assert f.offset + width <= msg.point_stride
         out[f.name] = raw[:, f.offset:f.offset + width].copy().view(dtype)[:, 0].astype(float)
     return out
+
+
+def mesh_uri_ok(uri: str) -> bool:
+    """A mesh URI a URDF viewer can resolve as written: ``package://NAME/path``, an absolute
+    ``file:///path`` or the ``data:`` COLLADA mechkin embeds for plates."""
+    from urllib.parse import urlparse
+
+    u = urlparse(uri)
+    if u.scheme == "package":
+        return bool(u.netloc) and len(u.path) > 1
+    if u.scheme == "file":
+        return u.netloc == "" and u.path.startswith("/")
+    if u.scheme in ("http", "https"):
+        return bool(u.netloc)
+    return uri.startswith("data:model/vnd.collada+xml;base64,")
+
+
+def check_robot_in_view(data: dict[str, Any], mcap_path: Path) -> list[str]:
+    """The robot Foxglove draws: ``/robot_description`` parses with yourdfpy, every mesh URI is
+    well formed (:func:`mesh_uri_ok`), and the layout beside the MCAP has one URDF layer that
+    reads that topic with its joints driven by ``/joint_states``. Returns the mesh URIs."""
+    import yourdfpy
+
+    urdf = data["msgs"]["/robot_description"][0][1]["data"]
+    robot = yourdfpy.URDF.load(io.StringIO(urdf), build_scene_graph=False, load_meshes=False,
+                               build_collision_scene_graph=False, load_collision_meshes=False)
+    uris = [v.geometry.mesh.filename for lk in robot.robot.links for v in lk.visuals
+            if v.geometry is not None and v.geometry.mesh is not None]
+    bad = [u[:80] for u in uris if not mesh_uri_ok(u)]
+    assert not bad, f"malformed mesh URIs {bad}"
+    assert sum(len(lk.visuals) for lk in robot.robot.links) > 0, "a URDF without visuals"
+    lay = json.loads((mcap_path.parent / f"{mcap_path.stem}.layout.json").read_text())
+    three_d = [c for pid, c in lay["configById"].items() if pid.startswith("3D!")]
+    assert len(three_d) == 1
+    layers = [c for c in three_d[0]["layers"].values() if c["layerId"] == "foxglove.Urdf"]
+    assert len(layers) == 1
+    assert (layers[0]["sourceType"], layers[0]["topic"]) == ("topic", "/robot_description")
+    assert (layers[0]["controlMode"], layers[0]["jointStatesTopic"]) == ("jointStates",
+                                                                        "/joint_states")
+    return uris

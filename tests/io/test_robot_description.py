@@ -14,7 +14,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.io.mcap_checks import strict_check, tf_world_poses, urdf_fk_errors
+from tests.io.mcap_checks import (
+    check_robot_in_view,
+    strict_check,
+    tf_world_poses,
+    urdf_fk_errors,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 ATOL_POSE = 1e-9
@@ -63,6 +68,7 @@ def test_urdf_forward_kinematics_equals_tf_at_every_joint_state(written, name):
     err, n_msgs, n_links = urdf_fk_errors(data)
     assert n_msgs == len(data["msgs"]["/tf"]) and n_links >= 3
     assert err <= ATOL_POSE, f"{name}: URDF FK differs from /tf by {err:.3g}"
+    check_robot_in_view(data, path)  # URIs well formed; the layout's URDF layer on the topics
 
 
 @pytest.mark.parametrize("name", ["kim1995_stewart_fk", "five_bar_fk", "kim1995_stewart_track"])

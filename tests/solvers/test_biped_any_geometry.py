@@ -2,7 +2,8 @@
 
 A second biped (other link lengths, hip offsets with y and z, foot extension, blade radius and
 joint limits; its mechanism file is written here) is read by
-:func:`mechkin.solvers.biped.sequence.geometry_from_mechanism`; every class (walk §2.2, skate §2.2/§2.3,
+:func:`mechkin.solvers.biped.sequence.geometry_from_mechanism`; every class (walk §2.2, skate
+§2.2/§2.3,
 roll §2.4) is solved on random planes and random full body poses for both legs and checked
 against the *general model's* forward kinematics (mechkin.model), not the closed form's own.
 End to end (mechkin.tasks.biped.run): a tilted body with a different plane under each leg, a pose

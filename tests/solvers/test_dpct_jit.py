@@ -68,7 +68,7 @@ def test_compiled_stage_is_numpy_bit_for_bit(monkeypatch, case):
     b, tb = _solve(monkeypatch, True, *case)
     assert a.status == b.status and a.message == b.message
     assert len(ta) == len(tb) >= 1
-    for x, y in zip(ta, tb):
+    for x, y in zip(ta, tb, strict=True):
         assert np.array_equal(x.V, y.V)
         assert np.array_equal(x.T, y.T, equal_nan=True)
         assert np.array_equal(x.NP, y.NP)

@@ -1,4 +1,4 @@
-"""TOPP-RA (mechkin.solvers.track.topp): closed forms, a brute-force phase-plane integration, toppra.
+"""TOPP-RA (mechkin.solvers.track.topp): closed forms, brute-force phase-plane integration, toppra.
 
 (a) a double integrator ``q = s`` (bang-bang closed forms, rest to rest and rest to a moving end
 state, acceleration and torque limits, with and without gravity); (b) park's 2-link arm along

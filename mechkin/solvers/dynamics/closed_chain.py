@@ -33,7 +33,8 @@ net force is
 links each joint carries, ``F_j = sum_{l in subtree(j)} f_l`` (one product with
 ``mech.link_ancestors``), so ``tau_j = xi_j . F_j`` with ``xi_j`` the joint's unit twist. On an
 open serial chain this is the same recursion as
-:class:`mechkin.solvers.dynamics.open_chain.SerialChainDynamics` in other coordinates (a test checks that).
+:class:`mechkin.solvers.dynamics.open_chain.SerialChainDynamics` in other coordinates (a test
+checks that).
 
 Interfaces (:class:`mechkin.solvers.dynamics.open_chain.InverseDynamics`)
 -------------------------------------------------------------

@@ -3,7 +3,8 @@
 The mechanism already stores every joint as ``T_parent_child(q_i) = A_i @ Z(q_i) @ B_i`` with
 ``Z`` a rotation about (``s_i = 0``) or a translation along (``s_i = 1``) the local z axis
 (kim1995 Eq. (2)), and the inertial parameters of every link in its link frame. That is exactly
-the description :class:`~mechkin.solvers.dynamics.open_chain.SerialChainDynamics` takes, so building the
+the description :class:`~mechkin.solvers.dynamics.open_chain.SerialChainDynamics` takes, so
+building the
 recursive Newton-Euler model (park Eq. (8): ``U = M(q) qdd + h(q, qd)``) is a matter of walking
 the chain from the base and picking, per joint, its ``A``, ``B``, ``s`` and the inertials of its
 child link.

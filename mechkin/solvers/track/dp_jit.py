@@ -5,7 +5,8 @@ plain loops over the ``(j, l)`` transition pairs, compiled by numba
 (``pip install "mechkin[fast]"``). The numpy stage builds ``(N2+1)^2`` arrays per limit and
 per joint; this kernel visits each pair once, skips it at the first failed check and keeps the
 running minimum; with torque limits it visits only the window of ``l`` whose ``r''`` the
-torque admits (a binary search per row: ``r''`` grows with ``l``). It evaluates every quantity with the same floating-point operations in the
+torque admits (a binary search per row: ``r''`` grows with ``l``). It evaluates every quantity with
+the same floating-point operations in the
 same order as the numpy stage (no fast-math, no contraction), and breaks ties the way
 ``np.argmin`` does (the first minimum; a NaN cost wins at once), so the tables V, T, NP and the
 chosen accelerations are bit for bit those of the numpy stage
@@ -43,7 +44,8 @@ def dp_stage(x2, x2c, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j
     time and the chosen transition's joint accelerations (park Eq. (27)-(30), (32)).
 
     ``x2 (J,)`` the states of stage i, ``x2c (L,)`` those of stage i+1 (the same array on the
-    uniform grid; a band grid differs). ``row_ok (J,)``: the per-row checks (velocity, torque rows with ``a = 0``);
+    uniform grid; a band grid differs). ``row_ok (J,)``: the per-row checks (velocity, torque rows
+    with ``a = 0``);
     ``tq_lo/tq_hi (J, n)``: the admissible ``r''`` interval per joint where ``tq_on[k]``;
     bounds already carry their round-off slack. ``sorted_rdd``: every row of ``rdd`` is
     non-decreasing in ``l`` (the caller checks it), so the pairs outside the torque window
@@ -56,7 +58,7 @@ def dp_stage(x2, x2c, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j
     inf = np.inf
     alive = 0
     v_from, v_to = L, 0  # the successors with a finite cost-to-go: only they can be chosen
-    for l in range(L):
+    for l in range(L):  # noqa: E741 (l: the successor index of the DP's notation)
         if np.isfinite(Vn[l]):
             v_from = min(v_from, l)
             v_to = l + 1
@@ -93,7 +95,7 @@ def dp_stage(x2, x2c, dt, inv_dt, rdd, Vn, Tn, row_ok, tq_lo, tq_hi, tq_on, qd_j
         l_from = max(l_from, v_from)
         l_to = min(l_to, v_to)
         if row_ok[j]:
-            for l in range(l_from, l_to):
+            for l in range(l_from, l_to):  # noqa: E741
                 vn = Vn[l]
                 d = dt[j, l]
                 if not (np.isfinite(vn) and np.isfinite(d)):

@@ -372,7 +372,8 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     length : float, optional
         Characteristic length [m] of the normalized isotropy
         (:func:`mechkin.solvers.workspace.dexterity.normalized_isotropy`); None: the one that best
-        conditions the reachable samples (:func:`mechkin.solvers.workspace.dexterity.characteristic_length`).
+        conditions the reachable samples
+        (:func:`mechkin.solvers.workspace.dexterity.characteristic_length`).
         The Jacobians of all samples are kept for it (48 n_v bytes per sample).
     run_jobs : callable, optional
         ``run_jobs(fn, jobs, progress) -> results in job order`` (``progress(done, total)``
