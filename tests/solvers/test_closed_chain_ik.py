@@ -112,3 +112,20 @@ def test_the_ik_task_names_the_passive_joint_at_its_limit_for_every_target(tmp_p
     for x in t.values():
         assert "finger_joint" in x["joints_at_limit"], x
     assert rep.exit_code == 1
+
+
+def test_a_lone_closed_chain_target_within_the_limits_is_not_lost(tmp_path):
+    # the Cassie-like leg with rod limits [-30, 30] deg: every target at a configuration whose
+    # loops close within the limits is solved alone with the defaults (5 of 59 were lost: the
+    # lone solve's restarts jittered about home; now a failed lone target is tried once more as
+    # a one-target batch, whose restarts start from random q_v within the limits)
+    mech, _ = load(tmp_path, M.CASSIE, **{"limits: [-90, 90]": "limits: [-30, 30]"})
+    qv = random_qv(mech, 60, seed=3)
+    fk = mechkin.fk(mech, qv)
+    T = fk.poses["end_effector"]
+    inside = [k for k, s in enumerate(fk.status) if s == "converged"]
+    assert len(inside) >= 50
+    for k in inside:
+        r = mechkin.ik(mech, T[k], weights=W_POS)[0]
+        assert r.status.value == "ok", (k, r.status.value)
+        assert _passive_inside(mech, r.q)[0] and r.position_error <= 1e-9
