@@ -210,16 +210,33 @@ def ik(
 
 
 def ik_frames(mech: Mechanism, targets: Sequence[dict[str, Any]], *, q_v0: Any = None,
-              q_w0: Any = None, seed: int = 0) -> Any:
+              q_w0: Any = None, seed: int = 0, base_pose: Any = None) -> Any:
     """Several frames' targets solved together (a biped's feet, a humanoid's feet and hands):
     ``targets`` = ``[{"frame": "left_sole", "T": (4, 4), "weights": (6,) optional}, ...]``,
     with the loop closure and the joint couplings; a floating base's six joints are unknowns
-    like the others. Returns a :class:`mechkin.solvers.ik.multi_frame.MultiFrameResult`
-    (status, q, per-frame verified errors)."""
+    like the others, or, with ``base_pose`` (4, 4) (the floating base's pose in the world),
+    held there while the rest is solved. Returns a
+    :class:`mechkin.solvers.ik.multi_frame.MultiFrameResult` (status, q, per-frame verified
+    errors)."""
     import numpy as np
 
     from mechkin.errors import ConfigError
     from mechkin.solvers.ik.multi_frame import FrameTarget, solve_multi_frame
+
+    held = None
+    if base_pose is not None:
+        from mechkin.config.schema import FLOATING_JOINTS
+        from mechkin.spatial.rotations import rpy_from_matrix
+
+        if not mech.floating:
+            raise ConfigError(f"base_pose: mechanism {mech.name!r} has no floating base")
+        B = np.asarray(base_pose, dtype=float)
+        if B.shape != (4, 4) or not np.all(np.isfinite(B)):
+            raise ConfigError("base_pose: expected a finite (4, 4) pose")
+        r, p, y = rpy_from_matrix(B[:3, :3])  # R = Rz(yaw) Ry(pitch) Rx(roll)
+        values = dict(zip(FLOATING_JOINTS, (*B[:3, 3], y, p, r), strict=True))
+        held = {i: float(values[n]) for i, n in enumerate(mech.independent_names)
+                if n in values}
 
     fts = []
     for k, t in enumerate(targets):
@@ -231,7 +248,8 @@ def ik_frames(mech: Mechanism, targets: Sequence[dict[str, Any]], *, q_v0: Any =
         w = np.asarray(t.get("weights", np.ones(6)), dtype=float)
         fts.append(FrameTarget(str(t["frame"]), T, w))
     return solve_multi_frame(mech, fts, q_v0=None if q_v0 is None else np.asarray(q_v0, float),
-                             q_w0=None if q_w0 is None else np.asarray(q_w0, float), seed=seed)
+                             q_w0=None if q_w0 is None else np.asarray(q_w0, float), seed=seed,
+                             held=held)
 
 
 def run(scenario: str | Path | Scenario, **options: Any) -> Report:

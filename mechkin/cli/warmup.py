@@ -1,7 +1,8 @@
 """``mechkin warmup [MECH.yaml ...]``: compile the numba IK and FK kernels ahead of first use.
 
-Without a mechanism the kernels of a tiny open chain and a tiny four-bar are compiled, which
-covers every mechanism (the kernels are specialised on argument types, not on a mechanism).
+Without a mechanism the kernels of a tiny open chain, a tiny four-bar and a tiny arm with a
+mimic joint are compiled, which covers every mechanism (the kernels are specialised on argument
+types, not on a mechanism).
 One progress line per kernel names it, then says how long it took and whether it was compiled
 or loaded from numba's cache (:func:`mechkin.solvers.ik.accel.configure_numba_cache` picks the
 folder).
@@ -18,8 +19,9 @@ from mechkin.cli.common import handle_errors
 
 def warmup_cli(
     mechanisms: list[Path] = typer.Argument(
-        None, help="Mechanism files whose IK kernels to compile (default: a tiny open chain "
-                   "and a tiny four-bar, which cover every mechanism)"),
+        None, help="Mechanism files whose IK kernels to compile (default: a tiny open chain, "
+                   "a tiny four-bar and a tiny arm with a mimic joint, which cover every "
+                   "mechanism)"),
 ) -> None:
     """Compile the numba IK kernels now (once per machine; later runs load them in ~1 s)."""
     _warmup(mechanisms or [])
@@ -49,7 +51,8 @@ def _warmup(paths: list[Path]) -> None:
             mechs = given
         else:
             mechs = []
-            for name, text in (("open.yaml", warm.TINY_OPEN), ("closed.yaml", warm.TINY_CLOSED)):
+            for name, text in (("open.yaml", warm.TINY_OPEN), ("closed.yaml", warm.TINY_CLOSED),
+                               ("coupled.yaml", warm.TINY_COUPLED)):
                 (Path(td) / name).write_text(text)
                 mechs.append(load_mechanism(Path(td) / name))
         typer.echo(f"numba cache: {folder}")

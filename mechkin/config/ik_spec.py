@@ -10,9 +10,9 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import Discriminator, Field, Tag, model_validator
 
-from mechkin.config.scenario import register_task_section
+from mechkin.config.scenario import BasePoseSpec, register_task_section
 from mechkin.config.schema import Name, NonNegNum, Num, PosNum, Spec, Units
 from mechkin.config.units import angle_factor, length_factor
 
@@ -88,13 +88,24 @@ class TargetSpec(Spec):
         return self
 
 
+#: a floating base's pose in a target set: a known pose (``xyz`` + URDF ``rpy``) or ``free``
+#: (a word goes to the word, a mapping to the pose: one message, not one per branch; the tags
+#: hold "[" so that messages leave them out of the key path, as pydantic's own union tags)
+BasePoseTarget = Annotated[
+    Annotated[BasePoseSpec, Tag("pose[xyz,rpy]")] | Annotated[Literal["free"], Tag("word[free]")],
+    Discriminator(lambda v: "word[free]" if isinstance(v, str) else "pose[xyz,rpy]")]
+
+
 class TargetSetSpec(Spec):
     """Several frames' targets solved together (``frame`` on each; a biped's two feet, a
     humanoid's feet and hands): one least-squares problem with the loop closure and couplings
-    (:mod:`mechkin.solvers.ik.multi_frame`)."""
+    (:mod:`mechkin.solvers.ik.multi_frame`). ``base_pose`` (a floating base only): ``free``
+    (the base pose is an unknown) or a known pose ``{xyz, rpy}`` the base is held at; default
+    the section's ``base_pose``."""
 
     name: str | None = None
     targets: Annotated[list[TargetSpec], Field(min_length=1)]
+    base_pose: BasePoseTarget | None = None
 
     @model_validator(mode="after")
     def _check(self) -> TargetSetSpec:
@@ -152,7 +163,10 @@ class IkSpec(Spec):
     else multi-start lm from ``solution_starts`` seeded starts, ``complete: false``; merged
     with revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad). ``fixed``: independent
     joints held at the given values (a 7R arm's redundant joint; auto / analytic), the rest
-    solved analytically.
+    solved analytically. ``base_pose`` (a floating base, with target sets or framed targets):
+    ``free`` (default: the six base joints are unknowns) or a known pose ``{xyz, rpy}`` (file
+    units, URDF rpy) the base is held at while the rest is solved; a set's own ``base_pose``
+    overrides it.
     """
 
     targets: list[TargetSpec] = Field(default_factory=list)
@@ -171,6 +185,7 @@ class IkSpec(Spec):
     solutions: Literal["one", "all"] = "one"
     solution_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
     fixed: dict[Name, Num] | None = None
+    base_pose: BasePoseTarget = "free"
 
     @model_validator(mode="after")
     def _check(self) -> IkSpec:
@@ -182,6 +197,10 @@ class IkSpec(Spec):
             raise ValueError("targets that name their frame form one target set: name the "
                              "frame of every target (or use target_sets), without "
                              "random_targets")
+        if ("base_pose" in self.model_fields_set and not any(framed)
+                and not self.target_sets):
+            raise ValueError("base_pose: holds a floating base in target sets; name the frame "
+                             "of every target (frame: left_foot) or use target_sets")
         if self.target_sets and (self.targets or self.random_targets):
             raise ValueError("target_sets: give either target_sets or targets / "
                              "random_targets")

@@ -275,7 +275,7 @@ def _compile(mujoco, path: Path):
 
     def fail(exc: Exception):
         msg = " ".join(str(exc).split())
-        ln = re.search(r"line (\d+)", msg)
+        ln = re.search(r"line (\d+)", msg) or re.search(r"Line number=(\d+)", msg)
         return ConfigError(f"{path}:{ln.group(1) if ln else 1}: MJCF: {msg}")
 
     try:

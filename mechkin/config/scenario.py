@@ -117,6 +117,11 @@ class FkSpec(Spec):
 
     ``base``: a moving (or displaced) base T_0(t) (:class:`BaseSpec`); frame poses, twists and
     accelerations are then reported in its world frame.
+
+    ``base_pose``: the constant pose (``xyz`` + URDF ``rpy``, file units) of a floating base
+    (``base: floating``, an MJCF free joint): the six base joints ``base_x`` .. ``base_roll``
+    take it at every step (name them in the motion, table or CSV instead for a moving or
+    per-row base; a base joint not given rests at the mechanism's home base pose).
     """
 
     time: TimeSpec | None = None
@@ -130,6 +135,7 @@ class FkSpec(Spec):
     assembly_starts: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 256
     assembly_at: list[dict[Name, Num]] | None = None
     base: BaseSpec | None = None
+    base_pose: BasePoseSpec | None = None
 
     @model_validator(mode="after")
     def _one_source(self) -> FkSpec:

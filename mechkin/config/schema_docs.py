@@ -222,6 +222,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                        "assembly modes at (needs assembly: all).",
         "base": "Moving or displaced base T_0(t) (kim1995 §5.1 Step 1): pose of the base frame "
                 "in a world frame; outputs are then in the world frame.",
+        "base_pose": f"Constant pose of a floating base (base: floating): xyz {_L}, URDF rpy "
+                     f"{_A}; sets base_x .. base_roll at every step (not with those joints in "
+                     "the motion, table or csv).",
     },
     "BaseSpec": {
         "pose": "Constant base pose (xyz, rpy); not with motion/table/csv.",
@@ -259,6 +262,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "name": "Name of the target set.",
         "targets": "One target per frame (each with frame: and its own weights), solved "
                    "together with the loop closure and couplings.",
+        "base_pose": f"A floating base in this set: free (unknown) or a known pose {{xyz {_L}, "
+                     f"rpy {_A}}} it is held at; default the section's base_pose.",
     },
     "RandomTargetsSpec": {
         "count": "Number of reachable random poses (forward kinematics of random joints "
@@ -302,6 +307,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "solution_starts": "Seeded multi-start count for solutions: all.",
         "fixed": f"Independent joints held at these values {_A} (a 7R arm's redundant "
                  "joint); the rest solved analytically (auto / analytic).",
+        "base_pose": f"A floating base in target sets: free (default, the base pose is an "
+                     f"unknown) or a known pose {{xyz {_L}, rpy {_A}}} it is held at.",
     },
     "PathSpec": {
         "type": "line (start, end; park Eq. (7)), arc (start, via, end on a circle) or spline "

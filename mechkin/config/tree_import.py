@@ -195,6 +195,7 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     sidecar.
     """
     path = tree.path
+    renamed = _rename_unsafe(tree)
     problems: list[str] = []
     links = {lk.name: lk for lk in tree.links}
     parent_joint: dict[str, TreeJoint] = {}
@@ -209,7 +210,10 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
                 "cut in the sidecar (ROBOT.mechkin.yaml: cuts:), not as a second parent")
         parent_joint.setdefault(j.child, j)
     roots = [lk.name for lk in tree.links if lk.name not in parent_joint]
-    if len(roots) != 1 and not problems:
+    if not tree.links and not problems:
+        problems.append(f"{path}:1: robot: the file has no links (a xacro macro file?); fix: "
+                        "expand it with xacro and import the expanded URDF")
+    elif len(roots) != 1 and not problems:
         problems.append(f"{path}:1: robot: expected one root link (a link that is no joint's "
                         f"child), found {len(roots)}: {', '.join(roots[:10])}")
     if problems:
@@ -347,10 +351,15 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     couplings = []
     for i, c in enumerate(tree.couplings):
         where = f"{c.get('_file', path)}:{c.get('_line', 1)}: {c.get('_label', f'couplings[{i}]')}"
+        mimic = str(c.get("_label", "")).endswith(".mimic")  # a URDF <mimic joint=...>
         for key in ("joint", "master"):
             if c[key] not in jnames and c[key] not in components:
-                problems.append(f"{where}.{key}: unknown joint {c[key]!r} (moving joints: "
-                                f"{', '.join(sorted(jnames)[:30])})")
+                fix = (f"; fix: name the joint it follows, e.g. <mimic joint="
+                       f"\"{sorted(jnames)[0]}\"/>" if mimic and key == "master" and jnames
+                       else "")
+                problems.append(f"{where}.{'joint' if mimic else key}: unknown joint "
+                                f"{c[key]!r} (moving joints: "
+                                f"{', '.join(sorted(jnames)[:30])}){fix}")
         couplings.append({k: (float(v) if k in ("multiplier", "offset") else v)
                           for k, v in c.items() if not k.startswith("_")})
         lines[("couplings", i)] = c.get("_line", 1)
@@ -389,7 +398,55 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     if tree.ignored:
         what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
         sys.stderr.write(f"{path.name}: note: ignored {what} (not kinematics)\n")
+    if renamed:
+        eg = ", ".join(f"{a!r} -> {b!r}" for a, b in list(renamed.items())[:2])
+        sys.stderr.write(f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
+                         f"cannot hold (letters, digits, _ . - only): {eg}"
+                         f"{', ...' if len(renamed) > 2 else ''}\n")
     return spec, doc
+
+
+def _rename_unsafe(tree: Tree) -> dict[str, str]:
+    """Give links, joints and frames whose names mechkin names cannot hold (a vendor's
+    ``LFoot/FSR/HeelLeft_sensor``) a safe name (each other character ``_``; a clash gets
+    ``_2``, ``_3`` ...), everywhere they are referred to (joints' ends, couplings, cuts, the
+    sidecar's keys). Returns {old: new}."""
+    import re
+
+    names = ([lk.name for lk in tree.links] + [j.name for j in tree.joints]
+             + [f[0] for f in tree.frames])
+    bad = [n for n in dict.fromkeys(names) if not re.match(_NAME_OK, n or "")]
+    if not bad:
+        return {}
+    taken = set(names)
+    ren: dict[str, str] = {}
+    for n in bad:
+        base = _safe_name(n)
+        new, k = base, 1
+        while new in taken:
+            k += 1
+            new = f"{base}_{k}"
+        taken.add(new)
+        ren[n] = new
+
+    def r(x: Any) -> Any:
+        return ren.get(x, x) if isinstance(x, str) else x
+
+    for lk in tree.links:
+        lk.name = r(lk.name)
+    for j in tree.joints:
+        j.name, j.parent, j.child = r(j.name), r(j.parent), r(j.child)
+    tree.frames = [(r(f[0]), r(f[1]), *f[2:]) for f in tree.frames]
+    for c in tree.couplings:
+        c["joint"], c["master"] = r(c["joint"]), r(c["master"])
+    for c in tree.cuts:
+        c["frames"] = [r(f) for f in c.get("frames", [])]
+    if tree.independent is not None:
+        tree.independent = [r(x) for x in tree.independent]
+    tree.end_effector = r(tree.end_effector)
+    tree.home = {r(k): v for k, v in tree.home.items()}
+    tree.tool_sites = [r(x) for x in tree.tool_sites]
+    return ren
 
 
 @dataclass(frozen=True)

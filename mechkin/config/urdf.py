@@ -6,9 +6,11 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
 - ``<link>`` -> a link; ``<inertial>`` (origin xyz + rpy, mass, inertia about the com in the
   *inertial* frame) -> mechkin's inertial (com in the link frame, inertia about the com in the
   *link* axes: ``R I R^T`` with R the inertial origin's rotation);
-- ``revolute`` (limits), ``continuous`` (no limits), ``prismatic`` -> origin + axis joints (the
-  child link frame is ``T_origin Rot(axis, q)``, the URDF convention); ``fixed`` -> the child
-  link becomes a named frame on the parent link (``mechkin.config.tree_import``);
+- ``revolute`` (limits; beyond +-1e6 both ways: no limit), ``continuous`` (no limits),
+  ``prismatic`` -> origin + axis joints (the child link frame is ``T_origin Rot(axis, q)``, the
+  URDF convention); ``fixed`` -> the child link becomes a named frame on the parent link
+  (``mechkin.config.tree_import``); a name mechkin names cannot hold (``LFoot/FSR/x``) is
+  renamed (``LFoot_FSR_x``) with one note;
 - ``<mimic joint= multiplier= offset=>`` -> a joint coupling ``q = multiplier q_joint + offset``
   (``couplings:``; a constraint row of phi, :mod:`mechkin.model.couplings`); ``floating`` and
   ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming
@@ -30,6 +32,7 @@ May import: config, spatial, errors, numpy, yourdfpy, lxml.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +47,13 @@ from mechkin.config.tree_import import (
     merge_sidecar,
     tree_to_spec,
 )
+from mechkin.config.urdf_check import element_problems, locate_rejection
 from mechkin.config.visuals_import import attach_urdf_visuals
 from mechkin.errors import ConfigError
 
 NS = "urn:mechkin:urdf"
+#: limits beyond +-1e6 (rad or m) both ways are a vendor's "no limit" (iris.urdf: +-1e16)
+UNLIMITED = 1e6
 _KNOWN = {"link", "joint", "material"}
 
 
@@ -86,6 +92,35 @@ def _parse_xml(path: Path):
         raise ConfigError(f"{path}:{line}: XML syntax error: {exc.msg}") from None
 
 
+def _without_geometry(root, path: Path):
+    """A copy of the ``<robot>`` element without ``<collision>`` (mechkin uses none) and without
+    the ``<visual>`` elements yourdfpy cannot read (a shape it does not know, e.g. a capsule: no
+    reason to refuse the kinematics; one note); lxml keeps each element's source line in the
+    copy."""
+    import copy
+    import sys
+
+    import yourdfpy
+
+    light = copy.deepcopy(root)
+    if not light.get("name"):  # xacro output may leave it out (ur3.urdf): the file's stem then
+        light.set("name", "")
+    dropped = 0
+    for link in light.findall("link"):
+        for e in link.findall("collision"):
+            link.remove(e)
+        for e in link.findall("visual"):
+            try:
+                yourdfpy.URDF._parse_visual(e)
+            except Exception:  # yourdfpy raises assorted errors on shapes it does not read
+                link.remove(e)
+                dropped += 1
+    if dropped:
+        sys.stderr.write(f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
+                         "cannot read (no kinematics in them)\n")
+    return light
+
+
 def _floats(s: str | None, n: int, where: str) -> list[float]:
     try:
         v = [float(x) for x in (s or "").split()]
@@ -112,12 +147,15 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                           f"got <{root.tag}>")
     try:
         import yourdfpy
+        from lxml import etree
     except ImportError:
         raise ConfigError(f"{path}: reading URDF needs yourdfpy (pip install "
                           "'mechkin[urdf]')") from None
+    problems = element_problems(root, path)  # located before yourdfpy's bare errors
+    if problems:
+        raise ConfigError(problems)
     link_line = {e.get("name"): e.sourceline for e in root.findall("link")}
     joint_el = {e.get("name"): e for e in root.findall("joint")}
-    problems = []
     couplings = []
     for name, e in joint_el.items():
         m = e.find("mimic")
@@ -129,7 +167,8 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             mult = _floats(m.get("multiplier", "1"), 1, where + ".multiplier")[0]
             off = _floats(m.get("offset", "0"), 1, where + ".offset")[0]
             if not m.get("joint"):
-                problems.append(f"{where}: expected joint=\"MASTER\" (the joint it follows)")
+                problems.append(f"{where}: missing joint=\"...\" (the joint it follows); fix: "
+                                "e.g. <mimic joint=\"finger_joint1\" multiplier=\"1\"/>")
             elif (joint_el.get(m.get("joint")) is not None
                   and joint_el[m.get("joint")].get("type") == "fixed"):
                 problems.append(f"{where}.joint: the master {m.get('joint')!r} is a fixed joint; "
@@ -138,19 +177,20 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                 couplings.append({"joint": name, "master": m.get("joint"), "multiplier": mult,
                                   "offset": off, "_line": m.sourceline, "_file": str(path),
                                   "_label": f"joint[{name}].mimic"})
-        if typ not in ("revolute", "continuous", "prismatic", "fixed"):
+        if typ in ("floating", "planar"):
             problems.append(f"{path}:{e.sourceline}: joint[{short_str(name)}].type: "
                             f"{short_str(typ)} joints are not supported (mechkin joints: revolute, "
                             "continuous, prismatic, fixed); fix: make it type=\"fixed\" (or "
                             "remove it and its parent link, so its child is the base)")
     if problems:
         raise ConfigError(problems)
+    light = _without_geometry(root, path)
     try:
-        robot = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
-                                   build_collision_scene_graph=False,
+        robot = yourdfpy.URDF.load(io.BytesIO(etree.tostring(light)), build_scene_graph=False,
+                                   load_meshes=False, build_collision_scene_graph=False,
                                    load_collision_meshes=False).robot
     except Exception as exc:  # yourdfpy raises assorted errors on malformed files
-        raise ConfigError(f"{path}:1: robot: not a valid URDF: {exc}") from None
+        raise ConfigError(locate_rejection(light, path, exc)) from None
     links = []
     for lk in robot.links:
         tl = TreeLink(lk.name, line=link_line.get(lk.name, 1))
@@ -179,7 +219,8 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             if nonfinite or (lo is not None and hi is not None and lo > hi):
                 raise ConfigError(f"{path}:{line}: joint[{j.name}].limit: expected finite "
                                   f"lower <= upper, got lower={lo}, upper={hi}")
-            if lo is not None and hi is not None and lo < hi:
+            if (lo is not None and hi is not None and lo < hi
+                    and min(abs(lo), abs(hi)) < UNLIMITED):
                 limits = (float(lo), float(hi))
         joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line))
     tree = Tree(name=robot.name or path.stem, path=path, links=links, joints=joints,

@@ -57,7 +57,8 @@ def _check_geometry(spec: MechanismSpec, P: _Problems) -> None:
     universal or spherical joint not parallel; lengths within MAX_LENGTH m, angles within
     MAX_ANGLE rad, masses within MAX_MASS kg (SI spec)."""
     if not spec.joints and spec.base != "floating":
-        P.add(("joints",), "a mechanism needs at least one joint")
+        P.add(("joints",), "a mechanism needs at least one joint (a single free body: set "
+              "base: floating, in a robot file's sidecar ROBOT.mechkin.yaml)")
 
     def bound(kp: tuple, values, limit: float, what: str) -> None:
         vals = values if isinstance(values, list) else [values]

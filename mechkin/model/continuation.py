@@ -47,6 +47,7 @@ from mechkin.model.closure import (
     _pinv_solve,
     solve_closure,
 )
+from mechkin.model.couplings import coupling_jacobian, coupling_map, coupling_residual
 from mechkin.model.kinematics import closure_jacobian, forward_kinematics
 from mechkin.model.mechanism import Mechanism
 
@@ -319,11 +320,21 @@ def fk_rows(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = None,
     every row reached from there by continuation. ``q_w0`` (m, n_w): a guess per row, solved by
     Newton from it; rows that do not close from their guess are reached from home by
     continuation. Then :func:`with_limits`. Returns the result and where the rows started
-    (``"home"``, ``"guess"``).
+    (``"home"``, ``"guess"``). A mechanism whose only constraints are joint couplings has one
+    assembly, in closed form (:class:`mechkin.model.couplings.CouplingMap`): no guess, no path.
     """
     q_v = np.atleast_2d(np.asarray(q_v, dtype=np.float64))
     m = q_v.shape[0]
     g = None if q_w0 is None else np.asarray(q_w0, dtype=np.float64)
+    cm = coupling_map(mech)
+    if cm is not None:  # couplings alone: one assembly, q = S q_v + c0 (no guess, no path)
+        q = cm.full(q_v)
+        Pw = coupling_jacobian(mech)[:, mech.dependent]
+        res = ClosureResult(q, np.array([ClosureStatus.CONVERGED] * m, dtype=object),
+                            np.zeros(m, dtype=int),
+                            np.linalg.norm(coupling_residual(mech, q), axis=1),
+                            np.broadcast_to(_cond(Pw[None]), (m,)).copy())
+        return with_limits(mech, res), "home" if g is None else "guess"
     if g is not None and g.ndim == 2 and g.shape[0] == m and m > 1:
         pol = {k: v for k, v in kw.items() if k != "max_step"}
         res = solve_closure(mech, q_v, g, **pol)

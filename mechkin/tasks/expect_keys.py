@@ -102,6 +102,11 @@ IK = {
     "max_orientation_error": NUM, "solve_time_s": NUM, "median_time_per_target_s": NUM,
     "end_effector": STR, "targets": Items(_IK_TARGET), "solutions": ANY,
     "methods_used": WORDS,
+    # target sets (mechkin.tasks.ik_frames)
+    "n_target_sets": NUM, "floating_base": NUM,
+    "target_sets": Items({"name": STR, "status": STR, "base_pose": ANY, "q": Names(NUM),
+                          "frames": ANY, "closure_residual": NUM, "iterations": NUM,
+                          "restarts_used": NUM, "time_s": NUM}),
 }
 
 _LIMITS = {"min": JV, "max": JV}

@@ -49,6 +49,7 @@ from mechkin.tasks.fk_base import (
     base_into_summary,
     base_trajectory,
     check_table_lengths,
+    floating_base_fill,
 )
 from mechkin.tasks.fk_batch import (
     is_open_chain,
@@ -94,10 +95,12 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
         qd = np.zeros((m, len(names)))
         qdd = np.zeros((m, len(names)))
         span = max(t[-1] - t[0], 1e-300)
+        fill, bad = floating_base_fill(sc, mech, spec.motion)
+        problems += bad
         for i, name in enumerate(names):
             mo = spec.motion.get(name)
-            if mo is None and getattr(mech, "floating", False) and name.startswith("base_"):
-                qv[:, i] = mech.home[mech.independent[i]]  # a floating base rests at base_pose
+            if i in fill:  # a floating base at fk.base_pose or its home pose
+                qv[:, i] = fill[i]
                 continue
             if mo is None:
                 problems.append(f"{doc.where(('fk', 'motion'))}: no motion for independent "
@@ -123,8 +126,10 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
             if k != "t" and k not in names:
                 problems.append(f"{doc.where(('fk', 'table', k))}: not an independent joint "
                                 f"(independent: {', '.join(names)})")
-        for name in names:
-            if name not in tab:
+        fill, bad = floating_base_fill(sc, mech, tab)
+        problems += bad
+        for i, name in enumerate(names):
+            if name not in tab and i not in fill:
                 problems.append(f"{doc.where(('fk', 'table'))}: no column for independent "
                                 f"joint {name!r}")
         if problems:
@@ -132,12 +137,12 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
         check_table_lengths(doc, ("fk", "table"), tab)
         t = np.asarray(tab["t"], dtype=float)
         qv = np.column_stack([
-            np.asarray(tab[name], dtype=float)
+            np.full(len(t), fill[i]) if i in fill else np.asarray(tab[name], dtype=float)
             * joint_factor(mech, mech.independent[i], sc.spec.units)
             for i, name in enumerate(names)
         ])
     else:
-        t, qv = _read_motion_csv(sc, names)
+        t, qv = _read_motion_csv(sc, mech, names)
     if problems:
         raise ConfigError(problems)
     if np.any(np.diff(t) < 0):
@@ -168,7 +173,8 @@ def sampled_rates(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return np.zeros_like(x), np.zeros_like(x)
 
 
-def _read_motion_csv(sc: Scenario, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+def _read_motion_csv(sc: Scenario, mech: Mechanism, names: list[str]
+                     ) -> tuple[np.ndarray, np.ndarray]:
     from mechkin.config.table_csv import read_numeric_csv
 
     path = (sc.doc.path.parent / sc.section.csv).resolve()
@@ -180,9 +186,16 @@ def _read_motion_csv(sc: Scenario, names: list[str]) -> tuple[np.ndarray, np.nda
         raise ConfigError(f"{path}:1: missing column 't_s'")
     t = np.asarray(cols["t_s"], dtype=float)
     qv = np.zeros((len(t), len(names)))
+    given = {c.rsplit("_", 1)[0] for c in cols if c.rsplit("_", 1)[-1] in SUFFIX_TO_SI}
+    fill, bad = floating_base_fill(sc, mech, given)
+    if bad:
+        raise ConfigError(bad)
     for i, name in enumerate(names):
         hit = [(c, SUFFIX_TO_SI[c.rsplit("_", 1)[1]]) for c in cols
                if c.rsplit("_", 1)[0] == name and c.rsplit("_", 1)[-1] in SUFFIX_TO_SI]
+        if i in fill:
+            qv[:, i] = fill[i]
+            continue
         if not hit:
             raise ConfigError(f"{path}:1: no column for independent joint {name!r} (expected "
                               f"{name}_rad, {name}_deg, {name}_m or {name}_mm)")

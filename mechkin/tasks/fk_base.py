@@ -15,6 +15,11 @@ stick segments and axis points in world axes. A base that is the identity with z
 every step leaves the existing columns and summary values untouched (nothing to compose; bit
 for bit today's numbers).
 
+A floating base (``base: floating``, an MJCF free joint) is another thing: its pose is six
+joints of the mechanism (``base_x`` .. ``base_roll``), FK inputs like any joint.
+:func:`floating_base_fill` gives the values of those the motion does not name: the constant
+``fk: base_pose`` or the mechanism's home base pose.
+
 Imports: config, model, records (via tasks.common).
 """
 
@@ -25,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from mechkin.config.scenario import BASE_COORDS, BaseSpec
+from mechkin.config.scenario import BASE_COORDS, BasePoseSpec, BaseSpec
+from mechkin.config.schema import FLOATING_JOINTS
 from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 from mechkin.model.moving_base import base_motion, in_world
@@ -295,3 +301,46 @@ def check_table_lengths(doc: Any, key: tuple, tab: dict) -> None:
     if len(set(lens.values())) != 1 or lens["t"] == 0:
         raise ConfigError(f"{doc.where(key)}: columns must have the same non-zero length, "
                           f"got {lens}")
+
+
+def base_pose_joints(pose: BasePoseSpec, units: Any) -> dict[str, float]:
+    """A floating base pose (``xyz`` + URDF ``rpy`` in a file's units) as the values [m, rad]
+    of its six joints: base_x, base_y, base_z = xyz; R = Rz(yaw) Ry(pitch) Rx(roll) is the
+    chain base_yaw -> base_pitch -> base_roll, so base_yaw = rpy[2], base_roll = rpy[0]."""
+    fl, fa = length_factor(units.length), angle_factor(units.angle)
+    x, y, z = (float(v) * fl for v in pose.xyz)
+    r, p, w = (float(v) * fa for v in pose.rpy)
+    return dict(zip(FLOATING_JOINTS, (x, y, z, w, p, r), strict=True))
+
+
+def no_floating_base(sc: Any, mech: Any, key: tuple,
+                     fix: str = "for a fixed base placed in a world frame use fk: base: "
+                                "{pose: {xyz: [...], rpy: [...]}}") -> str:
+    """The one-line refusal of a ``base_pose`` for a mechanism without a floating base."""
+    src = mech.source.name if getattr(mech, "source", None) is not None else mech.name
+    return (f"{sc.doc.where(key)}: mechanism {src!r} has no floating base, so there is no base "
+            "pose to give; base_pose needs 'base: floating' in the mechanism file (or an MJCF "
+            f"free joint); {fix}")
+
+
+def floating_base_fill(sc: Any, mech: Any, given: Any) -> tuple[dict[int, float], list[str]]:
+    """Values [SI] of the floating base's independent joints that the motion, table or CSV does
+    not name (``given``: the joint names it names), by index into the independent joints: the
+    section's ``base_pose`` or the mechanism's home base pose; and the problems (one line each):
+    a ``base_pose`` without a floating base, or with base joints named too."""
+    spec = sc.section
+    pose = getattr(spec, "base_pose", None)
+    key = ("fk", "base_pose")
+    if not getattr(mech, "floating", False):
+        return {}, ([no_floating_base(sc, mech, key)] if pose is not None else [])
+    named = [n for n in FLOATING_JOINTS if n in set(given)]
+    problems = []
+    if pose is not None and named:
+        problems.append(f"{sc.doc.where(key)}: give base_pose or the base joints in the "
+                        f"motion, table or csv, not both (named there: {', '.join(named)})")
+    values = base_pose_joints(pose, sc.spec.units) if pose is not None else {}
+    fill = {}
+    for i, n in enumerate(mech.independent_names):
+        if n in FLOATING_JOINTS and n not in named:
+            fill[i] = values.get(n, float(mech.home[mech.independent[i]]))
+    return fill, problems

@@ -3,6 +3,10 @@ solved together, one set at a time (:mod:`mechkin.solvers.ik.multi_frame`), each
 warm-started from the previous answer (``warm_start``), every frame verified by forward
 kinematics. Called by :func:`mechkin.tasks.ik.run` when the ``ik:`` section has
 ``target_sets`` or framed ``targets``.
+
+A floating base's ``base_pose`` (the section's, or a set's own): ``free`` (the six base joints
+are unknowns) or a known pose held while the rest is solved; each set's summary record says
+which (``base_pose``: ``free`` or ``{xyz_m, rpy_rad}``).
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ import numpy as np
 
 from mechkin.config.ik_spec import IkSpec, TargetSpec, target_matrix
 from mechkin.config.scenario import Scenario
+from mechkin.config.schema import FLOATING_JOINTS
 from mechkin.errors import ConfigError
 from mechkin.model import Mechanism
 from mechkin.model.kinematics import closure_residual, forward_kinematics
@@ -25,6 +30,7 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
+from mechkin.tasks.fk_base import base_pose_joints, no_floating_base
 
 
 def has_target_sets(spec: IkSpec) -> bool:
@@ -32,14 +38,39 @@ def has_target_sets(spec: IkSpec) -> bool:
     return bool(spec.target_sets) or any(t.frame is not None for t in spec.targets)
 
 
-def _sets(sc: Scenario, mech: Mechanism) -> list[tuple[str, list[FrameTarget]]]:
+def _held_base(sc: Scenario, mech: Mechanism, pose: Any, key: tuple
+               ) -> tuple[dict[int, float], Any, list[str]]:
+    """A set's ``base_pose``: the held independent joints (index -> value [SI]), the summary's
+    record of it (``free`` or ``{xyz_m, rpy_rad}``) and the problems (a base pose for a
+    mechanism without a floating base)."""
+    if pose == "free":
+        return {}, "free", []
+    if not mech.floating:
+        return {}, None, [no_floating_base(sc, mech, key, "remove it (the targets are in "
+                                           "the frame of the fixed base)")]
+    values = base_pose_joints(pose, sc.spec.units)
+    held = {i: values[n] for i, n in enumerate(mech.independent_names) if n in values}
+    rec = {"xyz_m": [values[n] for n in FLOATING_JOINTS[:3]],
+           "rpy_rad": [values["base_roll"], values["base_pitch"], values["base_yaw"]]}
+    return held, rec, []
+
+
+def _sets(sc: Scenario, mech: Mechanism
+          ) -> list[tuple[str, list[FrameTarget], dict[int, float], Any]]:
     spec: IkSpec = sc.section
-    raw: list[tuple[str, list[TargetSpec], tuple]] = (
-        [(s.name or f"S{i + 1}", s.targets, ("ik", "target_sets", i, "targets"))
+    raw: list[tuple[str, list[TargetSpec], tuple, Any, tuple]] = (
+        [(s.name or f"S{i + 1}", s.targets, ("ik", "target_sets", i, "targets"),
+          spec.base_pose if s.base_pose is None else s.base_pose,
+          ("ik", "target_sets", i, "base_pose") if s.base_pose is not None
+          else ("ik", "base_pose"))
          for i, s in enumerate(spec.target_sets)]
-        if spec.target_sets else [("S1", spec.targets, ("ik", "targets"))])
+        if spec.target_sets else
+        [("S1", spec.targets, ("ik", "targets"), spec.base_pose, ("ik", "base_pose"))])
     problems, out = [], []
-    for name, targets, kp in raw:
+    for name, targets, kp, pose, pkey in raw:
+        held, base_rec, bad = _held_base(sc, mech, pose, pkey)
+        if bad and bad[0] not in problems:
+            problems += bad
         ft = []
         for k, t in enumerate(targets):
             if t.frame not in mech.frame_names:
@@ -50,10 +81,20 @@ def _sets(sc: Scenario, mech: Mechanism) -> list[tuple[str, list[FrameTarget]]]:
                 continue
             w = np.asarray(t.weights if t.weights is not None else spec.weights, dtype=float)
             ft.append(FrameTarget(t.frame, target_matrix(t, sc.spec.units), w))
-        out.append((name, ft))
+        out.append((name, ft, held, base_rec))
     if problems:
         raise ConfigError(problems)
     return out
+
+
+def target_set_problems(sc: Scenario, mech: Mechanism) -> list[str]:
+    """What the target sets of ``sc`` refuse before solving (unknown frames, a base pose
+    without a floating base): ``mechkin check`` says the same as the run."""
+    try:
+        _sets(sc, mech)
+    except ConfigError as exc:
+        return list(exc.problems)
+    return []
 
 
 def run_target_sets(scenario: Scenario, mech: Mechanism, qv0: np.ndarray, qw0: np.ndarray,
@@ -65,10 +106,10 @@ def run_target_sets(scenario: Scenario, mech: Mechanism, qv0: np.ndarray, qw0: n
     t0 = time.perf_counter()
     results = []
     qv, qw = qv0, qw0
-    for _, targets in sets:
+    for _, targets, held, _ in sets:
         r = solve_multi_frame(mech, targets, q_v0=qv, q_w0=qw, tol_pos=tol_pos,
                               tol_ori=tol_ori, restarts=max(spec.restarts, 0),
-                              seed=spec.seed)
+                              seed=spec.seed, held=held)
         results.append(r)
         if spec.warm_start and r.ok:
             qv, qw = r.q_v, r.q_w
@@ -79,10 +120,11 @@ def run_target_sets(scenario: Scenario, mech: Mechanism, qv0: np.ndarray, qw0: n
     phin = np.linalg.norm(phi, axis=1) if phi.shape[1] else np.zeros(len(q))
     status = [r.status.value for r in results]
     records = []
-    for (name, targets), r in zip(sets, results, strict=True):
+    for (name, targets, _, base_rec), r in zip(sets, results, strict=True):
         records.append({
             "name": name,
             "status": r.status.value,
+            **({"base_pose": base_rec} if mech.floating else {}),
             "q": {n: float(v) for n, v in zip(mech.joint_names, r.q, strict=True)},
             "frames": {t.frame: {"position_error": float(pe), "orientation_error": float(oe),
                                  "weights": t.weights.tolist(),

@@ -110,6 +110,8 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
     """What ``mechkin fk`` refuses before the loop closure: the motion names exactly the
     independent joints, the time grid or table is usable, the initial guess names dependent
     joints."""
+    from mechkin.tasks.fk_base import floating_base_fill, no_floating_base
+
     spec = sc.section
     doc = sc.doc
     names = list(mech.independent_names)
@@ -130,9 +132,10 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
             if k not in names:
                 out.append(_unknown_joint(sc, ("fk", "motion", k), k, names,
                                           "an independent joint"))
-        for n in names:
-            if n not in spec.motion and not (getattr(mech, "floating", False)
-                                             and n.startswith("base_")):
+        fill, bad = floating_base_fill(sc, mech, spec.motion)
+        out += bad
+        for i, n in enumerate(names):
+            if n not in spec.motion and i not in fill:
                 out.append(f"{doc.where(('fk', 'motion'))}: no motion for independent joint "
                            f"{short(n)}")
     elif spec.table is not None:
@@ -143,8 +146,10 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
             if k != "t" and k not in names:
                 out.append(_unknown_joint(sc, ("fk", "table", k), k, names,
                                           "an independent joint"))
-        for n in names:
-            if n not in tab:
+        fill, bad = floating_base_fill(sc, mech, tab)
+        out += bad
+        for i, n in enumerate(names):
+            if n not in tab and i not in fill:
                 out.append(f"{doc.where(('fk', 'table'))}: no column for independent joint "
                            f"{short(n)}")
         lens = {len(v) for v in tab.values()}
@@ -161,6 +166,8 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
                 out.append(f"{doc.where(('fk', 'table', 't'))}: times must be at most "
                            f"{MAX_TIME_S:g} s, got {t[-1]:.3g}")
     elif spec.csv is not None:
+        if spec.base_pose is not None and not getattr(mech, "floating", False):
+            out.append(no_floating_base(sc, mech, ("fk", "base_pose")))
         try:
             path = (doc.path.parent / spec.csv).resolve()
         except (OSError, ValueError):
@@ -204,6 +211,10 @@ def ik_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
     doc = sc.doc
     out: list[str] = []
     framed = bool(spec.target_sets) or any(t.frame is not None for t in spec.targets)
+    if framed:
+        from mechkin.tasks.ik_frames import target_set_problems
+
+        out += target_set_problems(sc, mech)
     if mech.end_effector is None and not framed:
         from mechkin.model.mechanism import end_effector_hint
 
@@ -450,7 +461,8 @@ _FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_m
                        "max_angular_speed_rad_s", "max_acceleration_m_s2"}}
 _IK_KEYS = {"scenario", "task", "mechanism", "method", "status", "n_targets", "counts",
             "max_position_error", "max_orientation_error", "solve_time_s",
-            "median_time_per_target_s", "end_effector", "targets", "solutions", "methods_used"}
+            "median_time_per_target_s", "end_effector", "targets", "solutions", "methods_used",
+            "n_target_sets", "floating_base", "target_sets"}
 _IK_TARGET_KEYS = {"name", "status", "q", "q_v", "position_error", "orientation_error",
                    "weights", "f", "grad_norm", "iterations", "evaluations", "time_s",
                    "closure_residual", "joints_at_limit", "target", "end_effector",

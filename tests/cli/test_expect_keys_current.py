@@ -42,7 +42,7 @@ def _small(name: str, tmp_path: Path) -> Path:
 @pytest.mark.parametrize("name", [
     "kim1995_direct_drive_fk.yaml", "kim1995_table6_stewart_ik.yaml",
     "park_conveyor_none.yaml", "hwang2023_fig7_a.yaml", "lee_fig2_gamma_range_r075.yaml",
-    "puma560_workspace.yaml", "puma560_reachability.yaml"])
+    "puma560_workspace.yaml", "puma560_reachability.yaml", "biped_floating_ik.yaml"])
 def test_summary_keys_are_known_to_check(name, tmp_path):
     sc = load_scenario(_small(name, tmp_path))
     rep = run(sc)

@@ -191,7 +191,7 @@ def test_the_urdf_importer_refuses_inverted_or_nonfinite_limits(tmp_path, lo, hi
     robot = tmp_path / "r.urdf"
     robot.write_text(URDF.replace("TYPE", "revolute").replace("LO", lo).replace("HI", hi))
     r = _mechkin(tmp_path, "import", str(robot))
-    _one_line(r, f"{robot}:2:", "joint[j].limit")
+    _one_line(r, f"{robot}:3:", "joint[j].limit")  # the <limit> element's own line
 
 
 # ---- item 9: the exit-3 list ------------------------------------------------------------------

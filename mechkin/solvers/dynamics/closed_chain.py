@@ -21,6 +21,12 @@ from the independent rates and accelerations,
 
 with the analytic quadratic term ``gamma`` of :mod:`mechkin.model.differential`.
 
+Joint couplings (mimic joints, :mod:`mechkin.model.couplings`) are rows of ``Phi`` too: a row
+``q_j - m q_i - c`` gives ``S = m`` for the coupled joint, so ``qd_j = m qd_i``,
+``qdd_j = m qdd_i`` (``gamma = 0``: the row is linear) and ``tau_i = tau_tree,i + m tau_tree,j``,
+the coupled joint's torque carried by its master (tests/solvers/test_dynamics_couplings.py:
+Pinocchio's own mimic joints).
+
 The tree recursion is written with Featherstone's spatial vectors in the base frame, referred to
 the base origin (Featherstone 2008, ch. 5 and §9.2 for trees): the link velocities and
 accelerations ``V_l``, ``A_l`` come from :func:`mechkin.model.differential.link_motion` (the

@@ -9,10 +9,12 @@ recursive Newton-Euler model (park Eq. (8): ``U = M(q) qdd + h(q, qd)``) is a ma
 the chain from the base and picking, per joint, its ``A``, ``B``, ``s`` and the inertials of its
 child link.
 
-A closed chain (cut links) or a branching tree gets
-:class:`~mechkin.solvers.dynamics.closed_chain.ClosedChainDynamics` instead: Newton-Euler on the
-spanning tree, projected on the independent joints by the virtual-work principle (kim1995
-Eq. (3)-(4)); :func:`chain_order` itself still accepts only a serial chain.
+A closed chain (cut links), a mechanism with joint couplings (mimic joints) or a branching tree
+gets :class:`~mechkin.solvers.dynamics.closed_chain.ClosedChainDynamics` instead: Newton-Euler on
+the spanning tree, projected on the independent joints by the virtual-work principle (kim1995
+Eq. (3)-(4)); a coupling ``q_j = m q_i + c`` is a constraint row like a cut's, so the master's
+torque carries ``m`` times the coupled joint's. :func:`chain_order` itself (and park's 2-link
+closed form built on it) still accepts only a serial chain of independent joints.
 """
 
 from __future__ import annotations
@@ -54,9 +56,10 @@ def chain_order(mech: Mechanism) -> np.ndarray:
         )
     if mech.is_closed:  # joint couplings (mimic joints) are constraints too
         raise ModelError(
-            f"{mech.name}: dynamics: coupled joints are not supported (couplings of "
-            f"{', '.join(mech.joint_names[c.joint] for c in mech.couplings)}); a serial chain "
-            "of independent joints is needed"
+            f"{mech.name}: dynamics: a serial chain of independent joints is needed here, "
+            f"and {', '.join(mech.joint_names[c.joint] for c in mech.couplings)} "
+            "is coupled (a mimic joint); use dynamics: rnea, which projects the coupled "
+            "joints' torques on their masters by virtual work"
         )
     parent = np.asarray(mech.joint_parent_link)
     child = np.asarray(mech.joint_child_link)

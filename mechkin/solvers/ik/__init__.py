@@ -30,7 +30,10 @@ One solver family in several modules, each doing one thing:
 ``accel``            whether the compiled kernels can be used
 ``serial_jit``       compiled lm for open chains (numba, optional)
 ``tree_jit``         compiled lm and evaluation for closed chains (numba, optional)
-``tree_closure_jit`` its tree kinematics and loop closure of one configuration
+``tree_closure_jit`` its tree kinematics and loop closure (cut and coupling rows) of one
+                     configuration
+``coupled_jit``      compiled lm of a coupled open chain in its reduced coordinates (numba; the
+                     closed form q = S q_v + c0 is :mod:`mechkin.model.couplings`)
 ``all_solutions``    every solution of a target by multi-start lm
 ``warm``             the kernels ``mechkin warmup`` compiles
 ``multi_frame``      several frames' targets solved together (a biped's feet; closure, couplings)

@@ -176,7 +176,7 @@ def reset_job() -> None:
 #: machine of the README speed table; ``mechkin warmup`` prints the actual times).
 EXPECTED_COMPILE_S = {"serial_jit.lm": 15.0, "serial_jit.solve_rows": 20.0,
                       "serial_jit.verify_rows": 5.0, "serial_jit.lm_verify": 20.0,
-                      "tree_jit.lm_closed": 30.0,
+                      "tree_jit.lm_closed": 30.0, "coupled_jit.lm_coupled": 20.0,
                       "tree_jit.evaluate_one": 40.0}
 _announced: set[str] = set()
 quiet = False  # ``mechkin warmup`` prints its own progress lines

@@ -120,7 +120,9 @@ def _finish(mech: Mechanism, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, ref:
     if len(q):
         q[:, iv] = _near_guess(mech, iv, q[:, iv], ref)
         iw = mech.dependent
-        if iw.size:
+        if kern.coupling is not None:  # coupled joints follow their masters (exactly)
+            q = kern.coupling.full(q[:, iv])
+        elif iw.size:
             q[:, iw] = _near_guess(mech, iw, q[:, iw], np.where(np.isfinite(mech.home[iw]),
                                                                  mech.home[iw], 0.0))
         T_E = kern.pose_check(q)
@@ -248,7 +250,7 @@ def multistart_all(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         if seeded is not None:
             Q0[1:1 + nc] = seeded[0]
     QW = np.array(np.broadcast_to(qw0, (k, iw.size)))
-    if kern.n_cuts and k > 1:
+    if kern.n_cuts and kern.coupling is None and k > 1:  # (couplings alone: any q_v assembles)
         Q0[1:], QW[1:] = assembled_starts(mech, k - 1, qw0, rng)
     opts = replace(options or IkOptions(), method="lm", restarts=0)
     br = solve_ik_batch(mech, np.broadcast_to(T_P, (k, 4, 4)), q_v0=Q0, q_w0=QW,

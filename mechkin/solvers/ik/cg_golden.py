@@ -64,8 +64,8 @@ GOLDEN = 0.5 * (np.sqrt(5.0) - 1.0)  # 0.618...
 def _point_evaluator(kern: IkKernel, opts: IkOptions):
     """``(q_v, q_w guess, T_P, jac) -> (closed, x, J_r | None, q, S | None)`` for one point:
     the compiled closed-chain evaluation when available, else :func:`evaluate`."""
-    # the tree kernel also serves open chains (no cuts); it has no joint-coupling rows
-    if accel.compiled_lm_available() and not kern.mech.couplings:
+    # the tree kernel also serves open chains (no cuts) and joint couplings (rows of phi)
+    if accel.compiled_lm_available():
         from mechkin.solvers.ik.tree_jit import ClosedEvaluator, evaluate_one
 
         accel.announce(evaluate_one, "tree_jit.evaluate_one")

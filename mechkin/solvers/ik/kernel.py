@@ -14,7 +14,9 @@ dependent joints
           \frac{\partial\phi_R}{\partial q_v}.
 
 This module holds :class:`IkKernel` (the constants of the objective for one mechanism and
-end-effector frame: index sets, limits, the serial path to {E}), :func:`evaluate` (loop closure,
+end-effector frame: index sets, limits, the serial path to {E}; on a mechanism whose only
+constraints are joint couplings, their closed form q = S q_v + c0 and the bounds they put on
+q_v, :mod:`mechkin.model.couplings`), :func:`evaluate` (loop closure,
 residual and reduced Jacobian of a batch), the public :func:`objective`,
 :func:`reduced_jacobian`, :func:`gradient`, and :func:`pose_errors` (the verified errors of a
 pose). The kinematics (forward kinematics, the residual Jacobian, the loop closure) are those of
@@ -38,6 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mechkin.model.closure import solve_closure
+from mechkin.model.couplings import CouplingMap, coupling_map
 from mechkin.model.kinematics import (
     Kinematics,
     closure_jacobian,
@@ -87,10 +90,14 @@ class IkKernel:
         self.iv = np.asarray(mech.independent, dtype=int)
         self.iw = np.asarray(mech.dependent, dtype=int)
         self.n_cuts = len(mech.cuts) + len(mech.couplings)  # constraint blocks of phi
+        # couplings without cut links: q = S q_v + c0 in closed form (open-chain IK, seeds)
+        self.coupling: CouplingMap | None = coupling_map(mech)
         self.lower_v = mech.lower[self.iv]
         self.upper_v = mech.upper[self.iv]
         # a revolute joint whose range spans a full turn is continuous: wrap, do not clamp
         self.cont_v = (mech.s[self.iv] == 0) & (self.upper_v - self.lower_v >= 2 * np.pi - 1e-9)
+        if self.coupling is not None:  # the coupled joints' limits bound their masters
+            self.lower_v, self.upper_v, self.cont_v = self.coupling.bounds()
         self.bound_lo = np.where(self.cont_v, -np.inf, self.lower_v)
         self.bound_hi = np.where(self.cont_v, np.inf, self.upper_v)
 
@@ -129,11 +136,36 @@ class IkKernel:
                                             else cols)
         return self.__dict__["_chain_cols"]
 
+    @property
+    def open_path(self) -> bool:
+        """Whether IK searches q_v on the serial path to {E} alone: no cut links, and joint
+        couplings (if any) in closed form (:attr:`coupling`)."""
+        return self.n_cuts == 0 or self.coupling is not None
+
+    @property
+    def coupled_chain(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The serial path to {E} in reduced coordinates (coupled open chains, :attr:`coupling`):
+        ``rc`` (r,) the positions in q_v of the independent joints that drive the path, and per
+        path joint i ``jcol`` (its driver's index in rc), ``jmul``, ``joff``:
+        ``q_i = jmul[i] q_v[rc[jcol[i]]] + joff[i]``."""
+        hit = self.__dict__.get("_coupled_chain")
+        if hit is None:
+            cm = self.coupling
+            assert cm is not None
+            jj = self.chain.joints
+            colv = cm.col[jj]
+            rc = np.unique(colv)
+            hit = self.__dict__["_coupled_chain"] = (
+                rc, np.searchsorted(rc, colv).astype(np.int64),
+                np.ascontiguousarray(cm.mult[jj]), np.ascontiguousarray(cm.off[jj]))
+        return hit
+
     def pose_check(self, q: np.ndarray) -> np.ndarray:
         """Pose of {E} (m, 4, 4) at joints q (m, n) by forward kinematics, for verification:
         the serial path's product for open chains (tested equal to the general tree
-        kinematics), the general tree kinematics for closed ones."""
-        if self.n_cuts == 0:
+        kinematics; coupled joints' values taken from q), the general tree kinematics for
+        closed ones."""
+        if self.open_path:
             return self.chain.pose(q[:, self.chain.joints])
         return self.end_effector(self.kinematics(q))
 
@@ -242,6 +274,17 @@ def evaluate(kern: IkKernel, q_v: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
     """
     mech = kern.mech
     m = q_v.shape[0]
+    if kern.coupling is not None:  # couplings alone: q = S q_v + c0, J_r = (dx/dq) S
+        q = kern.coupling.full(q_v)
+        kin = kern.kinematics(q)
+        closed = np.ones(m, dtype=bool)
+        zero = np.zeros(m)
+        iters = np.zeros(m, dtype=int)
+        if not jac:
+            return _Eval(q, kern.residual(kin, T_P, rotation), None, closed, zero, iters)
+        x, Jq = kern.residual_jacobian(kin, T_P, rotation)
+        S = np.broadcast_to(-kern.coupling.S[kern.iw], (m, kern.iw.size, kern.iv.size))
+        return _Eval(q, x, Jq @ kern.coupling.S, closed, zero, iters, S)
     if kern.n_cuts == 0 or kern.iw.size == 0:
         q = np.empty((m, kern.n))
         q[:, kern.iv] = q_v

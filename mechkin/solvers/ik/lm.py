@@ -41,24 +41,39 @@ class _OpenRows:
     """lm evaluations of an open chain on the serial path to {E} (:class:`SerialChain`), with
     the chain expressed in {P} itself (``F_0 = T_P^{-1} A_0``, see
     :meth:`SerialChain.first_frame`): the pose of {E} in {P} gives the residual (position,
-    rotation vector) and the geometric Jacobian in {P} is its Jacobian. No carry."""
+    rotation vector) and the geometric Jacobian in {P} is its Jacobian. No carry. On a coupled
+    open chain (:attr:`IkKernel.coupling`) the path's joints are ``jmul q_v + joff`` and the
+    Jacobian is ``J M`` (:mod:`mechkin.model.couplings`)."""
 
     def __init__(self, kern: IkKernel) -> None:
         self.chain = kern.chain
         self.nv = kern.iv.size
-        self.cols = kern.chain_cols  # None: the chain is q_v itself, in order
+        self.M = None
+        if kern.coupling is not None:
+            rc, jcol, self.jmul, self.joff = kern.coupled_chain
+            self.colv = rc[jcol]  # each path joint's driver in q_v
+            self.M = np.zeros((self.chain.k, self.nv))
+            np.add.at(self.M, (np.arange(self.chain.k), self.colv), self.jmul)
+            self.cols = None
+        else:
+            self.cols = kern.chain_cols  # None: the chain is q_v itself, in order
 
     def prepare(self, T_P: np.ndarray) -> np.ndarray:
         """Per-target constants (m, 4, 4): F_0 in {P}."""
         return self.chain.first_frame(T_P)
 
     def __call__(self, qv: np.ndarray, F0: np.ndarray, carry: tuple, q_prev: np.ndarray):
-        qc = qv if self.cols is None else qv[:, self.cols]
+        if self.M is not None:
+            qc = qv[:, self.colv] * self.jmul + self.joff
+        else:
+            qc = qv if self.cols is None else qv[:, self.cols]
         T_E, J = self.chain.pose_jacobian(qc, F0)
         x = np.empty((qv.shape[0], 6))
         x[:, :3] = T_E[:, :3, 3]
         x[:, 3:] = rotation_log(T_E[:, :3, :3])
-        if self.cols is not None:
+        if self.M is not None:
+            J = J @ self.M
+        elif self.cols is not None:
             Jf = np.zeros((qv.shape[0], 6, self.nv))
             Jf[:, :, self.cols] = J
             J = Jf
@@ -91,6 +106,8 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
                       stop_on_first: bool = False):
     """:func:`lm_batch` of an open chain by the compiled kernel
     (:mod:`mechkin.solvers.ik.serial_jit`)."""
+    if kern.coupling is not None:
+        return _lm_coupled_compiled(kern, q_v0, T_P, w, opts, history, stop_on_first)
     from mechkin.solvers.ik import serial_jit
 
     m = q_v0.shape[0]
@@ -115,6 +132,32 @@ def _lm_open_compiled(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: n
     q[:, kern.iw] = q_w0
     hl = [h[: i + 1] for h, i in zip(hist, iters, strict=True)] if history else []
     return dict(q=q, qv=qv, qw=q_w0, f=f, iters=iters, nev=iters + 1, gnorm=gnorm,
+                closed=np.ones(m, dtype=bool), converged=done, hist=hl)
+
+
+def _lm_coupled_compiled(kern: IkKernel, q_v0: np.ndarray, T_P: np.ndarray, w: np.ndarray,
+                         opts: IkOptions, history: bool, stop_on_first: bool):
+    """:func:`lm_batch` of a coupled open chain by the compiled kernel in its reduced
+    coordinates (:mod:`mechkin.solvers.ik.coupled_jit`); q_v outside the path's drivers is
+    projected and kept, the coupled joints follow in closed form."""
+    from mechkin.solvers.ik import coupled_jit
+
+    rc, jcol, jmul, joff = kern.coupled_chain
+    max_iter = opts.max_iter or MAX_ITER_LM
+    qv = kern.project(q_v0)
+    accel.announce(coupled_jit.lm_coupled, "coupled_jit.lm_coupled")
+    accel.mark_loaded("open")
+    u, f, iters, done, gnorm, hist = coupled_jit.lm_coupled_rows(
+        qv[:, rc], kern.chain.first_frame(T_P), w, kern.chain, (jcol, jmul, joff),
+        kern.bound_lo[rc], kern.bound_hi[rc], kern.cont_v[rc], kern.lower_v[rc],
+        kern.upper_v[rc], f_abs=0.5 * (1e-3 * min(opts.tol_pos, opts.tol_ori)) ** 2,
+        max_iter=max_iter, stall=STALL_WINDOW if opts.restarts > 0 else 0, mu=LM_MU,
+        history=history, stop_first=stop_on_first, grad_tol=opts.lm_grad_tol)
+    qv[:, rc] = u
+    q = kern.coupling.full(qv)
+    hl = [h[: i + 1] for h, i in zip(hist, iters, strict=True)] if history else []
+    m = qv.shape[0]
+    return dict(q=q, qv=qv, qw=q[:, kern.iw], f=f, iters=iters, nev=iters + 1, gnorm=gnorm,
                 closed=np.ones(m, dtype=bool), converged=done, hist=hl)
 
 
@@ -191,14 +234,13 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
     max_iter = opts.max_iter or MAX_ITER_LM
     lo, hi = kern.bound_lo, kern.bound_hi
     bounded = bool(np.isfinite(lo).any() or np.isfinite(hi).any())
-    closed_chain = bool(kern.n_cuts) and kern.iw.size > 0
+    # couplings alone (no cut links) are solved in closed form: an open chain in q_v
+    closed_chain = bool(kern.n_cuts) and kern.iw.size > 0 and kern.coupling is None
     # starts for one target (stop_on_first) end at the first success: about one row's work
     # (measured, PUMA 560 scenario: 30 restart rows 6.4 ms by numpy, one row from the guess
     # 9.6 ms)
-    # the compiled closed-chain kernel has no joint-coupling rows: numpy for those
     n_rows = 1 if stop_on_first else m
-    if (not (closed_chain and kern.mech.couplings)
-            and accel.use_compiled("closed" if closed_chain else "open", n_rows)):
+    if accel.use_compiled("closed" if closed_chain else "open", n_rows):
         # writable C arrays: a read-only start (a broadcast, a view of a frozen array) is
         # another numba signature, compiled at first use after `mechkin warmup` (issue 29)
         q_v0, q_w0, T_P, w = (np.require(a, np.float64, ("C", "W"))
@@ -322,9 +364,13 @@ def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray
         if closed_chain:
             qw[act] = ca[0]
     nev += iters
-    q = np.empty((m, kern.n))
-    q[:, kern.iv] = qv
-    q[:, kern.iw] = qw
+    if kern.coupling is not None:
+        q = kern.coupling.full(qv)
+        qw = q[:, kern.iw]
+    else:
+        q = np.empty((m, kern.n))
+        q[:, kern.iv] = qv
+        q[:, kern.iw] = qw
     return dict(q=q, qv=qv, qw=qw, f=f, iters=iters, nev=nev, gnorm=gnorm,
                 closed=closed_ok, converged=done, hist=hist)
 

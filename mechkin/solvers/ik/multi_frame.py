@@ -88,7 +88,8 @@ class MultiFrameResult:
 class _Problem:
     """Per-mechanism and per-target-set constants."""
 
-    def __init__(self, mech: Mechanism, targets: list[FrameTarget]) -> None:
+    def __init__(self, mech: Mechanism, targets: list[FrameTarget],
+                 held: dict[int, float] | None = None) -> None:
         self.mech = mech
         self.fb = np.array([mech.frame_index(t.frame) for t in targets], dtype=int)
         self.T_P = np.stack([np.asarray(t.T, dtype=np.float64) for t in targets])  # (k, 4, 4)
@@ -101,6 +102,11 @@ class _Problem:
         self.cont = (mech.s[self.iv] == 0) & (hi - lo >= 2 * np.pi - 1e-9)
         self.lo = np.where(self.cont, -np.inf, lo)
         self.hi = np.where(self.cont, np.inf, hi)
+        # held independent joints (a known floating-base pose): bounds pinned, no Jacobian column
+        self.held = np.zeros(self.iv.size, dtype=bool)
+        for i, v in (held or {}).items():
+            self.held[i] = True
+            self.lo[i] = self.hi[i] = float(v)
         c = mech.couplings
         self.cj = np.array([x.joint for x in c], dtype=int)
         self.ci = np.array([x.master for x in c], dtype=int)
@@ -129,7 +135,7 @@ class _Problem:
             r, Jq = self.residual(kin, jac)
             if not jac:
                 return True, q, r, None
-            return True, q, r, Jq[:, self.iv] - Jq[:, self.iw] @ self.S_coupled
+            return True, q, r, self._free(Jq[:, self.iv] - Jq[:, self.iw] @ self.S_coupled)
         if mech.is_closed and self.iw.size:
             res = solve_closure(mech, q_v[None], q_w[None], keep_kinematics=True)
             if not res.ok[0] or not np.all(np.isfinite(res.q[0])):
@@ -148,7 +154,14 @@ class _Problem:
             Phi = (closure_jacobian(mech, kin)[1] if res.jacobian is None else res.jacobian)[0]
             S = np.linalg.lstsq(Phi[:, self.iw], Phi[:, self.iv], rcond=None)[0]
             Jr = Jr - Jq[:, self.iw] @ S  # kim1995 Eq. (10)
-        return True, q, r, Jr
+        return True, q, r, self._free(Jr)
+
+    def _free(self, Jr: np.ndarray) -> np.ndarray:
+        """The reduced Jacobian with the held joints' columns zero (their step is then 0)."""
+        if self.held.any():
+            Jr = Jr.copy()
+            Jr[:, self.held] = 0.0
+        return Jr
 
     def project(self, q_v: np.ndarray) -> np.ndarray:
         return np.clip(q_v, self.lo, self.hi)
@@ -218,15 +231,18 @@ def solve_multi_frame(mech: Mechanism, targets: list[FrameTarget], *,
                       q_v0: np.ndarray | None = None, q_w0: np.ndarray | None = None,
                       tol_pos: float = TOL_POS_M, tol_ori: float = TOL_ORI_RAD,
                       max_iter: int = MAX_ITER, restarts: int = RESTARTS,
-                      seed: int = 0) -> MultiFrameResult:
+                      seed: int = 0, held: dict[int, float] | None = None
+                      ) -> MultiFrameResult:
     """Solve one target set (several frames) together; see the module docstring.
 
     ``q_v0`` / ``q_w0``: the start (default home). Restarts: seeded random independent joints
     around the start (a tenth of each range, at most 0.3 rad or m), then uniform within the
-    limits for the bounded joints; a floating base always restarts near the start.
+    limits for the bounded joints; a floating base always restarts near the start. ``held``:
+    independent joints (index into ``mech.independent`` -> value [rad | m]) held at a known
+    value, e.g. the six joints of a floating base whose pose is given; the rest are solved.
     """
     t0 = time.perf_counter()
-    P = _Problem(mech, targets)
+    P = _Problem(mech, targets, held)
     home = np.where(np.isfinite(mech.home), mech.home, 0.0)
     qv0 = home[P.iv].copy() if q_v0 is None else np.asarray(q_v0, dtype=np.float64).copy()
     qw0 = home[P.iw].copy() if q_w0 is None else np.asarray(q_w0, dtype=np.float64).copy()

@@ -4,7 +4,9 @@ A solve without a guess starts from the nearest pose of a codebook of ``SEED_COD
 random configurations within the limits (forward kinematics once, a KD-tree of the poses);
 restarts take the next-nearest codebook poses, then seeded random joints within the limits.
 Open chains only (closed chains seldom assemble at random joints; their restarts jitter the
-given start).
+given start); an open chain with joint couplings counts (its coupled joints follow their masters
+in closed form, :mod:`mechkin.model.couplings`, and its codebook draws the masters within the
+coupled joints' limits too).
 
 Design
 ------
@@ -37,7 +39,7 @@ def seed_starts(kern: IkKernel, T_P: np.ndarray, w: np.ndarray, ranks=(0,),
     start in the right region and LM needs few steps. ``ranks`` picks which neighbours
     (0 = the nearest; restarts take the next ones).
     """
-    if kern.n_cuts or kern.iw.size:
+    if not kern.open_path or (kern.iw.size and kern.coupling is None):
         return None
     ranks = np.asarray(ranks, dtype=int)
     m = T_P.shape[0]
@@ -142,8 +144,11 @@ def codebook(kern: IkKernel, size: int, cols: tuple[int, ...] = tuple(range(12))
         lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
         hi = np.where(np.isfinite(kern.upper_v), kern.upper_v, np.pi)
         qs = rng.uniform(lo, hi, size=(size, kern.iv.size))
-        q = np.zeros((size, kern.n))
-        q[:, kern.iv] = qs
+        if kern.coupling is not None:
+            q = kern.coupling.full(qs)
+        else:
+            q = np.zeros((size, kern.n))
+            q[:, kern.iv] = qs
         T = kern.end_effector(kern.kinematics(q))
         feats = np.concatenate([T[:, :3, 3], 0.5 * T[:, :3, :3].reshape(size, 9)], axis=1)
         if SEARCH == "kdtree":

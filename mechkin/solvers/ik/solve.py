@@ -163,6 +163,8 @@ def solve_ik(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None
         q[kern.iv], q[kern.iw] = qv, qw
         q = finite(q, mech.home)
         q[kern.iv] = kern.nearest_turn(q[kern.iv], ref_v)
+        if kern.coupling is not None:  # coupled joints: m q_master + c, exactly
+            q = kern.coupling.full(q[kern.iv])
         st, pe, oe, at = status_of(kern, q, T_P, w, closed, conv, opts, float(gn))
         f_fin = float(f) if np.isfinite(f) else 0.5 * float(np.sum(w) * 4.0)
         if not np.isfinite(hist).all():
@@ -542,6 +544,8 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         e = e0 if q0 is not None and np.array_equal(q, q0) else errors(q, T_P, w)
     else:
         q[:, kern.iv] = kern.nearest_turn(q[:, kern.iv], ref)
+        if kern.coupling is not None:  # coupled joints: m q_master + c, exactly
+            q = kern.coupling.full(q[:, kern.iv])
         e = errors(q, T_P, w)
     if e is None:
         T_E = kern.pose_check(q)

@@ -4,7 +4,8 @@ The loops of :mod:`mechkin.solvers.ik.tree_jit`'s closed-chain lm that evaluate 
 configuration the way :mod:`mechkin.model` does: tree forward kinematics (kim1995 Eq. (2)) and
 joint axes, frame poses, the residual x of {E} relative to {P} and its Jacobian (Eq. (8)), a
 least-squares solve (LU for a square ``dphi/dq_w``, Cholesky of the normal equations for a tall
-one), the loop closure phi_R(q_v, q_w) = 0 by Newton-Raphson (kim1995 §5.1) and the evaluation
+one), the loop closure phi_R(q_v, q_w) = 0 by Newton-Raphson (kim1995 §5.1; with a row per
+joint coupling after the cuts' rows, as :mod:`mechkin.model.couplings`) and the evaluation
 of a closed chain at one start (:func:`evaluate_closed`). Split out of ``tree_jit.py`` (issue
 23: modules that fit in a head).
 
@@ -229,8 +230,10 @@ def lstsq_solve(A, B, X):
 
 @_njit
 def closure_eval(q, K, T, z, o, phi, Phi, Ta, Tb, x6, J6, jac):
-    """phi_R (n_eq,) and d(phi_R)/dq (n_eq, n) at q (kim1995 Eq. (4)); T, z, o filled."""
-    (order, jp, jc, Pc, Ps, Pd, P0, rev, az, ao, flink, foff, cut_a, cut_b, mask, sig) = K
+    """phi_R (n_eq,) and d(phi_R)/dq (n_eq, n) at q (kim1995 Eq. (4)), then one row per joint
+    coupling (``q_j - m q_i - c``, as :mod:`mechkin.model.couplings`); T, z, o filled."""
+    (order, jp, jc, Pc, Ps, Pd, P0, rev, az, ao, flink, foff, cut_a, cut_b, mask, sig,
+     cp_j, cp_m, cp_mult, cp_off) = K
     tree_fk(q, order, jp, jc, Pc, Ps, Pd, P0, rev, T)
     if jac:
         tree_axes(q, T, jp, az, ao, rev, z, o)
@@ -246,6 +249,15 @@ def closure_eval(q, K, T, z, o, phi, Phi, Ta, Tb, x6, J6, jac):
                     for j in range(q.size):
                         Phi[e, j] = J6[comp, j]
                 e += 1
+    # joint couplings q_j = m q_i + c: the rows after the cuts' (mechkin.model.couplings)
+    for c in range(cp_j.size):
+        phi[e] = q[cp_j[c]] - cp_mult[c] * q[cp_m[c]] - cp_off[c]
+        if jac:
+            for j in range(q.size):
+                Phi[e, j] = 0.0
+            Phi[e, cp_j[c]] += 1.0
+            Phi[e, cp_m[c]] -= cp_mult[c]
+        e += 1
 
 
 @_njit

@@ -5,7 +5,8 @@ loops over one configuration and compiled by numba (``pip install "mechkin[fast]
 evaluation is what the numpy path does with :mod:`mechkin.model`:
 
 * tree forward kinematics (kim1995 Eq. (2)), joint axes;
-* loop closure phi_R(q_v, q_w) = 0 by Newton-Raphson (kim1995 §5.1, as
+* loop closure phi_R(q_v, q_w) = 0 by Newton-Raphson (kim1995 §5.1; joint couplings are rows of
+  phi after the cuts', :mod:`mechkin.model.couplings`; as
   :func:`mechkin.model.closure.solve_closure`: pseudo-inverse step, 0.5 trust region, halving
   of steps that raise ||phi||, revolute dependents brought back to the branch of the guess);
 * residual x of {E} relative to {P} (position, vector part of the Euler parameters, Eq. (8))
@@ -102,9 +103,11 @@ def within(q, iw, lo_w, hi_w, band):
 
 
 @_njit
-def equation_count(mask):
-    """Number of loop-closure equations: the kept components of every cut."""
-    neq = 0
+def equation_count(K):
+    """Number of loop-closure equations: the kept components of every cut, then one per joint
+    coupling."""
+    mask = K[14]
+    neq = K[16].size
     for c in range(mask.shape[0]):
         for comp in range(6):
             if mask[c, comp]:
@@ -131,7 +134,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
     m, nv = qv0.shape
     nw = iw.size
     n = nv + nw
-    neq = equation_count(K[14])
+    neq = equation_count(K)
     W = workspace(n, n_links, neq, nv, nw)
     q = np.empty(n)
     qn_full = np.empty(n)
@@ -235,7 +238,7 @@ def lm_closed(qv0, qw0, TP, w, iv, iw, K, fe_link, fe_off, sigE, lo, hi, cont, l
 def evaluate_one(q, iv, iw, K, fe_link, fe_off, sigE, TP, tol_phi, tol_dq, max_iter, n_links,
                  x, Jr, S):
     """:func:`evaluate_closed` with its own workspace (one call from Python)."""
-    neq = equation_count(K[14])
+    neq = equation_count(K)
     W = workspace(q.size, n_links, neq, iv.size, iw.size)
     return evaluate_closed(q, iv, iw, K, fe_link, fe_off, sigE, TP, tol_phi, tol_dq, max_iter,
                            x, Jr, S, W)
@@ -282,7 +285,11 @@ def tree_constants(mech, frame: int):
          np.ascontiguousarray(P0), np.ascontiguousarray(mech.s == 0),
          np.ascontiguousarray(mech.A[:, :3, 2]), np.ascontiguousarray(mech.A[:, :3, 3]),
          mech.frame_link.astype(np.int64), np.ascontiguousarray(mech.frame_offset),
-         fa.astype(np.int64), fb.astype(np.int64), np.ascontiguousarray(mask), sig)
+         fa.astype(np.int64), fb.astype(np.int64), np.ascontiguousarray(mask), sig,
+         np.array([c.joint for c in mech.couplings], dtype=np.int64),
+         np.array([c.master for c in mech.couplings], dtype=np.int64),
+         np.array([c.multiplier for c in mech.couplings], dtype=np.float64),
+         np.array([c.offset for c in mech.couplings], dtype=np.float64))
     hit = (K, int(mech.frame_link[frame]), np.ascontiguousarray(mech.frame_offset[frame]),
            np.ascontiguousarray(anc[mech.frame_link[frame]]))
     cache[frame] = hit

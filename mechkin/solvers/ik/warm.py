@@ -1,7 +1,8 @@
 """Compile (or load from numba's cache) the IK kernels ahead of first use (``mechkin warmup``).
 
 The compiled kernels are specialised on argument types, not on a mechanism: compiling them
-once for any open chain (``serial_jit.lm``, the single-solve path ``serial_jit.solve_rows``,
+once for any open chain (``serial_jit.lm``, ``coupled_jit.lm_coupled`` for one with joint
+couplings, the single-solve path ``serial_jit.solve_rows``,
 the batch verification ``serial_jit.verify_rows``, the small-batch attempt
 ``serial_jit.lm_verify`` and the batch's whole-turn step ``serial_jit.nearest_turn_rows``)
 and any closed chain (``tree_jit.lm_closed``; the cg-golden point evaluator
@@ -65,6 +66,14 @@ cuts:
 independent: [q_crank]
 end_effector: coupler_end
 """
+#: The two-joint arm with a third joint that follows the second (a mimic joint): the coupled
+#: open chain's lm in reduced coordinates (:mod:`mechkin.solvers.ik.coupled_jit`).
+TINY_COUPLED = TINY_OPEN.replace("name: warmup_2r", "name: warmup_2r_mimic").replace(
+    "    frames: [{name: tip, xyz: [0.5, 0, 0]}]\n",
+    "  - name: l3\n    frames: [{name: tip, xyz: [0.5, 0, 0]}]\n").replace(
+    "independent: [q1, q2]\n",
+    "  - {name: q3, type: revolute, parent: l2, child: l3, origin: {xyz: [0.5, 0, 0]}}\n"
+    "couplings: [{joint: q3, master: q2, multiplier: 0.5}]\nindependent: [q1, q2]\n")
 
 
 @dataclass(frozen=True)
@@ -80,8 +89,12 @@ class Warmed:
 
 def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
     """(kernel name, role) of the compiled kernels ``mech``'s IK can use."""
+    from mechkin.model.couplings import coupling_map
+
     closed = mech.is_closed and len(mech.dependent) > 0
-    if closed:
+    if closed and coupling_map(mech) is not None:  # couplings alone: open chain, reduced
+        lms = [("coupled_jit.lm_coupled", "coupled open-chain lm")]
+    elif closed:
         lms = [("tree_jit.lm_closed", "closed-chain lm")]
     else:
         lms = [("serial_jit.lm", "open-chain lm"),
@@ -97,11 +110,12 @@ def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
 
 
 def _dispatcher(name: str):
-    from mechkin.solvers.ik import serial_jit, tree_jit
+    from mechkin.solvers.ik import coupled_jit, serial_jit, tree_jit
     from mechkin.solvers.ik.analytic import finish
 
     mod, fn = name.split(".")
-    return getattr({"serial_jit": serial_jit, "tree_jit": tree_jit, "finish": finish}[mod], fn)
+    return getattr({"serial_jit": serial_jit, "tree_jit": tree_jit, "finish": finish,
+                    "coupled_jit": coupled_jit}[mod], fn)
 
 
 def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
@@ -119,6 +133,8 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
     opts = IkOptions()
     if name == "serial_jit.lm":
         return lambda: lm._lm_open_compiled(kern, qv, qw, T, w, opts, False)
+    if name == "coupled_jit.lm_coupled":
+        return lambda: lm._lm_coupled_compiled(kern, qv, T, w, opts, False, False)
     if name in ("serial_jit.solve_rows", "serial_jit.verify_rows", "serial_jit.lm_verify",
                 "serial_jit.nearest_turn_rows"):
         from mechkin.solvers.ik import serial_jit
@@ -222,7 +238,8 @@ def warm(mechs: list[Mechanism]) -> Iterator[tuple[str, str] | Warmed]:
                 t0 = time.perf_counter()
                 run()
                 dt = time.perf_counter() - t0
-                kind = {"serial_jit.lm": "open", "tree_jit.lm_closed": "closed"}.get(name)
+                kind = {"serial_jit.lm": "open", "tree_jit.lm_closed": "closed",
+                        "coupled_jit.lm_coupled": "open"}.get(name)
                 if kind:
                     accel.mark_loaded(kind)
                 yield Warmed(name, role, dt, cached)
