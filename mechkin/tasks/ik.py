@@ -57,6 +57,7 @@ from mechkin.tasks.ik_analytic import (
     solutions_summary_extra,
     solve_batch_analytic,
     solve_held,
+    solve_sequence_batched,
 )
 from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
 from mechkin.tasks.ik_solve import _safe_norm, _solve_batch, _solve_split, solve_sequence
@@ -65,8 +66,9 @@ from mechkin.tasks.prepare import Prepared
 
 def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
     """The closed form of the mechanism by structure (recognised once: by the validation
-    when it ran); a declared one that does not fit, or none that fits, is bad input naming
-    the mismatch."""
+    when it ran), or ``legs`` for a parallel mechanism without a named closed form whose legs
+    decompose; a declared one that does not fit, or none that fits, is bad input naming the
+    mismatch."""
     from mechkin.solvers.closed_form.recognise import ClosedFormMismatch
 
     mech = prepared.mechanism
@@ -75,9 +77,14 @@ def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
     except ClosedFormMismatch as exc:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: {exc}") from None
     if kind is None:
+        from mechkin.tasks.validate import _legs_decompose
+
+        if _legs_decompose(mech):
+            return "legs"  # any parallel mechanism whose legs decompose: the legs route
         raise ConfigError(f"{scenario.doc.where(('ik', 'method'))}: no closed form fits "
                           f"mechanism {mech.name} (declare closed_form: stewart | direct_drive | "
-                          "lee_spherical in the mechanism file, or use method: lm)")
+                          "lee_spherical in the mechanism file, give a parallel mechanism whose "
+                          "legs decompose, or use method: lm)")
     return kind
 
 
@@ -213,10 +220,17 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     fixed = held_values(scenario, mech)
     exact_batch = (solve_batch_analytic(mech, spec.method, T_P, W, qv0, qw0, opts)
                    if spec.batch and not far.any() and not fixed else None)
+    # many targets of an open chain that decomposes: the sequence in one compiled loop
+    # (the same answers as one by one, warm starts included)
+    seq_batch = (solve_sequence_batched(mech, T_P, W, far, spec.method, opts, qv0, qw0,
+                                        spec.warm_start)
+                 if not spec.batch and not fixed else None)
     if fixed:  # held joints: the remaining chain by subproblems, warm-started
         results, guesses = solve_held(mech, fixed, T_P, W, qv0, opts, spec.warm_start)
     elif exact_batch is not None:  # auto / analytic: one compiled call for every target
         results, guesses = exact_batch, [(qv0, qw0)] * len(T_P)
+    elif seq_batch is not None:
+        results, guesses = seq_batch
     elif spec.batch and not far.any():
         results, execution_info = _solve_batch(scenario, T_P, W, qv0, qw0, opts, ex)
         guesses = [(qv0, qw0)] * len(T_P)

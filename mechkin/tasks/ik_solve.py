@@ -38,12 +38,23 @@ from mechkin.solvers.ik.analytic.dispatch import ANALYTIC_METHODS, solve_ik_meth
 from mechkin.tasks.distributed import Execution, map_jobs
 
 
-def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str) -> IkResult:
+def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str,
+                 q_v0: np.ndarray | None = None) -> IkResult:
     """The closed form the mechanism's structure admits (``closed_form:`` or recognised from
-    the geometry: Stewart leg lengths, kim1995's direct-drive appendix, lee's legs), then the
-    loop closure and verification by forward kinematics."""
+    the geometry: Stewart leg lengths, kim1995's direct-drive appendix, lee's legs; all solved
+    through the leg decomposition), then the loop closure and verification by forward
+    kinematics. ``kind`` ``legs`` (a parallel mechanism without a named closed form whose legs
+    decompose): every joint from the legs, each leg's branch nearest the guess (q_v0, q_w0)."""
     from mechkin.solvers.closed_form.recognise import closed_form_ik
 
+    if kind == "legs":
+        from dataclasses import replace
+
+        from mechkin.solvers.ik.analytic.legs import legs_for, legs_ik
+
+        qv = mech.home[mech.independent] if q_v0 is None else q_v0
+        r = legs_ik(mech, legs_for(mech), T, qv, q_w0, 1e-4, 1e-4)
+        return replace(r, method="closed-form")
     t0 = time.perf_counter()
     qv, _ = closed_form_ik(mech, T[None], kind, tol=1e-4)
     res = solve_closure(mech, qv, q_w0[None])
@@ -138,7 +149,7 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
             results.append(_out_of_reach(mech, qv, qw))
         else:
             if method == "closed-form":
-                r = _closed_form(mech, T, qw, kind)
+                r = _closed_form(mech, T, qw, kind, qv)
             elif method in ANALYTIC_METHODS:
                 r = solve_ik_method(mech, T, method=method, q_v0=qv, q_w0=qw, weights=w,
                                     options=opts)

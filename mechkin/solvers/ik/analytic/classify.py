@@ -11,16 +11,21 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
 ``M^{-1} p_{7-i}`` and whose end pose is ``M^{-1}``):
 
 * ``spherical wrist`` (axes 4, 5, 6 meet in a point) with h2 || h3 (``POS_PAR23``) or with
-  h1, h2 meeting (``POS_INT12``): PUMA 560, ABB IRB, KUKA KR, Fanuc, Staubli...; reversed:
-  a spherical joint at the base;
-* ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting): the UR family; reversed: h3 || h4 ||
-  h5 with h1, h2 meeting;
+  h1, h2 meeting (``POS_INT12``): PUMA 560, ABB IRB, KUKA KR, Fanuc, Staubli...; with h1 || h2
+  (``POS_PAR12``), h2, h3 meeting (``POS_INT23``) or none of these (``POS_GENERAL``, IK-Geo's
+  Subproblem 5); reversed: a spherical joint at the base (EAIK's seven spherical classes);
+* ``three parallel`` (h2 || h3 || h4, and h5, h6 meeting: the UR family; or h5, h6 skew,
+  IK-Geo's Subproblem 6: EAIK's "three inner parallel"); reversed: h3 || h4 || h5;
 * ``5R`` (5 revolute joints, h2 || h3 || h4, h1 and h5 not parallel to them;
-  :mod:`mechkin.solvers.ik.analytic.arm5r`);
+  :mod:`mechkin.solvers.ik.analytic.arm5r`; or h4 meeting h5 with any position case of the
+  spherical-wrist arms for h1..h3: :mod:`mechkin.solvers.ik.analytic.arm5w`);
 * ``SCARA`` (4 joints: three revolute and one prismatic, every axis parallel;
-  :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place).
+  :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place);
+* prismatic joints among the first three, with a spherical wrist: R-R-P with h1 meeting h2
+  (a Stanford arm, a U-P-S leg), P-P-P (gantry), R-P-P (cylindrical), P-R-R with h2, h3
+  meeting or parallel.
 
-Anything else (an offset wrist such as the Kinova Jaco's, prismatic joints in a 6-joint chain,
+Anything else (an offset wrist such as the Kinova Jaco's, other prismatic joints,
 other joint counts, a closed chain) raises :class:`NotDecomposable` naming the axes that break it.
 
 Design
@@ -36,14 +41,24 @@ import numpy as np
 
 from mechkin.errors import ModelError
 from mechkin.model.mechanism import Mechanism
+from mechkin.solvers.ik.analytic.arm5w import WRIST5_BASE, virtual_six
 from mechkin.solvers.ik.analytic.solve6r import (
     KIND_ARM5,
     KIND_PAR234,
     KIND_SCARA,
     KIND_SPHERICAL,
+    PAR_GENERAL,
+    PAR_MEET56,
+    POS_GENERAL,
     POS_INT12,
     POS_INT12_P,
+    POS_INT23,
+    POS_PAR12,
     POS_PAR23,
+    POS_PPP,
+    POS_PRR_INT,
+    POS_PRR_PAR,
+    POS_RPP,
 )
 
 PAR_TOL = 1e-9  # |h_i x h_j| below which two axes are parallel
@@ -170,24 +185,54 @@ def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray
         o12 = _meet(H[0], P[0], H[1], P[1], tol)
         if o12 is not None:
             return KIND_SPHERICAL, POS_INT12, c45, o12, "spherical wrist, h1 meets h2"
+        if _parallel(H[0], H[1]) and not _parallel(H[1], H[2]):
+            return KIND_SPHERICAL, POS_PAR12, c45, c45, "spherical wrist, h1 || h2"
+        o23 = _meet(H[1], P[1], H[2], P[2], tol)
+        if o23 is not None:
+            return KIND_SPHERICAL, POS_INT23, c45, o23, "spherical wrist, h2 meets h3"
+        if not _parallel(H[0], H[1]) and not _parallel(H[1], H[2]):
+            return (KIND_SPHERICAL, POS_GENERAL, c45, c45,
+                    "spherical wrist, h1..h3 neither parallel nor meeting (Subproblem 5)")
     if _parallel(H[1], H[2]) and _parallel(H[2], H[3]) and not _parallel(H[0], H[1]) \
             and not _parallel(H[4], H[1]):
         o56 = _meet(H[4], P[4], H[5], P[5], tol)
         if o56 is not None:
-            return KIND_PAR234, 0, o56, o56, "three parallel axes h2 || h3 || h4, h5 meets h6"
+            return (KIND_PAR234, PAR_MEET56, o56, o56,
+                    "three parallel axes h2 || h3 || h4, h5 meets h6")
+        if not _parallel(H[4], H[5]):
+            return (KIND_PAR234, PAR_GENERAL, P[5].copy(), P[5].copy(),
+                    "three parallel axes h2 || h3 || h4, h5 and h6 skew (Subproblem 6)")
     return None
 
 
-def _try_ups(H: np.ndarray, P: np.ndarray, tol: float
-             ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
-    """A U-P-S chain (h1 meets h2, joint 3 prismatic, axes 4-6 meet), or None."""
+def _try_prismatic(H: np.ndarray, P: np.ndarray, s3: tuple[int, int, int], tol: float
+                   ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
+    """A chain with prismatic joints among the first three and a spherical wrist (axes 4-6
+    revolute, meeting), by the pattern of joints 1-3 (1: prismatic), or None."""
     c45 = _meet(H[3], P[3], H[4], P[4], tol)
-    o12 = _meet(H[0], P[0], H[1], P[1], tol)
-    if c45 is None or o12 is None or _meet(H[4], P[4], H[5], P[5], tol) is None or \
+    if c45 is None or _meet(H[4], P[4], H[5], P[5], tol) is None or \
             np.linalg.norm(np.cross(H[5], c45 - P[5])) >= tol or _parallel(H[3], H[4]) or \
             _parallel(H[4], H[5]):
         return None
-    return KIND_SPHERICAL, POS_INT12_P, c45, o12, "U-P-S: h1 meets h2, prismatic, spherical"
+    if s3 == (0, 0, 1):
+        o12 = _meet(H[0], P[0], H[1], P[1], tol)
+        if o12 is not None:
+            return (KIND_SPHERICAL, POS_INT12_P, c45, o12,
+                    "U-P-S: h1 meets h2, prismatic, spherical")
+    elif s3 == (1, 1, 1):
+        if abs(float(np.linalg.det(H[:3]))) > PAR_TOL:
+            return KIND_SPHERICAL, POS_PPP, c45, c45, "P-P-P (gantry), spherical wrist"
+    elif s3 == (0, 1, 1):
+        nn = np.cross(H[1], H[2])
+        if np.linalg.norm(nn) > PAR_TOL and not _parallel(H[0], nn / np.linalg.norm(nn)):
+            return KIND_SPHERICAL, POS_RPP, c45, c45, "R-P-P (cylindrical), spherical wrist"
+    elif s3 == (1, 0, 0):
+        o23 = _meet(H[1], P[1], H[2], P[2], tol)
+        if o23 is not None:
+            return KIND_SPHERICAL, POS_PRR_INT, c45, o23, "P-R-R, h2 meets h3, spherical wrist"
+        if _parallel(H[1], H[2]) and abs(float(H[0] @ H[1])) > PAR_TOL:
+            return KIND_SPHERICAL, POS_PRR_PAR, c45, c45, "P-R-R, h2 || h3, spherical wrist"
+    return None
 
 
 def _common_miss(H: np.ndarray, P: np.ndarray) -> float:
@@ -207,7 +252,7 @@ def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
     return (f"no subproblem decomposition: the axes of {j[3]}, {j[4]}, {j[5]} miss a common "
             f"point by {w:.4g} m (no spherical wrist), those of {j[0]}, {j[1]}, {j[2]} by "
             f"{b:.4g} m (none at the base), and neither {j[1]}, {j[2]}, {j[3]} nor "
-            f"{j[2]}, {j[3]}, {j[4]} are three parallel axes with the other two meeting")
+            f"{j[2]}, {j[3]}, {j[4]} are three parallel axes")
 
 
 def classify(mech: Mechanism, frame: int | None = None,
@@ -252,11 +297,18 @@ def classify(mech: Mechanism, frame: int | None = None,
     tol = MEET_TOL * size
     order = np.array([iv.index(int(j)) if int(j) in iv else k for k, j in enumerate(joints)])
     Hf, Pf, Mf = (np.ascontiguousarray(a) for a in (H, P, M))
-    if pris and pris != [names[2]]:
-        raise NotDecomposable(f"prismatic joint(s) {', '.join(pris)}: the subproblem solvers "
-                              "take 6R chains, and a prismatic third joint after two meeting "
-                              "axes (U-P-S)")
-    found = _try_ups(H, P, tol) if pris else _try(H, P, tol)
+    if pris:
+        s3 = tuple(int(mech.s[j]) for j in joints[:3])
+        found = None if any(mech.s[j] for j in joints[3:]) else \
+            _try_prismatic(H, P, s3, tol)  # type: ignore[arg-type]
+        if found is None:
+            raise NotDecomposable(
+                f"prismatic joint(s) {', '.join(pris)}: with prismatic joints the subproblem "
+                "solvers take a spherical wrist (joints 4-6 revolute, axes meeting) after "
+                "R-R-P with h1 meeting h2, P-P-P, R-P-P, or P-R-R with h2, h3 meeting or "
+                "parallel")
+    else:
+        found = _try(H, P, tol)
     rev = False
     if found is None and not pris:
         Mi = np.linalg.inv(M)
@@ -316,19 +368,33 @@ def _scara(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
 
 def _arm5(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
           P: np.ndarray, M: np.ndarray) -> AnalyticChain:
-    """A 5R arm with h2 || h3 || h4 and h1, h5 not parallel to them (else NotDecomposable)."""
-    if not (_parallel(H[1], H[2]) and _parallel(H[2], H[3])) or _parallel(H[0], H[1]) or \
-            _parallel(H[4], H[1]):
-        raise NotDecomposable(f"5 joints ({', '.join(names)}): the 5R solver needs the axes of "
-                              f"{names[1]}, {names[2]}, {names[3]} parallel and those of "
-                              f"{names[0]}, {names[4]} not parallel to them")
+    """A 5R arm with h2 || h3 || h4 and h1, h5 not parallel to them, or with h4 meeting h5 and
+    a position case for the first three axes (:mod:`mechkin.solvers.ik.analytic.arm5w`), else
+    NotDecomposable."""
     iv = list(mech.independent)
     order = np.array([iv.index(int(j)) for j in joints])
     H, P, M = (np.ascontiguousarray(a) for a in (H, P, M))
-    return AnalyticChain(kind=KIND_ARM5, pos_kind=-1, reversed=False, H=H, P=P, M=M, Hf=H,
-                         Pf=P, Mf=M, point=np.zeros(3), point2=np.zeros(3),
-                         joints=np.asarray(joints), order=order,
-                         description="5R: three parallel axes h2 || h3 || h4",
+    pos, pt, pt2 = -1, np.zeros(3), np.zeros(3)
+    desc = "5R: three parallel axes h2 || h3 || h4"
+    if not (_parallel(H[1], H[2]) and _parallel(H[2], H[3])) or _parallel(H[0], H[1]) or \
+            _parallel(H[4], H[1]):
+        size = max(1.0, float(np.abs(P).max()), float(np.abs(M[:3, 3]).max()))
+        w = _meet(H[3], P[3], H[4], P[4], MEET_TOL * size)
+        found = None
+        if w is not None:
+            H6, P6 = virtual_six(H, P, w)
+            found = _try(H6, P6, MEET_TOL * size)
+        if found is None or found[0] != KIND_SPHERICAL:
+            raise NotDecomposable(
+                f"5 joints ({', '.join(names)}): the 5R solvers need the axes of {names[1]}, "
+                f"{names[2]}, {names[3]} parallel (those of {names[0]}, {names[4]} not), or "
+                f"those of {names[3]}, {names[4]} meeting with a position case for "
+                f"{names[0]}..{names[2]}")
+        pos, pt, pt2 = WRIST5_BASE + found[1], w, found[3]
+        desc = "5R: h4 meets h5 (two-axis wrist), " + found[4].replace("spherical wrist, ", "")
+    return AnalyticChain(kind=KIND_ARM5, pos_kind=pos, reversed=False, H=H, P=P, M=M, Hf=H,
+                         Pf=P, Mf=M, point=np.asarray(pt, float), point2=np.asarray(pt2, float),
+                         joints=np.asarray(joints), order=order, description=desc,
                          packed=np.zeros(0), identity=bool(np.array_equal(order, np.arange(5))),
                          limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
                          limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()))

@@ -38,8 +38,8 @@ from mechkin.solvers.ik.analytic.solve6r import (
     KIND_ARM5,
     KIND_SCARA,
     MAX_BRANCHES,
-    POS_INT12_P,
     fk_error,
+    pris_bits,
 )
 from mechkin.solvers.ik.results import IkOptions, IkResult, IkStatus
 
@@ -104,7 +104,7 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
         else:
             pe, oe = fk_error(chain.Hf, chain.Pf, chain.Mf,
                               np.ascontiguousarray(qv[chain.order]), T,
-                              2 if chain.pos_kind == POS_INT12_P else -1)
+                              pris_bits(chain.kind, chain.pos_kind))
     if chain.all_joints:  # q is q_v: no copy of home, no dependent joints
         q = qv.copy()
     else:

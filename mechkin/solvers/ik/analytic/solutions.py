@@ -27,6 +27,7 @@ import numpy as np
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.accel import announce
 from mechkin.solvers.ik.analytic.arm5r import arm5r_branches
+from mechkin.solvers.ik.analytic.arm5w import WRIST5_BASE, wrist5_branches
 from mechkin.solvers.ik.analytic.classify import AnalyticChain
 from mechkin.solvers.ik.analytic.finish import (
     SAME_TOL,
@@ -133,6 +134,9 @@ def _numpy_batch(chain: AnalyticChain, Ts: np.ndarray, ref: np.ndarray, tol_pos:
     ref = np.ascontiguousarray(np.broadcast_to(ref, (m, nv)))
     if chain.kind == KIND_SCARA:
         q_ch, count, err = scara_branches(chain.H, chain.P, chain.M, chain.pos_kind, Ts)
+    elif chain.pos_kind >= WRIST5_BASE:
+        q_ch, count, err = wrist5_branches(chain.H, chain.P, chain.M, chain.pos_kind,
+                                           chain.point, chain.point2, Ts, ref)
     else:
         q_ch, count, err = arm5r_branches(chain.H, chain.P, chain.M, Ts)
     nb = q_ch.shape[1]

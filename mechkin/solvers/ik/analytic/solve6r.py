@@ -14,11 +14,18 @@ e^{\xi_6 q_6}``:
   h2^T c, q3 by SP3, q2 by SP1; PUMA 560 by this too, ABB, KUKA, Fanuc) or ``POS_INT12``
   (h1, h2 meet at o: q3 by SP3 from ||G c - o||, (q1, q2) by SP2) or ``POS_INT12_P`` (the
   same with joint 3 prismatic: q3 from a quadratic, a U-P-S leg). Orientation: (q4, q5) by
-  SP2 on h6, q6 by SP1. Up to 8 branches (IK-Geo §IV-A, "spherical wrist").
+  SP2 on h6, q6 by SP1. Up to 8 branches (IK-Geo §IV-A, "spherical wrist"). Further
+  position cases (EAIK's spherical classes): ``POS_PAR12`` (h1 || h2: q3 by SP4 from
+  h1^T e^{xi_3 q_3} c = h1^T G c, q2 by SP3, q1 by SP1), ``POS_INT23`` (h2, h3 meet at o: q1
+  by SP3 from ||e^{-xi_1 q_1} G c - o|| = ||c - o||, (q2, q3) by SP2) and ``POS_GENERAL``
+  (no parallel or meeting axes among h1..h3: (q1, q2, q3) by IK-Geo's Subproblem 5,
+  :mod:`mechkin.solvers.ik.analytic.subproblems56`).
 * ``KIND_PAR234`` (h2 || h3 || h4 = d, h5 and h6 meet at o56; UR family): q1 by SP4 from
   d^T e^{-xi_1 q_1} G o56 = d^T o56; q5 by SP4 on h6 (R_{234} keeps d); q6 by SP1; the sum
   q2 + q3 + q4 by SP1 about d; q3 by SP3 and q2 by SP1 in the plane of the parallel axes.
-  Up to 8 branches (IK-Geo §IV-B, "three parallel axes").
+  Up to 8 branches (IK-Geo §IV-B, "three parallel axes"). With h5, h6 skew
+  (``PAR_GENERAL``, EAIK's "three inner parallel"), (q1, q5) by IK-Geo's Subproblem 6, the
+  rest as above.
 
 A chain whose structure sits at its base instead (spherical wrist at the base, 3-4-5
 parallel) is solved as the reversed chain (:mod:`mechkin.solvers.ik.analytic.classify`).
@@ -65,6 +72,7 @@ from mechkin.solvers.ik.analytic.subproblems import (
     sub,
     vec,
 )
+from mechkin.solvers.ik.analytic.subproblems56 import sp5, sp6
 
 KIND_SPHERICAL = 0
 KIND_PAR234 = 1
@@ -73,7 +81,17 @@ KIND_ARM5 = 3  # mechkin.solvers.ik.analytic.arm5r (numpy)
 POS_PAR23 = 0
 POS_INT12 = 1
 POS_INT12_P = 2  # h1 meets h2 at o, joint 3 prismatic (a U-P-S leg)
+POS_PAR12 = 3  # h1 || h2 (IK-Geo / EAIK "spherical, first two parallel")
+POS_INT23 = 4  # h2 meets h3 at o (EAIK "spherical, second two intersecting")
+POS_GENERAL = 5  # no parallel, no meeting axes among h1..h3: Subproblem 5
+PAR_MEET56 = 0  # KIND_PAR234 with h5 meeting h6 at o56 (UR family)
+PAR_GENERAL = 1  # KIND_PAR234 with h5, h6 skew: (q1, q5) by Subproblem 6
+POS_PPP = 6  # joints 1-3 prismatic (a gantry): a 3x3 linear solve
+POS_RPP = 7  # revolute, then two prismatic (a cylindrical arm)
+POS_PRR_INT = 8  # prismatic, then two revolute meeting at o
+POS_PRR_PAR = 9  # prismatic, then two parallel revolute
 MAX_BRANCHES = 8
+RAW_BRANCHES = 16  # raw candidates per pose before verification (tangencies add near-copies)
 
 
 @jit
@@ -109,6 +127,8 @@ def _target_G(M: np.ndarray, T: np.ndarray) -> tuple[Mat, Vec]:
 @jit
 def _store(out: np.ndarray, n: int, q1: float, q2: float, q3: float, q4: float, q5: float,
            q6: float) -> int:
+    if n >= out.shape[0]:
+        return n
     out[n, 0], out[n, 1], out[n, 2] = q1, q2, q3
     out[n, 3], out[n, 4], out[n, 5] = q4, q5, q6
     return n + 1
@@ -177,6 +197,94 @@ def solve_spherical(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
                     q2 = a2 if i12 == 0 else b2
                     R03 = mm(rotmat(h1, q1), rotmat(h2, q2))
                     n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_PPP:
+        # c_t = c + q1 h1 + q2 h2 + q3 h3 (Cramer's rule)
+        w = sub(ct, c)
+        den = dot(h1, cross(h2, h3))
+        q1 = dot(w, cross(h2, h3)) / den
+        q2 = dot(h1, cross(w, h3)) / den
+        q3 = dot(h1, cross(h2, w)) / den
+        eye = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        n = _wrist(h4, h5, h6, eye, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_RPP:
+        # R1^T (c_t - p1) + p1 - c = q2 h2 + q3 h3 lies in span(h2, h3): q1 by SP4 on
+        # nn = h2 x h3, then (q2, q3) from the 2x2 normal equations
+        nn = cross(h2, h3)
+        m1, a, b = sp4(nn, h1, sub(ct, p1), dot(nn, sub(c, p1)), -g[0])
+        g22, g23, g33 = dot(h2, h2), dot(h2, h3), dot(h3, h3)
+        den = g22 * g33 - g23 * g23
+        for i1 in range(m1):
+            q1 = -(a if i1 == 0 else b)
+            w = sub(_move(h1, p1, -q1, ct), c)
+            r2, r3 = dot(h2, w), dot(h3, w)
+            q2 = (g33 * r2 - g23 * r3) / den
+            q3 = (g22 * r3 - g23 * r2) / den
+            n = _wrist(h4, h5, h6, rotmat(h1, q1), RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_PRR_INT:
+        # ||c_t - q1 h1 - o|| = ||c - o||: q1 from a quadratic, then (q2, q3) by SP2
+        o = vec(o_)
+        w = sub(ct, o)
+        c0 = sub(c, o)
+        bq = dot(h1, w)
+        disc = bq * bq - (dot(w, w) - dot(c0, c0))
+        if disc >= -1e-12 * max(dot(w, w), dot(c0, c0), 1e-300):
+            r = math.sqrt(max(disc, 0.0))
+            for i1 in range(1 if r == 0.0 else 2):
+                q1 = bq + r if i1 == 0 else bq - r
+                m23, a2, a3, b2, b3 = sp2(h2, h3, c0, sub(w, scale(q1, h1)), g[1], g[2])
+                for i23 in range(m23):
+                    q2 = a2 if i23 == 0 else b2
+                    q3 = a3 if i23 == 0 else b3
+                    R03 = mm(rotmat(h2, q2), rotmat(h3, q3))
+                    n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_PRR_PAR:
+        # h2^T (c_t - q1 h1) = h2^T c (rotations about axes || h2 keep it): q1, then the
+        # planar 2R: q3 by SP3, q2 by SP1
+        q1 = dot(h2, sub(ct, c)) / dot(h2, h1)
+        y = sub(ct, scale(q1, h1))
+        m3, c3, d3 = sp3(h3, sub(c, p3), sub(p2, p3), norm(sub(y, p2)), g[2])
+        for i3 in range(m3):
+            q3 = c3 if i3 == 0 else d3
+            y3 = _move(h3, p3, q3, c)
+            q2 = sp1(h2, sub(y3, p2), sub(y, p2), g[1])
+            R03 = mm(rotmat(h2, q2), rotmat(h3, q3))
+            n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_PAR12:
+        # h1^T (e3 c) = h1^T c_t (rotations about axes || h1 keep it): q3 by SP4, then
+        # ||e2 e3 c - p1|| = ||c_t - p1||: q2 by SP3, q1 by SP1
+        m3, c3, d3 = sp4(h1, h3, sub(c, p3), dot(h1, sub(ct, p3)), g[2])
+        for i3 in range(m3):
+            q3 = c3 if i3 == 0 else d3
+            y3 = _move(h3, p3, q3, c)
+            m2, c2, d2 = sp3(h2, sub(y3, p2), sub(p1, p2), norm(sub(ct, p1)), g[1])
+            for i2 in range(m2):
+                q2 = c2 if i2 == 0 else d2
+                y2 = _move(h2, p2, q2, y3)
+                q1 = sp1(h1, sub(y2, p1), sub(ct, p1), g[0])
+                R03 = mm(mm(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
+                n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_INT23:
+        # ||e1^{-1} c_t - o23|| = ||c - o23||: q1 by SP3, then (q2, q3) by SP2
+        o = vec(o_)
+        m1, a, b = sp3(h1, sub(ct, p1), sub(o, p1), norm(sub(c, o)), -g[0])
+        for i1 in range(m1):
+            q1 = -(a if i1 == 0 else b)
+            w = sub(_move(h1, p1, -q1, ct), o)
+            m23, a2, a3, b2, b3 = sp2(h2, h3, sub(c, o), w, g[1], g[2])
+            for i23 in range(m23):
+                q2 = a2 if i23 == 0 else b2
+                q3 = a3 if i23 == 0 else b3
+                R03 = mm(mm(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
+                n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
+    elif pos_kind == POS_GENERAL:
+        # R1^T (c_t - p1) + p1 - p2 = R2 (p3 - p2 + R3 (c - p3)): Subproblem 5 (IK-Geo §IV)
+        s5 = np.empty((8, 3))
+        m = sp5(sub(p1, p2), sub(ct, p1), sub(p3, p2), sub(c, p3), h1, h2, h3, -g[0], g[1],
+                g[2], s5)
+        for i in range(m):
+            q1, q2, q3 = -s5[i, 0], s5[i, 1], s5[i, 2]
+            R03 = mm(mm(rotmat(h1, q1), rotmat(h2, q2)), rotmat(h3, q3))
+            n = _wrist(h4, h5, h6, R03, RG, g, q1, q2, q3, out, n)
     else:
         o = vec(o_)
         w = sub(ct, o)
@@ -194,53 +302,122 @@ def solve_spherical(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
 
 
 @jit
-def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, o56_: np.ndarray,
-                 T: np.ndarray, g: np.ndarray, out: np.ndarray) -> int:
-    """Every branch of a 6R arm with h2 || h3 || h4 and h5, h6 meeting at o56 (UR family)
-    for the target T (4, 4); guess g (6,) for continua. Writes out[:n] (8, 6); returns n."""
+def _free_q6(h3: Vec, p2: Vec, p3: Vec, p4: Vec, p5: Vec, p6: Vec, h5: Vec, h6: Vec, h1: Vec,
+             p1: Vec, q1: float, q5: float, RG: Mat, pG: Vec, guess: float) -> float:
+    """q6 where h6 is parallel to h2 || h3 || h4 (q6 and q2 + q3 + q4 turn about parallel
+    axes: a continuum): the guess when it leaves the elbow within reach, else the q6 nearest
+    to it that puts the elbow distance ||y - p2|| on the nearest end of its range (SP4 on
+    ||y(q6) - p2||^2, y = e^{-xi_1 q_1} G e^{-xi_6 q_6} e^{-xi_5 q_5} p4)."""
+    u = sub(p4, p3)
+    w = sub(p2, p3)
+    uh, wh = dot(u, h3), dot(w, h3)
+    up = math.sqrt(max(dot(u, u) - uh * uh, 0.0))
+    wp = math.sqrt(max(dot(w, w) - wh * wh, 0.0))
+    base = dot(u, u) + dot(w, w) - 2.0 * uh * wh
+    lo, hi = base - 2.0 * up * wp, base + 2.0 * up * wp
+    A = mtm(rotmat(h1, q1), RG)  # R1^T RG
+    vv = sub(_move(h5, p5, -q5, p4), p6)
+    b0 = add(mtv(rotmat(h1, q1), sub(add(mv(RG, p6), pG), p1)), sub(p1, p2))
+    y0 = add(mv(A, rot(h6, -guess, vv)), b0)
+    dg = dot(y0, y0)
+    if lo <= dg <= hi:
+        return guess
+    target = lo if dg < lo else hi
+    hh = mtv(A, b0)
+    m, a, b = sp4(hh, h6, vv, 0.5 * (target - dot(vv, vv) - dot(b0, b0)), -guess)
+    if m == 0:
+        return guess
+    da = abs((-a - guess + math.pi) % (2.0 * math.pi) - math.pi)
+    db = abs((-b - guess + math.pi) % (2.0 * math.pi) - math.pi)
+    return -a if da <= db else -b
+
+
+@jit
+def solve_par234(H: np.ndarray, P: np.ndarray, M: np.ndarray, pos_kind: int,
+                 pt_: np.ndarray, T: np.ndarray, g: np.ndarray, out: np.ndarray) -> int:
+    r"""Every branch of a 6R arm with h2 || h3 || h4 = d for the target T (4, 4): ``PAR_MEET56``
+    (h5, h6 meet at pt = o56; UR family): q1 by SP4 from d^T e^{-xi_1 q_1} G o56 = d^T o56, q5
+    by SP4; ``PAR_GENERAL`` (pt a point on h6): (q1, q5) by Subproblem 6 from
+
+    .. math:: d^T R_1^T (G p_6 - p_1) - d^T R_5 (p_6 - p_5) = d^T (p_5 - p_1),\quad
+              d^T R_1^T R_G h_6 - d^T R_5 h_6 = 0
+
+    (rotations about axes || d keep d^T x; IK-Geo §IV "three parallel axes"). Then q6 and the
+    sum q2 + q3 + q4 by SP1, q3 by SP3, q2 by SP1. Guess g (6,) for continua. Writes out[:n];
+    returns n."""
     RG, pG = _target_G(M, T)
     h1, h2, h3 = vec(H[0]), vec(H[1]), vec(H[2])
     h4, h5, h6 = vec(H[3]), vec(H[4]), vec(H[5])
     p1, p2, p3 = vec(P[0]), vec(P[1]), vec(P[2])
     p4, p5, p6 = vec(P[3]), vec(P[4]), vec(P[5])
-    o56 = vec(o56_)
+    pt = vec(pt_)
     d = h2
     s3, s4 = dot(h3, d), dot(h4, d)
-    x = add(mv(RG, o56), pG)
+    x = add(mv(RG, pt), pG)
     v = _perp(d)
     n = 0
-    m1, a, b = sp4(d, h1, sub(x, p1), dot(d, sub(o56, p1)), -g[0])
-    for i1 in range(m1):
-        q1 = -(a if i1 == 0 else b)
+    q15 = np.empty((8, 2))
+    k = 0
+    if pos_kind == PAR_GENERAL:
+        k = sp6(d, d, d, d, h1, h5, h1, h5, sub(x, p1), sub(p5, pt), mv(RG, h6),
+                scale(-1.0, h6), dot(d, sub(p5, p1)), 0.0, -g[0], g[4], q15)
+        for i in range(k):
+            q15[i, 0] = -q15[i, 0]
+    else:
+        m1, a, b = sp4(d, h1, sub(x, p1), dot(d, sub(pt, p1)), -g[0])
+        for i1 in range(m1):
+            q1 = -(a if i1 == 0 else b)
+            vd = mtv(mtm(rotmat(h1, q1), RG), d)
+            m5, c5, d5 = sp4(h6, h5, d, dot(h6, vd), -g[4])
+            for i5 in range(m5):
+                q15[k, 0], q15[k, 1] = q1, -(c5 if i5 == 0 else d5)
+                k += 1
+    for i in range(k):
+        q1, q5 = q15[i, 0], q15[i, 1]
         Rr = mtm(rotmat(h1, q1), RG)  # R_234 R_5 R_6
         vd = mtv(Rr, d)
-        m5, c5, d5 = sp4(h6, h5, d, dot(h6, vd), -g[4])
-        for i5 in range(m5):
-            q5 = -(c5 if i5 == 0 else d5)
-            q6 = sp1(h6, vd, rot(h5, -q5, d), g[5])
-            w = mv(Rr, rot(h6, -q6, rot(h5, -q5, v)))  # R_234 v
-            th = sp1(d, v, w, g[1] + s3 * g[2] + s4 * g[3])
-            z = _move(h6, p6, -q6, _move(h5, p5, -q5, p4))
-            y = _move(h1, p1, -q1, add(mv(RG, z), pG))
-            m3, c3, d3 = sp3(h3, sub(p4, p3), sub(p2, p3), norm(sub(y, p2)), g[2])
-            for i3 in range(m3):
-                q3 = c3 if i3 == 0 else d3
-                e3 = _move(h3, p3, q3, p4)
-                q2 = sp1(h2, sub(e3, p2), sub(y, p2), g[1])
-                n = _store(out, n, q1, q2, q3, s4 * (th - q2 - s3 * q3), q5, q6)
+        q6 = sp1(h6, vd, rot(h5, -q5, d), g[5])
+        if norm(cross(h6, vd)) < 1e-9:  # h6 turned parallel to d: q6 is free
+            q6 = _free_q6(h3, p2, p3, p4, p5, p6, h5, h6, h1, p1, q1, q5, RG, pG, g[5])
+        w = mv(Rr, rot(h6, -q6, rot(h5, -q5, v)))  # R_234 v
+        th = sp1(d, v, w, g[1] + s3 * g[2] + s4 * g[3])
+        z = _move(h6, p6, -q6, _move(h5, p5, -q5, p4))
+        y = _move(h1, p1, -q1, add(mv(RG, z), pG))
+        m3, c3, d3 = sp3(h3, sub(p4, p3), sub(p2, p3), norm(sub(y, p2)), g[2])
+        for i3 in range(m3):
+            q3 = c3 if i3 == 0 else d3
+            e3 = _move(h3, p3, q3, p4)
+            q2 = sp1(h2, sub(e3, p2), sub(y, p2), g[1])
+            n = _store(out, n, q1, q2, q3, s4 * (th - q2 - s3 * q3), q5, q6)
     return n
 
 
 @jit
+def pris_bits(kind: int, pos_kind: int) -> int:
+    """Bit i set when chain joint i is prismatic (the spherical-wrist position cases)."""
+    if kind != KIND_SPHERICAL:
+        return 0
+    if pos_kind == POS_INT12_P:
+        return 4
+    if pos_kind == POS_PPP:
+        return 7
+    if pos_kind == POS_RPP:
+        return 6
+    if pos_kind >= POS_PRR_INT:  # POS_PRR_INT, POS_PRR_PAR
+        return 1
+    return 0
+
+
+@jit
 def fk_error(H: np.ndarray, P: np.ndarray, M: np.ndarray, q: np.ndarray, T: np.ndarray,
-             pris: int = -1) -> tuple[float, float]:
+             pris: int = 0) -> tuple[float, float]:
     """Position [m] and rotation-angle [rad] error of T(q) = prod e^{xi_i q_i} M (Murray, Li &
-    Sastry Eq. (3.3)) from the target T (4, 4); joint ``pris`` (if >= 0) is a translation
-    along its h."""
+    Sastry Eq. (3.3)) from the target T (4, 4); joint i with bit i of ``pris`` set is a
+    translation along its h (:func:`pris_bits`)."""
     R = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     t = (0.0, 0.0, 0.0)
     for i in range(q.size):
-        if i == pris:
+        if (pris >> i) & 1:
             t = add(t, mv(R, scale(q[i], vec(H[i]))))
             continue
         Ri = rotmat(vec(H[i]), q[i])
@@ -290,8 +467,12 @@ def solve_batch(kind: int, pos_kind: int, reverse: bool, H: np.ndarray, P: np.nd
     by whose FK each branch is verified. Writes out (m, 8, 6) (chain order), count (m,), err
     (m, 8, 2) (position [m] and orientation [rad] error of each branch).
     """
-    tmp = np.empty((MAX_BRANCHES, 6))
+    tmp = np.empty((RAW_BRANCHES, 6))
+    raw = np.empty((RAW_BRANCHES, 6))
+    e = np.empty((RAW_BRANCHES, 2))
+    used = np.zeros(RAW_BRANCHES, dtype=np.bool_)
     g = np.empty(6)
+    pris = pris_bits(kind, pos_kind)
     for r in range(Ts.shape[0]):
         T = Ts[r]
         if reverse:
@@ -305,11 +486,25 @@ def solve_batch(kind: int, pos_kind: int, reverse: bool, H: np.ndarray, P: np.nd
         if kind == KIND_SPHERICAL:
             n = solve_spherical(H, P, M, pos_kind, pt, pt2, Tc, g, tmp)
         else:
-            n = solve_par234(H, P, M, pt, Tc, g, tmp)
-        count[r] = n
+            n = solve_par234(H, P, M, pos_kind, pt, Tc, g, tmp)
         for k in range(n):
             for i in range(6):
-                out[r, k, i] = tmp[k, 5 - i] if reverse else tmp[k, i]
-            pe, oe = fk_error(Hf, Pf, Mf, out[r, k], T, 2 if pos_kind == POS_INT12_P else -1)
-            err[r, k, 0] = pe
-            err[r, k, 1] = oe
+                raw[k, i] = tmp[k, 5 - i] if reverse else tmp[k, i]
+            pe, oe = fk_error(Hf, Pf, Mf, raw[k], T, pris)
+            e[k, 0], e[k, 1] = pe, oe
+        # keep the (at most 8) most accurate branches: exact ones (~1e-15) before the
+        # near-copies a tangency can add
+        cnt = 0
+        for k in range(n):
+            used[k] = False
+        while cnt < min(n, MAX_BRANCHES):
+            best = -1
+            for k in range(n):
+                if not used[k] and (best < 0 or e[k, 0] + e[k, 1] < e[best, 0] + e[best, 1]):
+                    best = k
+            used[best] = True
+            for i in range(6):
+                out[r, cnt, i] = raw[best, i]
+            err[r, cnt, 0], err[r, cnt, 1] = e[best, 0], e[best, 1]
+            cnt += 1
+        count[r] = cnt
