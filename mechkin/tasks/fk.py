@@ -32,6 +32,7 @@ from mechkin.model.closure import ClosureStatus
 from mechkin.model.continuation import solve_motion, with_limits
 from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
+from mechkin.model.singularity import constraint_crossings, mark_crossings
 from mechkin.records import Report
 from mechkin.tasks import budget
 from mechkin.tasks.budget import MAX_TIME_S, estimate_time
@@ -368,6 +369,9 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
             md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
     rates_s = time.perf_counter() - t1
     sing = md.singularity
+    if mech.is_closed and len(mech.dependent):  # a change point stepped over: flagged too
+        sing = mark_crossings(sing, constraint_crossings(
+            mech, res.q, conv | by_status[ClosureStatus.OUTSIDE_LIMITS], sing))
     n_ok = int(conv.sum())
     overall = "ok" if n_ok == len(t) else next(
         s for s in ("constraint singularity", "singular", "outside limits", "not converged")

@@ -83,7 +83,8 @@ def _out_of_reach(mech: Mechanism, qv: np.ndarray, qw: np.ndarray) -> IkResult:
     return IkResult(q_v=np.asarray(qv, float), q_w=np.asarray(qw, float), q=q,
                     status=IkStatus.UNREACHABLE, position_error=float("inf"),
                     orientation_error=0.0, f=0.0, grad_norm=0.0, iterations=0, evaluations=0,
-                    time_s=0.0, f_history=np.zeros(0), method="reach bound")
+                    time_s=0.0, f_history=np.zeros(0), method="reach bound",
+                    at_limit=joints_at_limit(mech, q[None])[0])
 
 
 def joints_at_limit(mech: Mechanism, q: np.ndarray, tol: float = 1e-9) -> list[tuple[str, ...]]:
