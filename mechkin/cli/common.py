@@ -40,9 +40,14 @@ MaxMemoryOption = Annotated[str | None, typer.Option(
          "of this machine's memory]")]
 MaxTimeOption = Annotated[str | None, typer.Option(
     "--max-time", metavar="DURATION",
-    help="Refuse a job estimated to take longer (e.g. 90s, 5m, 2h) and stop one that runs "
-         "longer at its next safe point: the finished rows are written, status 'stopped: "
-         "max-time', exit 1 [default: MECHKIN_MAX_TIME, else no limit]")]
+    help="Refuse a job estimated to take longer (e.g. 90s, 5m, 2h; see --max-time-policy) "
+         "and stop one that runs longer at its next safe point: the finished rows are "
+         "written, status 'stopped: max-time', exit 1 [default: MECHKIN_MAX_TIME, else no limit]")]
+MaxTimePolicyOption = Annotated[str | None, typer.Option(
+    "--max-time-policy", metavar="refuse|stop",
+    help="A job estimated beyond --max-time: refuse it before any work (exit 2; the estimate "
+         "is an order of magnitude) or stop: run it and stop at the limit, keeping the "
+         "finished rows (exit 1) [default: MECHKIN_MAX_TIME_POLICY, else refuse]")]
 ProgressOption = Annotated[bool | None, typer.Option(
     "--progress/--no-progress",
     help="Progress bar on stderr for long runs [default: when stderr is a terminal]")]
@@ -73,12 +78,14 @@ def run_command(task: str, doc: str, line: Callable[[dict[str, Any]], str]
         force: ForceOption = False,
         max_memory: MaxMemoryOption = None,
         max_time: MaxTimeOption = None,
+        max_time_policy: MaxTimePolicyOption = None,
         progress: ProgressOption = None,
         workers: WorkersOption = None,
         scheduler: SchedulerOption = None,
     ) -> None:
         raise typer.Exit(execute(task, scenario, out, json_out, plots, line, force=force,
-                                 max_memory=max_memory, max_time=max_time, progress=progress,
+                                 max_memory=max_memory, max_time=max_time,
+                                 max_time_policy=max_time_policy, progress=progress,
                                  workers=workers, scheduler=scheduler))
 
     command.__doc__ = doc

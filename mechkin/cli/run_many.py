@@ -62,21 +62,36 @@ def find_scenarios(paths: Iterable[Path]) -> tuple[list[Path], int]:
 
 
 def run_one(path: Path, out_base: Path | None, plots: bool, force: bool,
-            workers: int | None) -> dict[str, Any]:
-    """Run one scenario as its task command would; a plain record (picklable) of the outcome:
-    path, name, task, code, status, line, time_s, out_dir, checks, errors (the problem lines
-    of a refused or crashed run), messages (the run's own stderr lines)."""
+            workers: int | None, max_time: float | None = None,
+            policy: str | None = None) -> dict[str, Any]:
+    """Run one scenario as its task command would (``max_time`` [s] and ``policy``: its
+    ``--max-time`` and ``--max-time-policy``); a plain record (picklable) of the outcome:
+    path, name, task, code, status, line, time_s, estimated_time_s (None when the task made
+    no estimate), out_dir, checks, errors (the problem lines of a refused or crashed run),
+    messages (the run's own stderr lines)."""
+    from mechkin.tasks.budget import time_budget
+
+    rec: dict[str, Any] = {"path": str(path), "name": path.stem, "task": None, "code": 3,
+                           "status": None, "line": "", "time_s": 0.0,
+                           "estimated_time_s": None, "out_dir": None,
+                           "checks": [], "errors": [], "messages": []}
+    t0 = time.perf_counter()
+    with time_budget(max_time, policy) as estimates:
+        _run_into(rec, path, out_base, plots, force, workers, estimates)
+    rec["time_s"] = time.perf_counter() - t0
+    return rec
+
+
+def _run_into(rec: dict[str, Any], path: Path, out_base: Path | None, plots: bool,
+              force: bool, workers: int | None, estimates: list[dict[str, Any]]) -> None:
     import logging
     import warnings
 
     from mechkin.cli.lines import LINES
     from mechkin.config.load import short_str
     from mechkin.errors import MechkinError
+    from mechkin.tasks.budget import record_estimate
 
-    rec: dict[str, Any] = {"path": str(path), "name": path.stem, "task": None, "code": 3,
-                           "status": None, "line": "", "time_s": 0.0, "out_dir": None,
-                           "checks": [], "errors": [], "messages": []}
-    t0 = time.perf_counter()
     try:
         from mechkin.config.scenario import load_scenario
         from mechkin.io.report import prepare_output
@@ -91,6 +106,7 @@ def run_one(path: Path, out_base: Path | None, plots: bool, force: bool,
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 rep = run(sc)
+            rec["estimated_time_s"] = record_estimate(rep.summary, estimates)
             summary = rep.write(out_dir, plots=plots)
         rec.update(code=rep.exit_code, status=rep.status, out_dir=str(out_dir),
                    checks=_plain(rep.checks), messages=list(rep.messages))
@@ -109,8 +125,6 @@ def run_one(path: Path, out_base: Path | None, plots: bool, force: bool,
         rec.update(code=3, status="internal error",
                    errors=[f"{path}: internal error: {type(exc).__name__}: "
                            f"{short_str(exc, 200)}"])
-    rec["time_s"] = time.perf_counter() - t0
-    return rec
 
 
 def _plain(checks: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -140,11 +154,29 @@ def overall_code(codes: Iterable[int]) -> int:
 
 def run_paths(paths: list[Path], *, workers: int | None = None, out: Path | None = None,
               junit: Path | None = None, summary: Path | None = None, plots: bool = True,
-              force: bool = False, runner: Callable[..., dict[str, Any]] | None = None) -> int:
+              force: bool = False, runner: Callable[..., dict[str, Any]] | None = None,
+              max_time: str | None = None, max_time_policy: str | None = None) -> int:
     """``mechkin run``: run every scenario under ``paths``, print one line each and a final
-    count, write the JUnit and JSON files; the exit code (:func:`overall_code`)."""
-    from mechkin.io.batch_out import check_target, write_junit, write_summary
+    count, write the JUnit and JSON files; the exit code (:func:`overall_code`).
+    ``max_time`` / ``max_time_policy``: each scenario's ``--max-time`` (a duration) and
+    ``--max-time-policy``, checked before any work."""
+    import functools
 
+    from mechkin.io.batch_out import check_target, write_junit, write_summary
+    from mechkin.tasks import budget
+
+    try:
+        seconds = budget.parse_duration(max_time) if max_time is not None else None
+    except ValueError:
+        raise ConfigError(f"--max-time: expected a duration like 90s, 5m or 2h, got "
+                          f"{max_time[:40]!r}") from None
+    policy = budget.parse_policy(max_time_policy) if max_time_policy is not None else None
+    if seconds is None:
+        budget.time_limit()  # a bad MECHKIN_MAX_TIME: one line before any work
+    if policy is None:
+        budget.time_policy()  # a bad MECHKIN_MAX_TIME_POLICY too
+    if runner is None and (seconds is not None or policy is not None):
+        runner = functools.partial(run_one, max_time=seconds, policy=policy)
     files, skipped = find_scenarios(paths)
     for target, opt in ((junit, "--junit"), (summary, "--summary")):
         if target is not None:
@@ -192,7 +224,8 @@ def _run_pool(files: list[Path], workers: int, out: Path | None, plots: bool, fo
             except Exception as exc:  # noqa: BLE001 - a worker that died: that scenario's error
                 results[i] = _report({"path": str(files[i]), "name": files[i].stem,
                                       "task": None, "code": 3, "status": "internal error",
-                                      "line": "", "time_s": 0.0, "out_dir": None, "checks": [],
+                                      "line": "", "time_s": 0.0, "estimated_time_s": None,
+                                      "out_dir": None, "checks": [],
                                       "messages": [],
                                       "errors": [f"{files[i]}: internal error: worker process "
                                                  f"failed: {type(exc).__name__}"]})

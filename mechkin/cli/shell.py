@@ -94,7 +94,11 @@ def _execute(task: str, scenario: Path, out: Path | None, json_out: bool, plots:
     except ValueError:
         raise ConfigError(f"--max-time: expected a duration like 90s, 5m or 2h, got "
                           f"{max_time[:40]!r}") from None
-    with budget.time_budget(seconds) as estimates:
+    policy = options.pop("max_time_policy", None)
+    if policy is not None:
+        policy = budget.parse_policy(policy)
+    with budget.time_budget(seconds, policy) as estimates:
+        budget.time_policy()  # a bad MECHKIN_MAX_TIME_POLICY: one line before any work
         return _run_scenario(task, scenario, out, json_out, plots, line, force, limit,
                              estimates, **options)
 
@@ -115,9 +119,7 @@ def _run_scenario(task: str, scenario: Path, out: Path | None, json_out: bool, p
             # floating-point warnings of a diverging solve: the statuses and summary say it
             warnings.simplefilter("ignore", RuntimeWarning)
             rep = run(sc, **options)
-        if estimates and isinstance(rep.summary, dict):  # the estimate made before the job
-            total = sum(e["seconds"] for e in estimates)
-            rep.summary["estimated_time_s"] = float(f"{total:.3g}")
+        budget.record_estimate(rep.summary, estimates)  # the estimate made before the job
         summary = rep.write(out_dir, plots=plots)
     report(summary, json_out, line(summary))
     for msg in rep.messages:

@@ -13,6 +13,7 @@ from mechkin.cli.common import (
     JsonOption,
     MaxMemoryOption,
     MaxTimeOption,
+    MaxTimePolicyOption,
     OutOption,
     PlotsOption,
     ProgressOption,
@@ -31,6 +32,7 @@ def workspace_cli(
     force: ForceOption = False,
     max_memory: MaxMemoryOption = None,
     max_time: MaxTimeOption = None,
+    max_time_policy: MaxTimePolicyOption = None,
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,
     progress: ProgressOption = None,
@@ -38,6 +40,7 @@ def workspace_cli(
     """Workspace and isotropy maps (lee's spherical mechanism), design sweeps, joint and
     task-space sweeps of any mechanism."""
     raise typer.Exit(execute("workspace", scenario, out, json_out, plots, _line, force=force,
-                             max_memory=max_memory, max_time=max_time, workers=workers,
+                             max_memory=max_memory, max_time=max_time,
+                             max_time_policy=max_time_policy, workers=workers,
                              scheduler=scheduler,
                              progress=progress))

@@ -210,6 +210,10 @@ class IkSpec(Spec):
         if self.variant == "printed" and self.cg_restart is not None:
             raise ValueError("cg_restart: the printed variant never restarts (kim1995 §5.2); "
                              "use variant robust")
+        if self.fixed and (self.target_sets or any(framed)):
+            raise ValueError("fixed: holds joints for the end effector's targets; target sets "
+                             "and framed targets would ignore it (hold a floating base with "
+                             "base_pose)")
         if self.fixed and self.method not in ("auto", "analytic"):
             raise ValueError(f"fixed: holds joints for method auto or analytic (method is "
                              f"{self.method})")

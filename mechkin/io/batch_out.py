@@ -5,7 +5,8 @@ JUnit layout (the schema CI servers read: Jenkins, GitLab, GitHub test reporters
     <testsuites name="mechkin run" tests= failures= errors= time=>
       <testsuite name="mechkin run" tests= failures= errors= skipped="0" time= timestamp=
                  hostname=>
-        <properties>  exit codes: <property name="exit code 5" value="an expect: ..."/>
+        <properties>  exit codes: <property name="exit code 5" value="an expect: ..."/>,
+                      estimates: <property name="estimated_time_s <scenario>" value="2.1"/>
         <testcase classname="<file stem>" name="<scenario> (task)" file= time=>
           <failure type="exit 1" message=...> or <error type="exit 2|3|4" message=...>
         <testcase classname="<file stem>" name="expect <key>">  one per expect: entry
@@ -85,8 +86,14 @@ def junit_xml(results: list[dict[str, Any]], total_s: float) -> str:
                 failures += 1
             else:
                 errors += 1
+        est = r.get("estimated_time_s")
+        if est is not None:  # the estimate made before the run (a testcase has no properties)
+            ET.SubElement(props, "property", name=f"estimated_time_s {r['name']}",
+                          value=f"{est:g}")
         if r["out_dir"]:
-            ET.SubElement(case, "system-out").text = f"{r['line']}\noutputs: {r['out_dir']}"
+            ET.SubElement(case, "system-out").text = (
+                f"{r['line']}\noutputs: {r['out_dir']}"
+                + (f"\nestimated time: {est:g} s" if est is not None else ""))
         for c in r["checks"]:
             n += 1
             ec = ET.SubElement(suite, "testcase", classname=cls, name=f"expect {c['key']}",
@@ -114,8 +121,10 @@ def write_junit(path: Path, results: list[dict[str, Any]], total_s: float) -> Pa
 
 
 def batch_summary(results: list[dict[str, Any]], total_s: float, code: int) -> dict[str, Any]:
-    """The aggregate of a ``mechkin run``: counts, exit code, and per scenario its path, task,
-    exit code, status, time, output folder, problem lines and expect results."""
+    """The aggregate of a ``mechkin run``: counts, exit code, times (``estimated_time_s``: the
+    sum of the scenarios' estimates), and per scenario its path, task, exit code, status, time,
+    estimated time (null when its task made none, e.g. refused), output folder, problem lines
+    and expect results."""
     checks = [c for r in results for c in r["checks"]]
     by: dict[str, int] = {}
     for r in results:
@@ -129,9 +138,11 @@ def batch_summary(results: list[dict[str, Any]], total_s: float, code: int) -> d
         "n_expects": len(checks),
         "n_expects_held": sum(1 for c in checks if c.get("ok")),
         "time_s": round(total_s, 3),
+        "estimated_time_s": float(f"{sum(r.get('estimated_time_s') or 0.0 for r in results):.3g}"),
         "scenarios": [{"path": r["path"], "name": r["name"], "task": r["task"],
                        "exit_code": r["code"], "status": r["status"],
-                       "time_s": round(r["time_s"], 3), "out_dir": r["out_dir"],
+                       "time_s": round(r["time_s"], 3),
+                       "estimated_time_s": r.get("estimated_time_s"), "out_dir": r["out_dir"],
                        "errors": r["errors"], "messages": r["messages"],
                        "expect": r["checks"]} for r in results],
     }

@@ -181,18 +181,46 @@ def time_limit() -> float | None:
     return None
 
 
+#: What ``--max-time`` does with a job estimated beyond it: ``refuse`` it before any work (exit
+#: 2), or ``stop``: run it and stop it at the limit, keeping the finished rows (exit 1).
+POLICIES = ("refuse", "stop")
+_POLICY: contextvars.ContextVar[str | None] = contextvars.ContextVar("mechkin_time_policy",
+                                                                     default=None)
+
+
+def parse_policy(text: str, where: str = "--max-time-policy") -> str:
+    """``refuse`` or ``stop`` (ConfigError naming ``where`` otherwise)."""
+    t = text.strip().lower()
+    if t not in POLICIES:
+        raise ConfigError(f"{where}: expected refuse or stop, got {text[:40]!r}")
+    return t
+
+
+def time_policy() -> str:
+    """The run's ``--max-time-policy``, else ``MECHKIN_MAX_TIME_POLICY``, else ``refuse``."""
+    v = _POLICY.get()
+    if v is not None:
+        return v
+    env = os.environ.get("MECHKIN_MAX_TIME_POLICY")
+    return parse_policy(env, "MECHKIN_MAX_TIME_POLICY") if env else "refuse"
+
+
 @contextlib.contextmanager
-def time_budget(max_seconds: float | None) -> Iterator[list[dict[str, Any]]]:
-    """Set the run's time limit (None: the environment's) and collect the run's estimates
+def time_budget(max_seconds: float | None, policy: str | None = None
+                ) -> Iterator[list[dict[str, Any]]]:
+    """Set the run's time limit (None: the environment's) and its policy (None: the
+    environment's, else ``refuse``) and collect the run's estimates
     (``{"where", "what", "seconds"}``) in the yielded list."""
     found: list[dict[str, Any]] = []
     t1 = _TIME.set(max_seconds)
     t2 = _ESTIMATES.set(found)
     t3 = _START.set(_clock())
     t4 = _STOP.set({})
+    t5 = _POLICY.set(policy)
     try:
         yield found
     finally:
+        _POLICY.reset(t5)
         _STOP.reset(t4)
         _START.reset(t3)
         _ESTIMATES.reset(t2)
@@ -271,25 +299,39 @@ def human_time(sec: float) -> str:
 
 def estimate_time(where: str, seconds: float, what: str) -> None:
     """Before a job: refuse it when its estimated run time exceeds ``--max-time`` (one line,
-    exit 2); keep it for the summary (``estimated_time_s``, the sum of the run's estimates);
-    when it exceeds :data:`NOTICE_S`, print it on stderr. The estimate
-    (:mod:`mechkin.tasks.estimates`) is within a factor of a few of this machine's time, so
-    the refusal has a factor of 2 of slack."""
+    exit 2) unless the policy is ``stop`` (:func:`time_policy`: then it runs and
+    :func:`overrun` stops it at the limit with the finished rows); keep it for the summary
+    (``estimated_time_s``, the sum of the run's estimates); when it exceeds :data:`NOTICE_S`,
+    print it on stderr. The estimate (:mod:`mechkin.tasks.estimates`) is an order of
+    magnitude (within a factor of a few of this machine's time), and the refusal says so."""
     import sys
 
     seconds = float(seconds) if seconds == seconds else 0.0
     lim = time_limit()
-    if lim is not None and seconds > 2.0 * lim:
-        raise ConfigError(f"{where}: {what} is estimated to take about {human_time(seconds)}, "
-                          f"more than --max-time {human_time(lim)} (raise it, or make the job "
-                          "smaller)")
     found = _ESTIMATES.get()
+    if lim is not None:
+        total = sum(e["seconds"] for e in found or []) + seconds  # the run's jobs so far + this
+        if total > lim and time_policy() == "refuse":
+            raise ConfigError(f"{where}: {what}: estimated {human_time(total)} > --max-time "
+                              f"{human_time(lim)} (an order of magnitude): raise it, or "
+                              "--max-time-policy stop runs to the limit and keeps the "
+                              "finished rows")
     if found is not None:
         found.append({"where": where, "what": what, "seconds": seconds})
     if seconds > NOTICE_S:
         sys.stderr.write(f"mechkin: {what}: estimated about {human_time(seconds)} "
                          f"({where.split(': ', 1)[0]}); --max-time bounds a run\n")
         sys.stderr.flush()
+
+
+def record_estimate(summary: Any, found: list[dict[str, Any]]) -> float | None:
+    """Put the run's estimate (the sum of ``found``, 3 digits) into ``summary`` as
+    ``estimated_time_s`` and return it (None when the run made none)."""
+    if not found or not isinstance(summary, dict):
+        return None
+    total = float(f"{sum(e['seconds'] for e in found):.3g}")
+    summary["estimated_time_s"] = total
+    return total
 
 
 #: ``summary["status"]`` of a run stopped by ``--max-time`` (exit 1, the finished rows written).

@@ -26,15 +26,13 @@ def analytic_problem(sc: Scenario, mech: Mechanism) -> str | None:
     from mechkin.errors import ConfigError
 
     spec = sc.section
+    ws = _target_weights(spec)
     if spec.fixed:
         try:
             held_values(sc, mech)
         except ConfigError as exc:
             return str(exc)
         return None
-    ws = [t.weights for t in spec.targets if t.weights is not None]
-    if spec.random_targets is not None or any(t.weights is None for t in spec.targets):
-        ws.append(spec.weights)
     try:
         for w in ws or [None]:
             chain_for(mech, "analytic", None if w is None else np.asarray(w, float))
@@ -43,10 +41,20 @@ def analytic_problem(sc: Scenario, mech: Mechanism) -> str | None:
     return None
 
 
+def _target_weights(spec: Any) -> list[Any]:
+    """The weights the targets use: each target's own, and the section's when a target (or
+    the random targets) takes them."""
+    ws = [t.weights for t in spec.targets if t.weights is not None]
+    if spec.random_targets is not None or any(t.weights is None for t in spec.targets):
+        ws.append(spec.weights)
+    return ws
+
+
 def held_values(sc: Scenario, mech: Mechanism) -> dict[str, float] | None:
     """``ik.fixed`` in SI (joint name -> value), checked against the mechanism: a joint that is
-    not independent, a value outside the limits, or a held set that leaves the rest
-    non-decomposable is bad input naming the key."""
+    not independent, a value outside the limits, a held set that leaves the rest
+    non-decomposable, or targets that do not weigh the whole pose (the held route solves all
+    six components exactly, so it would ignore zero weights) is bad input naming the key."""
     from mechkin.errors import ConfigError
     from mechkin.solvers.ik.analytic.classify import held_chain
     from mechkin.tasks.common import joint_factor
@@ -54,6 +62,19 @@ def held_values(sc: Scenario, mech: Mechanism) -> dict[str, float] | None:
     given = sc.section.fixed
     if not given:
         return None
+    spec = sc.section
+    for i, t in enumerate(spec.targets):
+        if t.weights is not None and not all(w > 0 for w in t.weights):
+            raise ConfigError(f"{sc.doc.where(('ik', 'targets', i, 'weights'))}: fixed: "
+                              "solves the whole pose with the held joints, so every weight "
+                              f"must be positive, got {list(t.weights)} (drop fixed: and use "
+                              "method lm to weigh components)")
+    if (spec.random_targets is not None or any(t.weights is None for t in spec.targets)) and \
+            not all(w > 0 for w in spec.weights):
+        raise ConfigError(f"{sc.doc.where(('ik', 'weights'))}: fixed: solves the whole pose "
+                          "with the held joints, so every weight must be positive, got "
+                          f"{list(spec.weights)} (drop fixed: and use method lm to weigh "
+                          "components)")
     out = {}
     for name, v in given.items():
         if name not in mech.independent_names:

@@ -238,7 +238,8 @@ def ik_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
                            "whose legs decompose, or use method: lm)")
         except ClosedFormMismatch as exc:
             out.append(f"{doc.where(('mechanism',))}: {short_str(str(exc), 200)}")
-    if spec.method == "analytic":
+    if spec.method == "analytic" or (spec.fixed and not framed):
+        # the run checks held joints with every method (tasks.ik: held_values)
         from mechkin.tasks.ik_analytic import analytic_problem
 
         why = analytic_problem(sc, mech)

@@ -262,3 +262,43 @@ def test_200_mutated_scenarios_check_ok_means_the_run_accepts(tmp_path):
     for p in ok[:6] + refused[:3]:
         res = runner.invoke(app, ["run", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
         assert (res.exit_code == 2) == (p in refused), (p.name, res.output)
+
+
+# ---- held joints (ik: fixed:): what the run refuses, check refuses ---------------------------
+
+
+def _panda_fixed(tmp_path: Path, **ik) -> Path:
+    d = {"name": "panda_held", "task": "ik", "mechanism": str(ROOT / "mechanisms" / "panda.yaml"),
+         "units": {"length": "m", "angle": "deg"},
+         "ik": {"method": "auto", "fixed": {"q7": 20}, "random_targets": {"count": 2, "seed": 1},
+                **ik}}
+    p = tmp_path / "panda_held.yaml"
+    p.write_text(yaml.safe_dump(d, sort_keys=False))
+    return p
+
+
+@pytest.mark.parametrize(("ik", "words"), [
+    # the held route solves the whole pose: position-only weights would be ignored
+    ({"weights": [1, 1, 1, 0, 0, 0]}, "ik.weights: fixed: solves the whole pose"),
+    ({"weights": [1, 1, 1, 0, 0, 0], "method": "analytic"}, "ik.weights: fixed:"),
+    # method auto: the held set that does not decompose (check looked only at analytic)
+    ({"fixed": {"q1": 20}}, "ik.fixed: no subproblem decomposition"),
+    ({"fixed": {"nope": 20}}, "ik.fixed.nope: not an independent joint"),
+])
+def test_held_joints_check_refuses_what_the_run_refuses(tmp_path, ik, words):
+    p = _panda_fixed(tmp_path, **ik)
+    problems, internal = check_file_status(p)
+    assert not internal and len(problems) == 1 and words in problems[0], problems
+    res = runner.invoke(app, ["ik", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
+    assert res.exit_code == 2 and words in res.output, res.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_held_joints_with_framed_targets_are_refused_not_ignored(tmp_path):
+    p = _panda_fixed(tmp_path)
+    d = yaml.safe_load(p.read_text())
+    d["ik"].pop("random_targets")
+    d["ik"]["targets"] = [{"frame": "panda_hand", "xyz": [0.4, 0, 0.5], "rpy": [180, 0, 0]}]
+    p.write_text(yaml.safe_dump(d, sort_keys=False))
+    problems, _ = check_file_status(p)
+    assert len(problems) == 1 and "fixed: holds joints for the end effector" in problems[0]

@@ -261,3 +261,59 @@ def test_bundled_set_all_pass(tmp_path):
     assert len(files) == 59
     assert int(root.get("tests")) == 59 + n_exp == len(list(root.iter("testcase")))
     assert root.get("failures") == "0" and root.get("errors") == "0"
+
+
+def test_max_time_per_scenario_and_the_estimates_in_junit_and_summary(tmp_path):
+    """--max-time applies to each scenario (a job estimated beyond it: that scenario is bad
+    input, the others run); every run's estimate is in its summary.json, the aggregate summary
+    and the JUnit file."""
+    def bigger(d):
+        d["fk"]["time"] = {"start": 0, "stop": 2, "step": 2 / 99_999}  # 100000 steps
+
+    a = _copy(tmp_path, "delta_fk.yaml")
+    b = _copy(tmp_path, "five_bar_fk.yaml", bigger)  # estimated well beyond 20 s
+    junit, summ = tmp_path / "r.xml", tmp_path / "r.json"
+    res = _run([str(a), str(b), "--out", str(tmp_path / "o"), "--no-plots", "--junit",
+                str(junit), "--summary", str(summ), "--max-time", "20s"])
+    assert res.exit_code == 2, res.output
+    lines = res.stdout.strip().splitlines()
+    assert lines[0].startswith("PASS [exit 0]") and lines[1].startswith("BAD INPUT [exit 2]")
+    assert "> --max-time 20 s" in lines[1] and "--max-time-policy stop" in lines[1]
+    s = json.loads(summ.read_text())
+    est = s["scenarios"][0]["estimated_time_s"]
+    assert est > 0 and s["scenarios"][1]["estimated_time_s"] is None
+    assert s["estimated_time_s"] == est
+    own = json.loads((tmp_path / "o" / "delta_fk" / "summary.json").read_text())
+    assert own["estimated_time_s"] == est
+    props = {p.get("name"): p.get("value") for p in _junit(junit).iter("property")}
+    assert float(props["estimated_time_s delta_fk"]) == est
+    assert "estimated_time_s five_bar_fk" not in props
+
+
+def test_max_time_policy_stop_runs_each_scenario_to_its_limit(tmp_path, monkeypatch):
+    import itertools
+
+    from mechkin.tasks import budget
+
+    calls = itertools.count()  # the run's clock: the limit is used as soon as a job starts
+    monkeypatch.setattr(budget, "_clock", lambda: 0.0 if next(calls) == 0 else 1e6)
+    p = _copy(tmp_path, "five_bar_fk.yaml",
+              lambda d: d["fk"].update(time={"start": 0, "stop": 2, "step": 0.0004}))
+    summ = tmp_path / "r.json"
+    res = _run([str(p), "--out", str(tmp_path / "o"), "--no-plots", "--summary", str(summ),
+                "--max-time", "1s", "--max-time-policy", "stop"])
+    assert res.exit_code == 1, res.output
+    s = json.loads(summ.read_text())["scenarios"][0]
+    assert s["status"] == "stopped: max-time" and s["estimated_time_s"] > 1
+    own = json.loads((tmp_path / "o" / "five_bar_fk" / "summary.json").read_text())
+    assert own["stopped"]["done"] == 1000 and own["stopped"]["total"] == 5001
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["--max-time", "soon"], "--max-time: expected a duration"),
+    (["--max-time", "1h", "--max-time-policy", "maybe"], "--max-time-policy: expected refuse"),
+])
+def test_a_bad_max_time_of_run_is_one_line_before_any_work(tmp_path, args, words):
+    p = _copy(tmp_path, "delta_fk.yaml")
+    res = _run([str(p), "--out", str(tmp_path / "o"), "--no-plots", *args])
+    assert res.exit_code == 2 and words in res.output and not (tmp_path / "o").exists()

@@ -44,8 +44,9 @@ def test_a_huge_track_grid_is_estimated_and_refused_beyond_max_time(tmp_path):
     r = _mechkin(tmp_path, "track", str(sc), "--out", "o", "--max-time", "4m")
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and "track.grid" in lines[0] and " min, more" in lines[0], lines
-    assert "--max-time 4 min" in lines[0] and "about 10 min" in lines[0]
+    assert len(lines) == 1 and "track.grid" in lines[0] and len(lines[0]) <= 300, lines
+    assert "estimated 10 min > --max-time 4 min (an order of magnitude)" in lines[0]
+    assert "--max-time-policy stop" in lines[0]
     assert time.perf_counter() - t0 < 60 and not (tmp_path / "o").exists()
     r = _mechkin(tmp_path, "check", str(sc))  # check says it too (and accepts: no limit)
     assert r.returncode == 0 and "estimated about 10 min" in r.stderr
@@ -55,7 +56,12 @@ def test_a_run_that_overruns_max_time_stops_cleanly(tmp_path):
     sc = _scenario(tmp_path, "puma560_reachability.yaml")
     out = tmp_path / "o"
     r = _mechkin(tmp_path, "workspace", str(sc), "--out", str(out), "--max-time", "8s",
-                 "--no-plots", "--workers", "1")  # estimated 12 s: accepted (2x slack), stopped
+                 "--no-plots", "--workers", "1")  # estimated 12 s: refused before any work
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "> --max-time 8 s" in line and not out.exists(), line
+    assert len(line) < 300 and line.endswith("keeps the finished rows"), line
+    r = _mechkin(tmp_path, "workspace", str(sc), "--out", str(out), "--max-time", "8s",
+                 "--max-time-policy", "stop", "--no-plots", "--workers", "1")  # run, stopped
     if r.returncode == 0:
         pytest.skip("the sweep finished within 8 s on this machine")
     assert r.returncode == 1, r.stderr
@@ -83,8 +89,46 @@ def test_estimates_are_kept_for_the_summary_and_noted_beyond_30_s(capsys):
     assert [e["seconds"] for e in found] == [5.0, 100.0]  # both kept for the summary
     err = capsys.readouterr().err
     assert "a larger grid: estimated about 100 s" in err and "small" not in err
-    with budget.time_budget(60.0), pytest.raises(ConfigError, match="more than --max-time"):
+    with budget.time_budget(60.0), pytest.raises(ConfigError, match="> --max-time 60 s"):
         budget.estimate_time("s.yaml:3: track.grid", 1000.0, "a grid")
+
+
+def test_max_time_refuses_an_estimate_beyond_it_unless_the_policy_is_stop(monkeypatch,
+                                                                          capsys):
+    """Refused as soon as the estimate exceeds the limit (no slack factor), on the run's total
+    (a grid study's grids add up); ``stop`` (option or environment) runs it instead."""
+    with budget.time_budget(60.0), pytest.raises(ConfigError) as exc:
+        budget.estimate_time("s.yaml:3: track.grid", 61.0, "a grid")
+    line = str(exc.value)
+    assert line.startswith("s.yaml:3: track.grid: a grid: estimated 61 s > --max-time 60 s")
+    assert "order of magnitude" in line and "--max-time-policy stop" in line
+    with budget.time_budget(60.0) as found:
+        budget.estimate_time("s.yaml:3: track.grid", 59.0, "a grid")  # within: accepted
+        with pytest.raises(ConfigError, match="estimated 118 s > --max-time"):
+            budget.estimate_time("s.yaml:4: track.grid_study.0", 59.0, "another grid")
+    assert len(found) == 1
+    with budget.time_budget(60.0, "stop") as found:
+        budget.estimate_time("s.yaml:3: track.grid", 1000.0, "a grid")
+    assert found[0]["seconds"] == 1000.0
+    monkeypatch.setenv("MECHKIN_MAX_TIME_POLICY", "stop")
+    with budget.time_budget(60.0):
+        budget.estimate_time("s.yaml:3: track.grid", 1000.0, "a grid")
+        assert budget.time_policy() == "stop"
+    with budget.time_budget(60.0, "refuse"), pytest.raises(ConfigError):  # the option wins
+        budget.estimate_time("s.yaml:3: track.grid", 1000.0, "a grid")
+    monkeypatch.setenv("MECHKIN_MAX_TIME_POLICY", "sometimes")
+    with budget.time_budget(60.0), pytest.raises(ConfigError,
+                                                 match="MECHKIN_MAX_TIME_POLICY: expected"):
+        budget.time_policy()
+
+
+def test_a_bad_max_time_policy_is_one_line(tmp_path):
+    sc = ROOT / "scenarios" / "kim1995_direct_drive_fk.yaml"
+    r = _mechkin(tmp_path, "fk", str(sc), "--out", "o", "--max-time", "1h",
+                 "--max-time-policy", "later")
+    assert r.returncode == 2 and r.stderr.strip() == (
+        "error: --max-time-policy: expected refuse or stop, got 'later'"), r.stderr
+    assert not (tmp_path / "o").exists()
 
 
 def test_parse_duration():
