@@ -227,6 +227,18 @@ def _step_record(mech: Mechanism, joints: Mapping[str, list[int]], k: int, step:
 # --------------------------------------------------------------------------- the run
 
 
+def check_budget(scenario: Scenario) -> None:
+    """The run's time estimate before any work (:func:`mechkin.tasks.estimates.biped_seconds`:
+    every frame of every step)."""
+    from mechkin.tasks import budget
+    from mechkin.tasks.estimates import biped_seconds
+
+    steps = scenario.section.steps()
+    frames = sum(int(s.frames) for s in steps)
+    budget.estimate_time(scenario.doc.where(("biped",)), biped_seconds(frames),
+                         f"a biped sequence of {len(steps)} steps, {frames} frames")
+
+
 def run(scenario: Scenario, prepared: Any = None, **_options: Any) -> Report:
     """Solve the scenario's biped case or switching sequence; the report holds the summary,
     the ``expect:`` results and the :class:`BipedRecord` of every output. ``prepared``
@@ -242,6 +254,7 @@ def run(scenario: Scenario, prepared: Any = None, **_options: Any) -> Report:
         mech = load_mechanism(scenario.mechanism_path)
         model = geometry_from_mechanism(mech)
     geometry, joints = model.geometry, model.joints
+    check_budget(scenario)
 
     pairs = [_step_si(s, spec, units, k) for k, s in enumerate(spec.steps())]
     steps = [p[0] for p in pairs]
@@ -482,6 +495,7 @@ def _plane_pose(p: InclinedPlane) -> np.ndarray:
 def _record(scenario: Scenario, mech: Mechanism, model: BipedModel, steps: list[BipedStep],
             records: list[dict[str, Any]], frames: list[BipedFrame]) -> BipedRecord:
     geometry, joints = model.geometry, model.joints
+    check_budget(scenario)
     qf = _frame_q(frames)
     polys = [biped_polylines(geometry, _body(f, steps), qf["right"][i], qf["left"][i],
                              kind=f.kind, plane=steps[f.step].leg_plane("right"),

@@ -80,6 +80,37 @@ TASK_SPACE_START_S = 1e-2
 DP_S_PER_TRANSITION = 5e-9
 DP_NUMPY_S_PER_TRANSITION = 1e-7
 
+#: lee's maps (kim-free closed forms, lee Eq. (9), (21)), per evaluated pose (2026-12-03, load
+#: 5): sigma_KI maps with their CSV rows 1e-5 s (6 maps of 181 x 181 in 1.8 s, of 543 x 543 in
+#: 18 s), the gamma range 2.4e-6 s (91 x 91 x 361 in 7.3 s), listed poses as maps; the design
+#: sweep is that per value (3 values of 91 x 91 x 6 + 46 x 46 x 181 in 5.3 s on 2 processes).
+#: Plots: a PNG costs about ``LEE_PLOT_S`` plus ``LEE_PLOT_POSE_S`` per map pose drawn (2 PNGs
+#: of 181 x 181 x 3: +6 s; of 543 x 543 x 3: +11 s).
+LEE_MAP_POSE_S = 1e-5
+LEE_GAMMA_POSE_S = 2.4e-6
+LEE_PLOT_S = 1.5
+LEE_PLOT_POSE_S = 3e-6
+
+#: The biped task (hwang2023 closed forms, every frame checked by the mechanism's FK and logged),
+#: per frame of the sequence: 61 frames in 3.9 s, 4001 frames (4 steps of 1000) in 79 s at load
+#: 5-6 (63 s with plots at a lower load): 1.9e-2 s; beyond a fixed ``BIPED_LOAD_S`` (imports of
+#: the leg solvers and writers: one frame in 3.1 s after the command's start-up).
+BIPED_FRAME_S = 1.9e-2
+BIPED_LOAD_S = 1.5
+
+
+def lee_seconds(map_poses: int, gamma_poses: int, pngs: int, values: int = 1) -> float:
+    """lee's maps of one design (``map_poses`` sigma_KI map and listed poses, ``gamma_poses``
+    of the gamma range, ``pngs`` plots) times ``values`` designs of a design sweep."""
+    per = LEE_MAP_POSE_S * map_poses + LEE_GAMMA_POSE_S * gamma_poses
+    plots = (LEE_PLOT_S * pngs + LEE_PLOT_POSE_S * map_poses * values) if pngs else 0.0
+    return RUN_OVERHEAD_S + values * per + plots
+
+
+def biped_seconds(frames: int) -> float:
+    """A biped case or sequence of ``frames`` frames in all (a step without ``frames``: 1)."""
+    return RUN_OVERHEAD_S + BIPED_LOAD_S + BIPED_FRAME_S * frames
+
 
 def _write_per_item(mech: Any, outputs: Any) -> float:
     k = mech.n + mech.n_links + len(mech.frame_names)

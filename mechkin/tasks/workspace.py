@@ -108,6 +108,7 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
         est += 8.0 * 20 * len(spec.poses or [])
         budget.check(doc.where(("workspace",)), est, f"a lee map of {cells} alpha-beta cells "
                      f"x {max(gammas, 1)} gammas")
+        _estimate_lee(sc)
         return
     from mechkin.model import load_mechanism
 
@@ -131,6 +132,26 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
         starts = 1 + int(getattr(spec, "restarts", 0) or 0)
         budget.estimate_time(doc.where(("workspace",)), estimates.task_space_seconds(m, starts),
                              f"a task-space sweep of {m} poses x {starts} starts")
+
+
+def _estimate_lee(sc: Scenario) -> None:
+    """lee's maps' time before any work (:func:`mechkin.tasks.estimates.lee_seconds`): the
+    poses of every sigma_KI map (alpha x beta x gammas, 181 x 181 by default), of the gamma
+    range and of the pose list, once per design value."""
+    from mechkin.tasks import budget, estimates
+
+    spec = sc.section
+    ab = ((spec.alpha.n if spec.alpha else 181) * (spec.beta.n if spec.beta else 181))
+    gammas = sum(len(v) for v in (spec.isotropy_maps or {}).values())
+    g = spec.gamma_range
+    gamma_poses = g.n * g.n_alpha * g.n_beta if g is not None else 0
+    map_poses = ab * gammas + len(spec.poses or [])
+    values = len(spec.design.values) if spec.design is not None else 1
+    pngs = (len(spec.isotropy_maps or {}) + (g is not None)) if sc.spec.outputs.plots else 0
+    what = (f"lee maps of {map_poses} + {gamma_poses} poses"
+            + (f" x {values} design values" if spec.design is not None else ""))
+    budget.estimate_time(sc.doc.where(("workspace",)),
+                         estimates.lee_seconds(map_poses, gamma_poses, pngs, values), what)
 
 
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,

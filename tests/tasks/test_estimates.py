@@ -98,3 +98,40 @@ def test_a_medium_fk_job_is_estimated_within_a_factor_of_5(tmp_path):
     assert r.returncode == 0, r.stderr
     estimate = json.loads(r.stdout)["estimated_time_s"]
     assert took / 5 <= estimate <= 5 * max(took, 0.5), (estimate, took)
+
+
+def test_lee_maps_and_biped_follow_their_size():
+    one = est.lee_seconds(181 * 181 * 6, 0, 0) - est.RUN_OVERHEAD_S
+    assert est.lee_seconds(2 * 181 * 181 * 6, 0, 0) - est.RUN_OVERHEAD_S == pytest.approx(2 * one)
+    assert est.lee_seconds(181 * 181 * 6, 0, 0, values=3) - est.RUN_OVERHEAD_S == pytest.approx(
+        3 * one)  # a design sweep: the maps once per value
+    assert est.lee_seconds(0, 91 * 91 * 361, 0) < est.lee_seconds(91 * 91 * 361, 0, 0)
+    assert est.lee_seconds(1000, 0, 2) > est.lee_seconds(1000, 0, 0) + 2  # the PNGs
+    b = est.biped_seconds(4001) - est.biped_seconds(1)
+    assert b == pytest.approx(4000 * est.BIPED_FRAME_S) and 30 < b < 300  # 79 s measured
+
+
+@pytest.mark.parametrize(("name", "lo", "hi"), [
+    # measured 2026-12-03 at load 5 with plots: 12.4 s, 12.1 s, 8.8 s; biped 4.8 s, 4.0 s
+    ("lee_design_sweep_r", 5, 30), ("lee_fig2_gamma_range_r075", 5, 30),
+    ("lee_fig3_isotropy_r025", 3, 20), ("hwang2023_walk_skate_roll_unroll", 2, 10),
+    ("hwang2023_fig7_a", 1.5, 10)])
+def test_lee_maps_and_biped_are_estimated_by_check_and_the_run(tmp_path, name, lo, hi,
+                                                                 capsys):
+    """`check` prints the estimate; the run makes it before any work, so a --max-time below it
+    refuses the run at once (exit 2, nothing written)."""
+    from mechkin.cli import shell
+    from mechkin.cli.check_files import check_file_status, run_check
+    from mechkin.tasks import budget
+
+    sc = ROOT / "scenarios" / f"{name}.yaml"
+    with budget.time_budget(None) as found:
+        assert check_file_status(sc) == ([], False)
+    assert len(found) == 1 and lo <= found[0]["seconds"] <= hi, found
+    assert run_check([sc]) == 0 and "estimated to take about" in capsys.readouterr().out
+    task = "ik" if name.startswith("hwang") else "workspace"
+    with pytest.raises(shell.Exit) as exc:
+        shell.handle_errors(shell._execute)(task, sc, tmp_path / "o", False, False,
+                                            lambda s: "", False, None, max_time="1s")
+    assert exc.value.code == 2 and not (tmp_path / "o").exists()
+    assert "> --max-time 1 s" in capsys.readouterr().err
