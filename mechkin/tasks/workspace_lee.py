@@ -22,12 +22,23 @@ from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 from mechkin.records import Report
 from mechkin.records.workspace import WorkspaceOutput
+from mechkin.solvers.result import Stopped
+from mechkin.tasks import budget
 from mechkin.tasks.workspace_common import (
     _head,
     _listed_poses,
     _progress_bar,
     _report,
 )
+
+_NONE_FINISHED = ("--max-time: stopped before the first {what} finished (on the cluster); no "
+                  "output was changed")
+
+
+def _stop() -> Any:
+    """The stop hook under ``--max-time`` (keep the finished maps or values), else None."""
+    return budget.overrun if budget.time_limit() is not None else None
+
 
 # --------------------------------------------------------------------------- lee
 
@@ -111,18 +122,25 @@ def _run_lee(sc: Scenario, ex: dict[str, Any]) -> Report:
         params["poses"] = listed * angle_factor(sc.spec.units.angle)
     t0 = time.perf_counter()
     split = ex["ex"].split
-    try:
-        with _progress_bar(ex, f"{sc.name}: maps") as cb:
-            if split:  # one job per map (mechkin.solvers.workspace.sweeps.lee_workspace_jobs)
-                from mechkin.solvers.workspace.sweeps import lee_map_jobs, lee_workspace_jobs
+    from mechkin.solvers.workspace.sweeps import lee_map_jobs
 
-                n_jobs = len(lee_map_jobs(params))
+    n_jobs = len(lee_map_jobs(params))
+    try:  # --max-time: stop between two maps, keep the maps finished (each whole)
+        with _progress_bar(ex, f"{sc.name}: maps", deadline=False) as cb:
+            if split:  # one job per map (mechkin.solvers.workspace.sweeps.lee_workspace_jobs)
+                from mechkin.solvers.workspace.sweeps import lee_workspace_jobs
+
                 rec = lee_workspace_jobs(**params, workers=ex["workers"],
-                                         address=ex["address"], progress=cb)
+                                         address=ex["address"], progress=cb, stop=_stop())
             else:
-                rec = lee_workspace(**params, progress=cb)
+                rec = lee_workspace(**params, progress=cb, stop=_stop())
     except ValueError as exc:  # a grid the solver refuses (should not pass the schema)
         raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
+    except Stopped:  # on a cluster, before the first map finished
+        raise budget.TimeLimitExceeded(_NONE_FINISHED.format(what="map")) from None
+    done = len(rec.isotropy) + (rec.gamma_range is not None) + (rec.poses is not None)
+    if done < n_jobs:
+        budget.note_done(done, n_jobs, "maps")
     summary: dict[str, Any] = {
         **_head(sc, "lee_spherical"),
         "design_source": design["source"],
@@ -153,12 +171,18 @@ def _run_lee_design(sc: Scenario, ex: dict[str, Any]) -> Report:
     params.pop(dspec.parameter, None)
     workers = ex["workers"] if ex["workers"] is not None else default_workers(len(values))
     t0 = time.perf_counter()
-    with _progress_bar(ex, f"{sc.name}: {dspec.parameter} sweep") as cb:
-        try:
+    with _progress_bar(ex, f"{sc.name}: {dspec.parameter} sweep", deadline=False) as cb:
+        try:  # --max-time: stop between two values, keep the values finished in a row
             sweep = lee_design_sweep(dspec.parameter, values, workers=workers,
-                                     address=ex["address"], progress=cb, **params)
+                                     address=ex["address"], progress=cb, stop=_stop(),
+                                     **params)
         except ValueError as exc:
             raise ConfigError(f"{sc.doc.where(('workspace',))}: {exc}") from None
+        except Stopped:
+            raise budget.TimeLimitExceeded(_NONE_FINISHED.format(what="design value")
+                                           ) from None
+    if len(sweep.values) < len(values):
+        budget.note_done(len(sweep.values), len(values), "design values")
     design["source"][dspec.parameter if dspec.parameter in ("r", "R") else "stroke"] = "design"
     ds = design_summary(sweep)
     summary: dict[str, Any] = {

@@ -221,15 +221,15 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
         from mechkin.solvers.workspace.sweeps import mechanism_spec, run_jobs
 
         n_w = ex["workers"] if ex["address"] is None else None
-        jobs_kw = {"run_jobs": lambda fn, jobs, prog: run_jobs(
-                       fn, jobs, workers=n_w, address=ex["address"], progress=prog),
+        jobs_kw = {"run_jobs": lambda fn, jobs, prog, stop=None: run_jobs(
+                       fn, jobs, workers=n_w, address=ex["address"], progress=prog, stop=stop),
                    "n_jobs": 4 * (n_w or 4), "mechanism": mechanism_spec(sc.mechanism_path)}
     with _progress_bar(ex, f"{sc.name}: {'jobs' if split else 'samples'}",
-                       deadline=split) as cb:
+                       deadline=False) as cb:  # --max-time: the evaluated prefix is kept
         rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
                           grid_shape=grid_shape, seed_from=spec.seed_from,
                           mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc),
-                          stop=None if split else _stop(), **jobs_kw)
+                          stop=_stop(), **jobs_kw)
     if len(rec.reachable) < m:  # stopped by --max-time: the evaluated samples
         budget.note_done(len(rec.reachable), m, "samples")
         qv, m, grid_shape = qv[:len(rec.reachable)], len(rec.reachable), None

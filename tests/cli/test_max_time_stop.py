@@ -156,10 +156,11 @@ def test_a_grid_study_keeps_the_grids_solved(tmp_path, monkeypatch, capsys):
     assert summary["files"] and "track.csv" in summary["files"]
 
 
-def _run_split(task: str, sc: Path, out: Path, capsys) -> tuple[int, dict, list[str]]:
+def _run_split(task: str, sc: Path, out: Path, capsys, workers: int = 2
+               ) -> tuple[int, dict, list[str]]:
     capsys.readouterr()
     code = shell.execute(task, sc, out, False, False, lambda s: s["status"], max_time="1h",
-                         workers=2)
+                         workers=workers)
     err = capsys.readouterr().err.strip().splitlines()
     return code, json.loads((out / "summary.json").read_text()), err
 
@@ -202,3 +203,83 @@ def test_a_split_ik_sequence_keeps_the_finished_chunks(tmp_path, time_is_up, cap
     assert code == 1 and st["total"] == 200 and st["unit"] == "targets", st
     assert 0 < st["done"] < 200 and st["done"] % 25 == 0, st  # whole chunks of 25 targets
     assert len(summary["targets"]) == st["done"]
+
+
+# ---- lee maps, lee design sweeps, joint sweeps split over workers: the finished jobs kept ---
+
+SMALL_LEE = {"alpha": {"range": [-90, 90], "n": 31}, "beta": {"range": [-90, 90], "n": 31}}
+
+
+def _lee(tmp_path: Path, name: str, **section: object) -> Path:
+    sc = _scenario(tmp_path, name, **{**SMALL_LEE, **section})
+    d = yaml.safe_load(sc.read_text())
+    d.pop("mechanism", None)  # the maps read no mechanism file (lee §3.2 defaults)
+    sc.write_text(yaml.safe_dump(d, sort_keys=False))
+    return sc
+
+
+def test_lee_maps_keep_the_finished_maps(tmp_path, time_is_up, capsys):
+    sc = _lee(tmp_path, "lee_fig3_isotropy_r025.yaml")  # two gamma sets: text, captions
+    code, summary, err = _run("workspace", sc, tmp_path / "o", capsys)
+    assert code == 1
+    _check_stop(summary, err, sc, 1, 2, "maps")
+    assert list(summary["isotropy"]) == ["text"]
+    files = sorted(p.name for p in (tmp_path / "o").iterdir())
+    assert files == ["sigma_ki_text.csv", "summary.json"], files
+    assert len(read_csv(tmp_path / "o" / "sigma_ki_text.csv")["alpha_deg"]) == 31 * 31 * 3
+
+
+def test_lee_maps_split_over_workers_keep_the_maps_finished_in_a_row(tmp_path, time_is_up,
+                                                                      capsys):
+    sets = {f"s{k}": [20 + 5 * k] for k in range(6)}
+    sc = _lee(tmp_path, "lee_fig3_isotropy_r025.yaml", isotropy_maps=sets)
+    code, summary, err = _run_split("workspace", sc, tmp_path / "o", capsys)
+    st = summary["stopped"]
+    assert code == 1 and st["unit"] == "maps" and st["total"] == 6, st
+    assert 1 <= st["done"] < 6  # the maps handed to the pool before the stop finish
+    assert list(summary["isotropy"]) == [f"s{k}" for k in range(st["done"])]
+    assert len(err) == 1 and f"{st['done']} of 6 maps" in err[0]
+
+
+def test_a_lee_design_sweep_keeps_the_finished_values(tmp_path, time_is_up, capsys,
+                                                      monkeypatch):
+    sc = _lee(tmp_path, "lee_design_sweep_r.yaml", gamma_range={
+        "range": [-180, 180], "n": 19, "mode": "component", "ref": 30, "n_alpha": 7,
+        "n_beta": 7})
+    code, summary, err = _run_split("workspace", sc, tmp_path / "o", capsys, workers=1)
+    assert code == 1
+    _check_stop(summary, err, sc, 1, 3, "design values")
+    assert summary["design"]["values"] == [0.25]
+    assert sorted({row["r"] for row in summary["comparison"]}) == [0.25]
+    assert set(read_csv(tmp_path / "o" / "design_comparison.csv")["r"]) == {0.25}
+    d = yaml.safe_load(sc.read_text())  # on 2 processes: the values finished in a row
+    d["workspace"]["design"]["values"] = [0.25, 0.3, 0.4, 0.5, 0.6, 0.75]
+    sc.write_text(yaml.safe_dump(d, sort_keys=False))
+    calls = itertools.count()  # a new run: its clock starts again
+    monkeypatch.setattr(budget, "_clock", lambda: 0.0 if next(calls) == 0 else 1e6)
+    code, summary, err = _run_split("workspace", sc, tmp_path / "o2", capsys, workers=2)
+    st = summary["stopped"]
+    assert code == 1 and st["unit"] == "design values" and 1 <= st["done"] < 6, st
+    assert summary["design"]["values"] == d["workspace"]["design"]["values"][:st["done"]]
+
+
+def test_a_joint_sweep_split_over_workers_keeps_the_evaluated_prefix(tmp_path, time_is_up,
+                                                                     capsys):
+    sc = _scenario(tmp_path, "puma560_workspace.yaml", samples=3000, chunk=250)
+    code, summary, err = _run_split("workspace", sc, tmp_path / "o", capsys)
+    st = summary["stopped"]
+    assert code == 1 and st["unit"] == "samples" and st["total"] == 3000, st
+    assert 500 <= st["done"] < 3000 and st["done"] % 500 == 0, st  # whole jobs of 2 chunks
+    assert summary["n_samples"] == st["done"]
+    assert len(read_csv(tmp_path / "o" / "points.csv")["x_m"]) == st["done"]
+
+
+def test_a_closed_chain_sweep_on_workers_closes_every_sample_then_keeps_a_prefix(
+        tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "delta_workspace.yaml", chunk=50, joints={
+        q: {"range": [10, 50], "n": 13} for q in ("q1", "q2", "q3")})
+    code, summary, err = _run_split("workspace", sc, tmp_path / "o", capsys)
+    st = summary["stopped"]  # 8 evaluation jobs of 300 samples (2 processes, <= 5 in flight)
+    assert code == 1 and st["total"] == 2197 and 300 <= st["done"] <= 1500, st
+    assert st["done"] % 300 == 0
+    assert summary["n_samples"] == st["done"] and summary["reachable_fraction"] == 1.0

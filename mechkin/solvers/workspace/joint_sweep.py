@@ -396,7 +396,10 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         What the jobs carry to rebuild ``mech`` on a worker (default: ``mech`` pickled).
     stop : callable, optional
         One process: ``stop()`` after every evaluated ``chunk``; when True the record holds
-        the samples evaluated so far (a prefix of ``q_v``).
+        the samples evaluated so far (a prefix of ``q_v``). With ``run_jobs`` (which then
+        takes it as a fourth argument, ``run_jobs(fn, jobs, progress, stop)``): the closure
+        jobs run whole (as in one process), then no evaluation job starts after a stop and the
+        record holds the samples of the evaluation jobs finished in a row (a prefix).
 
     Returns
     -------
@@ -414,9 +417,12 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     if two_phase:
         parent, level = continuation_tree(qv, grid_shape, mech.home[mech.independent])
     if run_jobs is not None and m > 0:
-        _sweep_in_jobs(mech, qv, frame, st, parent, level if two_phase else None, closed,
-                       two_phase, manipulability, chunk, mode_jump, progress, run_jobs,
-                       n_jobs, mech if mechanism is None else mechanism)
+        b = _sweep_in_jobs(mech, qv, frame, st, parent, level if two_phase else None, closed,
+                           two_phase, manipulability, chunk, mode_jump, progress, run_jobs,
+                           n_jobs, mech if mechanism is None else mechanism, stop)
+        if b < m:  # stopped: the evaluated prefix
+            st = {k: v[:b] for k, v in st.items()}
+            qv, parent = qv[:b], parent[:b]
     else:
         total = 2 * m if two_phase else m
         done_n = [0]
@@ -466,10 +472,12 @@ def _sweep_in_jobs(mech: Any, qv: np.ndarray, frame: int, st: dict[str, np.ndarr
                    parent: np.ndarray, level: np.ndarray | None, closed: bool, two_phase: bool,
                    manipulability: bool, chunk: int, mode_jump: float,
                    progress: Callable[[int, int], None] | None,
-                   run_jobs: Callable[..., list[Any]], n_jobs: int, carried: Any) -> None:
+                   run_jobs: Callable[..., list[Any]], n_jobs: int, carried: Any,
+                   stop: Callable[[], bool] | None = None) -> int:
     """The sweep as jobs (see :func:`joint_sweep`), results written into ``st``: with
     continuation, the trunk here and the subtrees as closure jobs; then the evaluation as
-    jobs of whole ``chunk`` blocks."""
+    jobs of whole ``chunk`` blocks. Returns the samples evaluated (a prefix; all of them
+    unless ``stop`` stopped the evaluation jobs)."""
     m = qv.shape[0]
     n_jobs = max(1, int(n_jobs))
     base = {"mechanism": carried, "frame": frame, "manipulability": manipulability,
@@ -523,11 +531,16 @@ def _sweep_in_jobs(mech: Any, qv: np.ndarray, frame: int, st: dict[str, np.ndarr
         if two_phase:
             job.update(q=st["q"][r], S=st["S"][r], status=st["status"][r])
         eval_jobs.append(job)
-    parts = run_jobs(sweep_job, eval_jobs,
-                     lambda k, n: prog(k, n, done[0]) if progress is not None else None)
-    for r, out in zip(ranges, parts, strict=True):
+    def cb(k: int, n: int) -> None:
+        if progress is not None:
+            prog(k, n, done[0])
+
+    parts = (run_jobs(sweep_job, eval_jobs, cb) if stop is None
+             else run_jobs(sweep_job, eval_jobs, cb, stop))
+    for r, out in zip(ranges, parts, strict=False):
         for k, v in out.items():
             st[k][r] = v
+    return m if len(parts) == len(ranges) else int(ranges[len(parts)][0])
 
 
 def point_cloud_volume(P: np.ndarray, voxel: float | None = None

@@ -387,6 +387,7 @@ def lee_workspace(
     method: str = "closed_form",
     progress: Callable[[int, int], None] | None = None,
     poses: np.ndarray | Sequence[Sequence[float]] | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> LeeWorkspaceRecord:
     """Compute the maps of one lee scenario from plain parameters (SI: lengths, rad).
 
@@ -418,6 +419,9 @@ def lee_workspace(
     poses : array, shape (m, 3), optional
         An explicit list of (alpha, beta, gamma) [rad]: sigma_KI, leg lengths and workspace
         membership at each (summary ``poses``).
+    stop : callable, optional
+        ``stop()`` after every map but the last: when True the record holds the maps finished
+        so far (each whole, in the order above; the caller's ``--max-time``).
 
     Returns
     -------
@@ -474,6 +478,8 @@ def lee_workspace(
         }
         if progress is not None:
             progress(k_map + 1, n_maps)
+        if stop is not None and k_map + 1 < n_maps and stop():
+            return LeeWorkspaceRecord(geom, isotropy, None, summary, None)
     gr: GammaRange | None = None
     if gamma_sweep is not None:
         gr = gamma_range(
@@ -510,6 +516,8 @@ def lee_workspace(
         summary["gamma_range"] = entry
         if progress is not None:
             progress(n_maps - (poses is not None), n_maps)
+        if stop is not None and poses is not None and stop():
+            return LeeWorkspaceRecord(geom, isotropy, gr, summary, None)
     plist: LeePoseList | None = None
     if poses is not None:
         P = np.asarray(poses, dtype=np.float64).reshape(-1, 3)

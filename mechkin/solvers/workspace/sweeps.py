@@ -36,10 +36,11 @@ Yoshikawa (1985), Manipulability of robotic mechanisms, IJRR 4(2).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from mechkin.records.workspace import DesignSweepRecord, LeeWorkspaceRecord, TaskSpaceRecord
+from mechkin.solvers.result import Stopped
 from mechkin.solvers.workspace.dexterity import (
     COND_CAP,
     dexterity,
@@ -118,6 +119,7 @@ def lee_design_sweep(
     workers: int | None = None,
     address: str | None = None,
     progress: ProgressCallback | None = None,
+    stop: Callable[[], bool] | None = None,
     **params: Any,
 ) -> DesignSweepRecord:
     """:func:`mechkin.solvers.workspace.maps.lee_workspace` for every value of one design parameter.
@@ -128,8 +130,8 @@ def lee_design_sweep(
         The design parameter varied (lee §3.2 varies r: Figs. 3-5).
     values : sequence of float
         Its values (SI); one job each.
-    workers, address, progress
-        See :func:`run_jobs`.
+    workers, address, progress, stop
+        See :func:`run_jobs` (after a stop: the values finished in a row, at least one).
     **params
         The other keyword arguments of :func:`lee_workspace` (``r`` is required unless it is the
         swept parameter).
@@ -137,6 +139,12 @@ def lee_design_sweep(
     Returns
     -------
     DesignSweepRecord
+        Of the values finished (all of them unless ``stop`` said so).
+
+    Raises
+    ------
+    Stopped
+        ``stop`` said so before the first value finished (on a Dask cluster).
     """
     vals = tuple(float(v) for v in values)
     if not vals:
@@ -144,7 +152,11 @@ def lee_design_sweep(
     base = dict(params)
     base.setdefault("r", vals[0])
     jobs = [_with_value(base, parameter, v) for v in vals]
-    recs = run_jobs(_lee_job, jobs, workers=workers, address=address, progress=progress)
+    recs = run_jobs(_lee_job, jobs, workers=workers, address=address, progress=progress,
+                    stop=stop)
+    if not recs:
+        raise Stopped
+    vals = vals[: len(recs)]
     return DesignSweepRecord(parameter, vals, tuple(recs), design_comparison(parameter, vals,
                                                                              recs))
 
@@ -168,6 +180,7 @@ def lee_workspace_jobs(
     workers: int | None = None,
     address: str | None = None,
     progress: ProgressCallback | None = None,
+    stop: Callable[[], bool] | None = None,
     **params: Any,
 ) -> LeeWorkspaceRecord:
     """:func:`lee_workspace` with its maps (:func:`lee_map_jobs`) run as jobs
@@ -176,13 +189,18 @@ def lee_workspace_jobs(
 
     Parameters
     ----------
-    workers, address, progress
-        See :func:`run_jobs` (``progress`` counts maps).
+    workers, address, progress, stop
+        See :func:`run_jobs` (``progress`` counts maps; after a stop the record holds the
+        maps finished in a row, as :func:`lee_workspace` with ``stop``; :class:`Stopped` when
+        none finished).
     **params
         Keyword arguments of :func:`lee_workspace`.
     """
     jobs = lee_map_jobs(params)
-    recs = run_jobs(_lee_job, jobs, workers=workers, address=address, progress=progress)
+    recs = run_jobs(_lee_job, jobs, workers=workers, address=address, progress=progress,
+                    stop=stop)
+    if not recs:
+        raise Stopped
     head = {k: v for k, v in recs[0].summary.items()
             if k not in ("isotropy", "gamma_range", "poses")}
     summary: dict[str, Any] = dict(head)
