@@ -228,8 +228,10 @@ def time_budget(max_seconds: float | None, policy: str | None = None
 
 
 class TimeLimitExceeded(MechkinError):
-    """The run went past ``--max-time`` on a path that keeps no partial result (a motion or a
-    target sequence split over workers): stopped between two jobs, nothing written (exit 1)."""
+    """The run went past ``--max-time`` on a path that keeps no partial result (jobs run by
+    :func:`mechkin.tasks.distributed.map_jobs` without ``partial``; a lee map or design value
+    on a cluster stopped before the first finished): stopped between two jobs, nothing
+    written (exit 1)."""
 
     exit_code = 1
 
