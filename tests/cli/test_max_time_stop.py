@@ -231,14 +231,15 @@ def test_lee_maps_keep_the_finished_maps(tmp_path, time_is_up, capsys):
 
 def test_lee_maps_split_over_workers_keep_the_maps_finished_in_a_row(tmp_path, time_is_up,
                                                                       capsys):
-    sets = {f"s{k}": [20 + 5 * k] for k in range(6)}
-    sc = _lee(tmp_path, "lee_fig3_isotropy_r025.yaml", isotropy_maps=sets)
+    sets = {f"s{k}": [20 + k] for k in range(24)}  # 24 jobs: more than the pool holds at once
+    sc = _lee(tmp_path, "lee_fig3_isotropy_r025.yaml", isotropy_maps=sets,
+              alpha={"range": [-90, 90], "n": 91}, beta={"range": [-90, 90], "n": 91})
     code, summary, err = _run_split("workspace", sc, tmp_path / "o", capsys)
     st = summary["stopped"]
-    assert code == 1 and st["unit"] == "maps" and st["total"] == 6, st
-    assert 1 <= st["done"] < 6  # the maps handed to the pool before the stop finish
+    assert code == 1 and st["unit"] == "maps" and st["total"] == 24, st
+    assert 1 <= st["done"] < 24  # the maps handed to the pool before the stop finish
     assert list(summary["isotropy"]) == [f"s{k}" for k in range(st["done"])]
-    assert len(err) == 1 and f"{st['done']} of 6 maps" in err[0]
+    assert len(err) == 1 and f"{st['done']} of 24 maps" in err[0]
 
 
 def test_a_lee_design_sweep_keeps_the_finished_values(tmp_path, time_is_up, capsys,
@@ -253,23 +254,24 @@ def test_a_lee_design_sweep_keeps_the_finished_values(tmp_path, time_is_up, caps
     assert sorted({row["r"] for row in summary["comparison"]}) == [0.25]
     assert set(read_csv(tmp_path / "o" / "design_comparison.csv")["r"]) == {0.25}
     d = yaml.safe_load(sc.read_text())  # on 2 processes: the values finished in a row
-    d["workspace"]["design"]["values"] = [0.25, 0.3, 0.4, 0.5, 0.6, 0.75]
+    d["workspace"]["design"]["values"] = [round(0.2 + 0.04 * k, 2) for k in range(16)]
+    d["workspace"]["alpha"]["n"] = d["workspace"]["beta"]["n"] = 61
     sc.write_text(yaml.safe_dump(d, sort_keys=False))
     calls = itertools.count()  # a new run: its clock starts again
     monkeypatch.setattr(budget, "_clock", lambda: 0.0 if next(calls) == 0 else 1e6)
     code, summary, err = _run_split("workspace", sc, tmp_path / "o2", capsys, workers=2)
     st = summary["stopped"]
-    assert code == 1 and st["unit"] == "design values" and 1 <= st["done"] < 6, st
+    assert code == 1 and st["unit"] == "design values" and 1 <= st["done"] < 16, st
     assert summary["design"]["values"] == d["workspace"]["design"]["values"][:st["done"]]
 
 
 def test_a_joint_sweep_split_over_workers_keeps_the_evaluated_prefix(tmp_path, time_is_up,
                                                                      capsys):
-    sc = _scenario(tmp_path, "puma560_workspace.yaml", samples=3000, chunk=250)
+    sc = _scenario(tmp_path, "puma560_workspace.yaml", samples=6000, chunk=250)
     code, summary, err = _run_split("workspace", sc, tmp_path / "o", capsys)
-    st = summary["stopped"]
-    assert code == 1 and st["unit"] == "samples" and st["total"] == 3000, st
-    assert 500 <= st["done"] < 3000 and st["done"] % 500 == 0, st  # whole jobs of 2 chunks
+    st = summary["stopped"]  # 8 jobs of 3 chunks; 2 run, 3 wait in the pool's queue
+    assert code == 1 and st["unit"] == "samples" and st["total"] == 6000, st
+    assert 750 <= st["done"] <= 4500 and st["done"] % 750 == 0, st
     assert summary["n_samples"] == st["done"]
     assert len(read_csv(tmp_path / "o" / "points.csv")["x_m"]) == st["done"]
 
@@ -279,7 +281,7 @@ def test_a_closed_chain_sweep_on_workers_closes_every_sample_then_keeps_a_prefix
     sc = _scenario(tmp_path, "delta_workspace.yaml", chunk=50, joints={
         q: {"range": [10, 50], "n": 13} for q in ("q1", "q2", "q3")})
     code, summary, err = _run_split("workspace", sc, tmp_path / "o", capsys)
-    st = summary["stopped"]  # 8 evaluation jobs of 300 samples (2 processes, <= 5 in flight)
-    assert code == 1 and st["total"] == 2197 and 300 <= st["done"] <= 1500, st
+    st = summary["stopped"]  # 8 evaluation jobs of 300 samples; 2 run, 3 wait in the queue
+    assert code == 1 and st["total"] == 2197 and 300 <= st["done"] <= 1800, st
     assert st["done"] % 300 == 0
     assert summary["n_samples"] == st["done"] and summary["reachable_fraction"] == 1.0
