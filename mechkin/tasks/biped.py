@@ -495,7 +495,6 @@ def _plane_pose(p: InclinedPlane) -> np.ndarray:
 def _record(scenario: Scenario, mech: Mechanism, model: BipedModel, steps: list[BipedStep],
             records: list[dict[str, Any]], frames: list[BipedFrame]) -> BipedRecord:
     geometry, joints = model.geometry, model.joints
-    check_budget(scenario)
     qf = _frame_q(frames)
     polys = [biped_polylines(geometry, _body(f, steps), qf["right"][i], qf["left"][i],
                              kind=f.kind, plane=steps[f.step].leg_plane("right"),
