@@ -106,6 +106,8 @@ def _targets(sc: Scenario, mech: Mechanism) -> tuple[np.ndarray, np.ndarray, lis
         lo = np.where(np.isfinite(mech.lower[iv]), mech.lower[iv], -np.pi)
         hi = np.where(np.isfinite(mech.upper[iv]), mech.upper[iv], np.pi)
         qv = rng.uniform(lo, hi, size=(rt.count, len(iv)))
+        for name, v in (held_values(sc, mech) or {}).items():  # reachable with fixed: held
+            qv[:, mech.independent_names.index(name)] = v
         res, _ = fk_rows(mech, qv)  # the assembly connected to home, within the limits
         kin = forward_kinematics(mech, res.q)
         T_E = kin.frames(mech, [mech.end_effector])[:, 0]

@@ -302,3 +302,13 @@ def test_held_joints_with_framed_targets_are_refused_not_ignored(tmp_path):
     p.write_text(yaml.safe_dump(d, sort_keys=False))
     problems, _ = check_file_status(p)
     assert len(problems) == 1 and "fixed: holds joints for the end effector" in problems[0]
+
+
+def test_random_targets_with_held_joints_are_poses_of_the_held_values(tmp_path):
+    p = _panda_fixed(tmp_path, random_targets={"count": 12, "seed": 1})
+    assert check_file_status(p) == ([], False)
+    res = runner.invoke(app, ["ik", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
+    assert res.exit_code == 0, res.output
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["counts"]["ok"] == 12
+    assert all(t["q_v"]["q7"] == pytest.approx(np.radians(20.0)) for t in s["targets"])

@@ -135,3 +135,13 @@ def test_lee_maps_and_biped_are_estimated_by_check_and_the_run(tmp_path, name, l
                                             lambda s: "", False, None, max_time="1s")
     assert exc.value.code == 2 and not (tmp_path / "o").exists()
     assert "> --max-time 1 s" in capsys.readouterr().err
+
+
+def test_a_biped_run_records_its_estimate_once(tmp_path):
+    from mechkin.cli import shell
+
+    sc = ROOT / "scenarios" / "hwang2023_fig7_a.yaml"
+    code = shell.execute("ik", sc, tmp_path / "o", False, False, lambda s: "")
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert code == 0 and summary["estimated_time_s"] == pytest.approx(est.biped_seconds(1),
+                                                                      rel=1e-2)
