@@ -258,7 +258,14 @@ def run(scenario: Scenario, prepared: Any = None, **_options: Any) -> Report:
 
     pairs = [_step_si(s, spec, units, k) for k, s in enumerate(spec.steps())]
     steps = [p[0] for p in pairs]
-    results, frames = solve_sequence(model, steps)
+    from mechkin.tasks import budget
+
+    # --max-time: stop between two steps, keep the steps solved (and their frames)
+    results, frames = solve_sequence(
+        model, steps, stop=budget.overrun if budget.time_limit() is not None else None)
+    if len(results) < len(steps):
+        budget.note_done(len(results), len(steps), "steps")
+        steps, pairs = steps[:len(results)], pairs[:len(results)]
     t_ends = _step_end_times(steps)
     records = [_step_record(mech, joints, k, steps[k], pairs[k][1], results[k], t_ends[k],
                             spec.solutions == "all")

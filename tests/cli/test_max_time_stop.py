@@ -285,3 +285,16 @@ def test_a_closed_chain_sweep_on_workers_closes_every_sample_then_keeps_a_prefix
     assert code == 1 and st["total"] == 2197 and 300 <= st["done"] <= 1800, st
     assert st["done"] % 300 == 0
     assert summary["n_samples"] == st["done"] and summary["reachable_fraction"] == 1.0
+
+
+def test_a_biped_sequence_keeps_the_solved_steps(tmp_path, time_is_up, capsys):
+    sc = _scenario(tmp_path, "hwang2023_walk_skate_roll_unroll.yaml")
+    d = yaml.safe_load(sc.read_text())
+    d["outputs"]["mcap"] = True
+    sc.write_text(yaml.safe_dump(d, sort_keys=False))
+    code, summary, err = _run("ik", sc, tmp_path / "o", capsys)
+    assert code == 1
+    _check_stop(summary, err, sc, 1, 5, "steps")
+    assert summary["n_steps"] == 1 and summary["n_frames"] == 1 and len(summary["steps"]) == 1
+    assert len(read_csv(tmp_path / "o" / "frames.csv")["t_s"]) == 1
+    assert (tmp_path / "o" / "biped.mcap").stat().st_size > 0

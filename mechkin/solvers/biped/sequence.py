@@ -14,7 +14,7 @@ Imports: numpy, model (forward kinematics), solvers.biped.leg, spatial.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -501,7 +501,8 @@ def _moving_frames(geometry: BipedGeometry | BipedModel, step: BipedStep, first:
     return out
 
 
-def solve_sequence(geometry: BipedGeometry | BipedModel, steps: list[BipedStep]
+def solve_sequence(geometry: BipedGeometry | BipedModel, steps: list[BipedStep],
+                   stop: Callable[[], bool] | None = None
                    ) -> tuple[list[StepResult], list[BipedFrame]]:
     """Solve every step in order; each starts from the joint angles the last solved step left.
 
@@ -510,7 +511,8 @@ def solve_sequence(geometry: BipedGeometry | BipedModel, steps: list[BipedStep]
     angle or tilt (Eq. 37 is path independent). A walk or skate step: the body and contact
     frames move from the previous step's (:func:`_moving_frames`). The last frame is the step
     itself. Returns one :class:`StepResult` per step and the frames of the animation (times
-    in [s]).
+    in [s]). ``stop()`` after every step but the last (the caller's ``--max-time``): when True
+    the steps solved so far and their frames are returned.
     """
     results: list[StepResult] = []
     frames: list[BipedFrame] = []
@@ -560,4 +562,6 @@ def solve_sequence(geometry: BipedGeometry | BipedModel, steps: list[BipedStep]
         if all(res.legs[s].ok for s in SIDES):
             prev_q = {s: res.legs[s].q for s in SIDES}
             prev_TG = step.T_0_G
+        if stop is not None and k + 1 < len(steps) and stop():
+            break
     return results, frames
