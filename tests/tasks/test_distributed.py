@@ -223,6 +223,37 @@ def test_single_lee_map_bitwise(tmp_path, cluster):
         assert _same_arrays(one.data.record, other.data.record) == []
 
 
+def test_lee_maps_on_a_cluster_stop_at_max_time_with_the_maps_finished_in_a_row(
+        tmp_path, cluster, monkeypatch, capsys):
+    """--max-time used as soon as the jobs start: on the cluster the maps after the first one
+    finished are cancelled, those before it waited for, and the maps finished in a row are
+    written; exit 1 and one line, never a traceback."""
+    import itertools
+    import json
+
+    from mechkin.cli import shell
+    from mechkin.tasks import budget
+
+    def coarse(d):
+        ws = d["workspace"]
+        ws["alpha"]["n"] = ws["beta"]["n"] = 61
+        ws["isotropy_maps"] = {f"s{k}": [20 + k] for k in range(12)}
+        d["expect"] = []
+
+    p = _copy("lee_fig4_isotropy_r050.yaml", tmp_path, coarse)
+    calls = itertools.count()
+    monkeypatch.setattr(budget, "_clock", lambda: 0.0 if next(calls) == 0 else 1e6)
+    out = tmp_path / "o"
+    capsys.readouterr()
+    code = shell.execute("workspace", p, out, False, False, lambda s: s["status"],
+                         max_time="1h", scheduler=cluster.scheduler_address)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1, err
+    st = json.loads((out / "summary.json").read_text())["stopped"]
+    assert (st["unit"], st["total"]) == ("maps", 12) and 1 <= st["done"] < 12, st
+    assert f"{st['done']} of 12 maps" in err[0]
+
+
 # --------------------------------------------------------------------------- track
 
 

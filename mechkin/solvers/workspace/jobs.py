@@ -17,6 +17,7 @@ Imports: the standard library (dask lazily), mechkin.errors.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import sys
@@ -115,8 +116,10 @@ def run_jobs(
         ``progress(done, total)``.
     stop : callable, optional
         ``stop()`` after every finished job: when True, no further job starts (local
-        processes: the pending ones are cancelled) and the results of the first jobs that
-        finished in a row are returned (a prefix of the list; the caller keeps those rows).
+        processes: the pending ones are cancelled, the running ones finish; Dask: the jobs
+        after the last finished one are cancelled, those before it waited for) and the
+        results of the first jobs that finished in a row are returned (a prefix of the list;
+        the caller keeps those rows).
 
     Returns
     -------
@@ -359,6 +362,7 @@ def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
         index = {f.key: i for i, f in enumerate(futures)}
         pending = set(futures)
         k = 0
+        stopping = False
         while pending:
             try:
                 done, pending = dask_wait(pending, timeout=timeout,
@@ -375,8 +379,15 @@ def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
                 k += 1
                 if progress is not None:
                     progress(k, len(jobs))
-            if pending and stop is not None and stop():
-                break
+            if pending and not stopping and stop is not None and stop():
+                # no further job: the ones after the last finished are cancelled, the ones
+                # before it (running, as a rule) waited for, so the prefix reaches it
+                stopping = True
+                last = max(i for i, r in enumerate(results) if r is not _NOT_RUN)
+                drop = [f for f in pending if index[f.key] > last]
+                pending = {f for f in pending if index[f.key] < last}
+                with contextlib.suppress(Exception):
+                    client.cancel(drop)
     finally:
         _close_quietly(client, timeout)
     first = next((i for i, r in enumerate(results) if r is _NOT_RUN), len(jobs))
