@@ -346,7 +346,7 @@ def _nonfinite(text: str, path: Path) -> list[str]:
         root = etree.fromstring(text.encode("utf-8"))
     except Exception:  # noqa: BLE001 - no lxml, or a file lxml cannot parse: MuJoCo reports it
         return []
-    from mechkin.config.tree_import import nonfinite_numbers
+    from mechkin.config.urdf_check import nonfinite_numbers
 
     return nonfinite_numbers(root, path, _NUMERIC_ATTRS)
 

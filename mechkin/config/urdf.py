@@ -45,10 +45,9 @@ from mechkin.config.tree_import import (
     TreeLink,
     find_sidecar,
     merge_sidecar,
-    nonfinite_numbers,
     tree_to_spec,
 )
-from mechkin.config.urdf_check import element_problems, locate_rejection
+from mechkin.config.urdf_check import element_problems, locate_rejection, nonfinite_numbers
 from mechkin.config.visuals_import import attach_urdf_visuals
 from mechkin.errors import ConfigError
 
