@@ -7,11 +7,11 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
   *inertial* frame) -> mechkin's inertial (com in the link frame, inertia about the com in the
   *link* axes: ``R I R^T`` with R the inertial origin's rotation);
 - ``revolute`` (limits; beyond +-1e6 both ways: no limit), ``continuous`` (no limits),
-  ``prismatic`` -> origin + axis joints; ``<limit velocity= effort=>`` -> ``velocity_limit``
-  and ``torque_limit`` (0, URDF's usual "not given", is left out) (the child link frame is ``T_origin Rot(axis, q)``, the
-  URDF convention); ``fixed`` -> the child link becomes a named frame on the parent link
-  (``mechkin.config.tree_import``); a name mechkin names cannot hold (``LFoot/FSR/x``) is
-  renamed (``LFoot_FSR_x``) with one note;
+  ``prismatic`` -> origin + axis joints (the child link frame is ``T_origin Rot(axis, q)``, the
+  URDF convention), ``<limit velocity= effort=>`` -> ``velocity_limit`` and ``torque_limit``
+  (0, URDF's usual "not given", is left out); ``fixed`` -> the child link becomes a named
+  frame on the parent link (``mechkin.config.tree_import``); a name mechkin names cannot hold
+  (``LFoot/FSR/x``) is renamed (``LFoot_FSR_x``) with one note;
 - ``<mimic joint= multiplier= offset=>`` -> a joint coupling ``q = multiplier q_joint + offset``
   (``couplings:``; a constraint row of phi, :mod:`mechkin.model.couplings`); ``floating`` and
   ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming

@@ -10,7 +10,13 @@ from mechkin.config.load import YamlDoc, short, short_list
 from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.errors import ConfigError
 from mechkin.model.mechanism import (
-    AXIS_NAMES, Coupling, Cut, JointGroup, Mechanism, joint_rate_limits)
+    AXIS_NAMES,
+    Coupling,
+    Cut,
+    JointGroup,
+    Mechanism,
+    joint_rate_limits,
+)
 from mechkin.model.visuals import link_visuals_of
 from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import rot_z
