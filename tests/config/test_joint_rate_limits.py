@@ -30,6 +30,7 @@ links:
   - name: arm
     frames: [{name: tip, xyz: [100, 0, 0]}]
   - name: slider
+  - name: hand
 joints:
   - name: u1
     type: universal
@@ -44,17 +45,13 @@ end_effector: tip
 """
 
 
-def _universal() -> str:
-    return UNIVERSAL.replace("  - name: slider\n", "  - name: slider\n  - name: hand\n")
-
-
 def test_yaml_limits_are_converted_to_si_per_coordinate(tmp_path):
     """deg/s -> rad/s and mm/s -> m/s like the other quantities; torques stay N m (N); one
     value for every axis of a universal joint, or one per axis; none: inf."""
     from mechkin.api import load_mechanism
 
     p = tmp_path / "u.yaml"
-    p.write_text(_universal())
+    p.write_text(UNIVERSAL)
     mech = load_mechanism(p)
     assert mech.joint_names == ("u1_1", "u1_2", "p1", "r1")
     np.testing.assert_allclose(mech.velocity_limit, [np.pi / 2, np.pi / 2, 0.1, np.inf],
@@ -102,7 +99,7 @@ def test_bad_limits_are_refused_with_one_located_line(tmp_path, case):
 def test_bad_per_axis_limits_are_refused(tmp_path, value, pattern):
     """A list's bad element is named (not 'expected a number' for the whole list)."""
     p = tmp_path / "u.yaml"
-    p.write_text(_universal().replace("torque_limit: [3, 4]", f"torque_limit: {value}"))
+    p.write_text(UNIVERSAL.replace("torque_limit: [3, 4]", f"torque_limit: {value}"))
     res = runner.invoke(app, ["info", str(p)])
     assert res.exit_code == 2
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
@@ -158,12 +155,17 @@ def test_urdf_zero_effort_and_velocity_mean_not_given(tmp_path):
     assert (j.velocity_limit, j.torque_limit) == (2.5, None)
 
 
-def test_urdf_negative_effort_is_refused_located(tmp_path):
-    p = _urdf(tmp_path, '<limit lower="-1" upper="1" effort="-3" velocity="1"/>')
+@pytest.mark.parametrize(("attrs", "pattern"), [
+    ('effort="-3" velocity="1"', r"joint\[j1\]\.limit\.effort: expected a finite number >= 0 "
+                                 r"\(0: not given\), got -3\.0"),
+    ('effort="1" velocity="nan"', r"joint\[j1\]\.limit: expected finite numbers, got "
+                                  r"velocity='nan'; fix: .*"),  # urdf_check, before ours
+])
+def test_urdf_bad_effort_or_velocity_is_refused_located(tmp_path, attrs, pattern):
+    p = _urdf(tmp_path, f'<limit lower="-1" upper="1" {attrs}/>')
     res = runner.invoke(app, ["import", str(p)])
     assert res.exit_code == 2
-    assert re.fullmatch(r".*r\.urdf:5: joint\[j1\]\.limit\.effort: expected a finite number "
-                        r">= 0 \(0: not given\), got -3\.0", res.output.strip()), res.output
+    assert re.fullmatch(r".*r\.urdf:\d+: " + pattern, res.output.strip()), res.output
 
 
 def test_continuous_joint_keeps_its_rate_limits(tmp_path):
@@ -237,7 +239,7 @@ def test_mechanism_limits_come_before_the_runs_in_the_urdf(tmp_path):
     from mechkin.io.urdf_out import mechanism_to_urdf
 
     p = tmp_path / "u.yaml"
-    p.write_text(_universal())
+    p.write_text(UNIVERSAL)
     mech = load_mechanism(p)
     text = mechanism_to_urdf(mech, rate_limits={"u1_1": (9.0, 9.0), "r1": (0.25, 8.0)})
     got = _limits(load_urdf(text))
@@ -255,7 +257,7 @@ def test_mechanism_limits_come_before_the_runs_in_the_urdf(tmp_path):
 
 def test_info_shows_the_files_limits(tmp_path):
     p = tmp_path / "u.yaml"
-    p.write_text(_universal())
+    p.write_text(UNIVERSAL)
     res = runner.invoke(app, ["info", str(p)])
     assert res.exit_code == 0, res.output
     assert "velocity / torque limits" in res.output

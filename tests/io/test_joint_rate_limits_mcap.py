@@ -38,6 +38,11 @@ def runs(tmp_path_factory) -> dict[str, tuple[dict, Path]]:
     (tmp / "mechanisms" / "planar3r.yaml").write_text(yaml.safe_dump(mech, sort_keys=False))
     scen = tmp / "scenarios" / f"{SCENARIO}.yaml"
     scen.write_text((ROOT / "scenarios" / f"{SCENARIO}.yaml").read_text())
+    fk = tmp / "scenarios" / "fk.yaml"
+    fk.write_text("name: fk\ntask: fk\nmechanism: ../mechanisms/planar3r.yaml\n"
+                  "fk:\n  time: {start: 0, stop: 0.1, step: 0.05}\n  motion:\n"
+                  "    q1: {type: ramp, from: 0.1, to: 0.2}\n"
+                  "    q2: {type: constant, value: 1.0}\n    q3: {type: constant, value: -1.0}\n")
     out = {}
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("MECHKIN_JIT", "0")
@@ -46,6 +51,8 @@ def runs(tmp_path_factory) -> dict[str, tuple[dict, Path]]:
         out["bundled"] = _run(tmp_path_factory.mktemp("bundled"),
                               ROOT / "scenarios" / f"{SCENARIO}.yaml")
         out["limited"] = _run(tmp_path_factory.mktemp("limited"), scen)
+        folder = tmp_path_factory.mktemp("fk")
+        out["fk"] = (_run(folder, fk)[0], folder / "fk.mcap")
     return out
 
 
@@ -58,11 +65,13 @@ def test_track_plans_with_the_scenarios_limits_only(runs):
 
 
 def test_mcap_urdf_carries_the_mechanisms_limits(runs):
-    """Bundled: the scenario's limits (no mechanism limits); limited: the mechanism's."""
+    """Bundled: the scenario's limits (no mechanism limits); limited: the mechanism's; an fk
+    run's MCAP (no run limits): the mechanism's too."""
     import math
 
     for name, want in (("bundled", [(30.0, 0.5), (8.0, 0.3), (2.0, 0.5)]),
-                       ("limited", [(1.0, math.radians(1.0))] * 3)):
+                       ("limited", [(1.0, math.radians(1.0))] * 3),
+                       ("fk", [(1.0, math.radians(1.0))] * 3)):
         text = strict_check(runs[name][1])["msgs"]["/robot_description"][0][1]["data"]
         got = {j.name: (j.limit.effort, j.limit.velocity)
                for j in load_urdf(text).robot.joints if j.limit is not None}
