@@ -56,7 +56,7 @@ def show_info(mechanism: Path, json_out: bool) -> None:
     modes = info.get("assembly_modes_at_home")
     if modes:
         echo(f"  assembly modes at home    {modes['count']} ({modes['within_limits']} within "
-             "the limits; nearest home first)")
+             "the limits; nearest home first; passive joints in rad / m)")
         for k, md in enumerate(modes["modes"][:SHOW_MODES]):
             qs = ", ".join(f"{n} {v:.6g}" for n, v in md["q_w"].items())
             echo(f"    {k}: {qs}{'' if md['within_limits'] else '  (outside limits)'}")

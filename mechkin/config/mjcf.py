@@ -87,6 +87,9 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
 
     redirect_mujoco_log(mujoco)  # never MUJOCO_LOG.TXT in the working directory
     text = check_mjcf_files(path)  # regular files within the limits, includes and meshes too
+    bad = _nonfinite(text, path)
+    if bad:
+        raise ConfigError(bad)
 
     def line_of(tag: str, name: str) -> int:
         m = re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
@@ -375,6 +378,28 @@ class _Elements:
     @staticmethod
     def pick(lines: list[int], i: int) -> int:
         return lines[i] if 0 <= i < len(lines) else 1
+
+
+#: Numeric attributes of MJCF elements that must hold finite numbers (MuJoCo takes ``nan``).
+_NUMERIC_ATTRS = {tag: ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "axis",
+                        "range", "ref", "springref", "size", "mass", "diaginertia",
+                        "fullinertia", "fromto", "damping", "armature", "stiffness",
+                        "frictionloss", "polycoef")
+                  for tag in ("body", "joint", "geom", "site", "inertial", "frame", "camera",
+                              "light", "freejoint", "weld", "connect")}
+
+
+def _nonfinite(text: str, path: Path) -> list[str]:
+    """One line per numeric attribute of the main file that is not all finite numbers."""
+    try:
+        from lxml import etree
+
+        root = etree.fromstring(text.encode("utf-8"))
+    except Exception:  # noqa: BLE001 - no lxml, or a file lxml cannot parse: MuJoCo reports it
+        return []
+    from mechkin.config.urdf_check import nonfinite_numbers
+
+    return nonfinite_numbers(root, path, _NUMERIC_ATTRS)
 
 
 def _elements(text: str) -> _Elements:

@@ -253,7 +253,8 @@ def pydantic_problems(
 ) -> list[str]:
     """Turn a pydantic ValidationError into ``file:line: key.path: message`` lines.
 
-    Unions report one error per branch; only the first is kept for each key path.
+    Unions report one error per branch; only the first is kept for each key path, except that
+    a list given to a number-or-list key reports its elements' errors.
     """
     out: list[str] = []
     seen_union: set[tuple] = set()
@@ -315,8 +316,24 @@ def number_hint(value: Any) -> str | None:
 
 
 def _is_union_tag(x: Any) -> bool:
-    return isinstance(x, str) and ("[" in x or x in ("float", "int", "str", "bool",
-                                                     "constrained-float"))
+    """A pydantic union branch in an error location (``float``, ``list[float]``,
+    ``constrained-str``, ``function-after[...]``), never a YAML key of a mechkin file."""
+    return isinstance(x, str) and ("[" in x or x in ("float", "int", "str", "bool")
+                                   or x.startswith(("constrained-", "function-"))
+                                   or x in _spec_names())
+
+
+def _spec_names() -> set[str]:
+    """The names of the spec models (a union of models tags its branches with them)."""
+    out: set[str] = set()
+    todo = [Spec]
+    while todo:
+        c = todo.pop()
+        for sub in c.__subclasses__():
+            if sub.__name__ not in out:
+                out.add(sub.__name__)
+                todo.append(sub)
+    return out
 
 
 def _submodels(annotation: Any) -> list[type[BaseModel]]:

@@ -48,7 +48,7 @@ from mechkin.config.tree_import import (
     merge_sidecar,
     tree_to_spec,
 )
-from mechkin.config.urdf_check import element_problems, locate_rejection
+from mechkin.config.urdf_check import element_problems, locate_rejection, nonfinite_numbers
 from mechkin.config.visuals_import import attach_urdf_visuals
 from mechkin.errors import ConfigError
 
@@ -132,6 +132,16 @@ def _floats(s: str | None, n: int, where: str) -> list[float]:
     return v
 
 
+#: The numeric attributes of URDF elements: each must hold finite numbers (a NaN in an origin
+#: would otherwise surface as several derived lines, or a numpy message, after the import).
+_NUMERIC_ATTRS = {"origin": ("xyz", "rpy"), "axis": ("xyz",),
+                  "limit": ("lower", "upper", "effort", "velocity"), "mass": ("value",),
+                  "inertia": ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"),
+                  "dynamics": ("damping", "friction"), "box": ("size",),
+                  "cylinder": ("radius", "length"), "sphere": ("radius",),
+                  "mesh": ("scale",)}
+
+
 def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                    ) -> tuple[MechanismSpec, YamlDoc]:
     """Read a URDF (+ sidecar) into an SI MechanismSpec and a YamlDoc with the XML lines.
@@ -183,6 +193,7 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                             f"{short_str(typ)} joints are not supported (mechkin joints: revolute, "
                             "continuous, prismatic, fixed); fix: make it type=\"fixed\" (or "
                             "remove it and its parent link, so its child is the base)")
+    problems += nonfinite_numbers(root, path, _NUMERIC_ATTRS)
     if problems:
         raise ConfigError(problems)
     light = _without_geometry(root, path)

@@ -163,6 +163,15 @@ TASK_SPACE = {
 }
 
 
+#: What every task's summary may hold: a --max-time stop (mechkin.tasks.budget.mark_stopped),
+#: the run's time estimate (``estimated_time_s``).
+RUN = {"stopped": {"reason": STR, "limit_s": NUM, "after_s": NUM, "done": NUM, "total": NUM,
+                   "unit": STR},
+       "estimated_time_s": NUM}
+for _tpl in (FK, IK, TRACK, JOINT_SWEEP, TASK_SPACE):
+    _tpl.update(RUN)
+
+
 def template(sc: Any) -> dict[str, Any] | None:
     """The summary template of scenario ``sc`` (None: only the top-level keys are known)."""
     name = sc.section_name
