@@ -37,12 +37,11 @@ May import: config, spatial, errors, numpy, mujoco.
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc
+from mechkin.config.load import YamlDoc, note_once
 from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.config.tree_import import (
     Tree,
@@ -358,7 +357,7 @@ def _compile(mujoco, path: Path):
         model = spec.compile()
     except ValueError:
         raise fail(first) from None
-    sys.stderr.write(f"{path.name}: note: compiled without its {n} mesh / texture assets "
+    note_once(path, f"{path.name}: note: compiled without its {n} mesh / texture assets "
                      "(missing on disk; the kinematics need none; visuals still reference them)\n")
     return model, n
 

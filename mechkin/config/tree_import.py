@@ -20,7 +20,6 @@ errors, numpy.
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -28,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from mechkin.config.load import YamlDoc, read_yaml
+from mechkin.config.load import YamlDoc, note_once, read_yaml
 from mechkin.config.schema import (
     CouplingSpec,
     CutSpec,
@@ -402,10 +401,10 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     spec = validate_model(doc, MechanismSpec, data)
     if tree.ignored:
         what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
-        sys.stderr.write(f"{path.name}: note: ignored {what} (not kinematics)\n")
+        note_once(path, f"{path.name}: note: ignored {what} (not kinematics)\n")
     if renamed:
         eg = ", ".join(f"{a!r} -> {b!r}" for a, b in list(renamed.items())[:2])
-        sys.stderr.write(f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
+        note_once(path, f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
                          f"cannot hold (letters, digits, _ . - only): {eg}"
                          f"{', ...' if len(renamed) > 2 else ''}\n")
     return spec, doc

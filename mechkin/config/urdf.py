@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc, short_str
+from mechkin.config.load import YamlDoc, note_once, short_str
 from mechkin.config.schema import MechanismSpec
 from mechkin.config.tree_import import (
     Tree,
@@ -99,7 +99,6 @@ def _without_geometry(root, path: Path):
     reason to refuse the kinematics; one note); lxml keeps each element's source line in the
     copy."""
     import copy
-    import sys
 
     import yourdfpy
 
@@ -117,7 +116,7 @@ def _without_geometry(root, path: Path):
                 link.remove(e)
                 dropped += 1
     if dropped:
-        sys.stderr.write(f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
+        note_once(path, f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
                          "cannot read (no kinematics in them)\n")
     return light
 
