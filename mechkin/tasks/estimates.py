@@ -68,8 +68,11 @@ SWEEP_CLOSED_S = 5e-4
 SWEEP_CLOSED_EQ_S = 2e-4
 SWEEP_WRITE_S = 5e-5
 
-#: Task-space sweeps, per ik start (121 poses x 9 starts of the PUMA: 10 s of compute).
-TASK_SPACE_START_S = 1e-2
+#: Task-space sweeps, per ik start allowed (pose x (1 + restarts)) with the compiled lm
+#: (re-measured 2026-12-03, load 4-5, kernels cached: PUMA 121 poses x 9 starts in 1.5 s of
+#: compute, 3.8 s wall; 961 x 9 in 4.2 s, 6.2 s wall; the unreachable poses use every start).
+#: Was 1e-2 (before the compiled path), 8-20 times high once a refusal had no slack.
+TASK_SPACE_START_S = 1.2e-3
 
 #: The phase-plane DP per transition (N1 x N2 x N2 of a grid) with the compiled stage
 #: (solvers/track/dp_stage.py, dp_jit.py): 100 x 400 in 2.0 s, 200 x 600 in 2.3 s,
