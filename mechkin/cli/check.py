@@ -18,11 +18,15 @@ from mechkin.cli.check_files import (  # noqa: F401 - the names callers import f
     check_file_status,
     run_check,
 )
-from mechkin.cli.common import handle_errors
+from mechkin.cli.common import MaxTimeOption, MaxTimePolicyOption, handle_errors
 
 
 def check_cli(
     files: list[Path] = typer.Argument(..., help="Mechanism or scenario YAML files"),
+    max_time: MaxTimeOption = None,
+    max_time_policy: MaxTimePolicyOption = None,
 ) -> None:
-    """Validate mechanism and scenario files; one line per problem, exit 2 if any."""
-    raise typer.Exit(handle_errors(run_check)(files))
+    """Validate mechanism and scenario files; one line per problem, exit 2 if any. With
+    --max-time, a scenario whose run would be refused for its estimate is refused too."""
+    raise typer.Exit(handle_errors(run_check)(files, max_time=max_time,
+                                              max_time_policy=max_time_policy))

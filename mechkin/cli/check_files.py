@@ -17,15 +17,24 @@ from mechkin.cli.shell import echo
 from mechkin.errors import MechkinError
 
 
-def run_check(files: list[Path]) -> int:
+def run_check(files: list[Path], max_time: str | None = None,
+              max_time_policy: str | None = None) -> int:
     """Check every file, print one line per problem (stderr) or ``FILE: ok`` (stdout, with the
     run's estimated time for a scenario); the exit code (0 all ok, 2 bad input, 3 an internal
-    error)."""
-    from mechkin.tasks.budget import human_time, time_budget
+    error). ``max_time`` / ``max_time_policy``: the run's ``--max-time`` and
+    ``--max-time-policy`` (else the environment's), so a run they would refuse is refused."""
+    from mechkin.errors import ConfigError
+    from mechkin.tasks.budget import human_time, parse_duration, parse_policy, time_budget
 
+    try:
+        seconds = parse_duration(max_time) if max_time is not None else None
+    except ValueError:
+        raise ConfigError(f"--max-time: expected a duration like 90s, 5m or 2h, got "
+                          f"{max_time[:40]!r}") from None
+    policy = parse_policy(max_time_policy) if max_time_policy is not None else None
     code = 0
     for f in files:
-        with time_budget(None) as found:  # the run's time estimates (tasks.estimates)
+        with time_budget(seconds, policy) as found:  # the run's estimates (tasks.estimates)
             problems, internal = check_file_status(f)
         if problems:
             code = max(code, 3 if internal else 2)

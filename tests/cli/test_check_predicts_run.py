@@ -312,3 +312,18 @@ def test_random_targets_with_held_joints_are_poses_of_the_held_values(tmp_path):
     s = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert s["counts"]["ok"] == 12
     assert all(t["q_v"]["q7"] == pytest.approx(np.radians(20.0)) for t in s["targets"])
+
+
+def test_check_with_max_time_refuses_what_the_run_would_refuse(tmp_path):
+    """`check --max-time` applies the run's limit to the estimate: the same one line as the
+    run's refusal (exit 2); with --max-time-policy stop it accepts, as the run would run."""
+    sc = SCEN / "lee_fig2_gamma_range_r075.yaml"  # estimated about 12 s
+    res = runner.invoke(app, ["check", str(sc), "--max-time", "5s"])
+    assert res.exit_code == 2 and "estimated 12 s > --max-time 5 s" in res.output
+    run = runner.invoke(app, ["workspace", str(sc), "--out", str(tmp_path / "o"),
+                              "--no-plots", "--max-time", "5s"])
+    assert run.exit_code == 2 and res.output.strip() == run.output.strip()
+    res = runner.invoke(app, ["check", str(sc), "--max-time", "5s", "--max-time-policy",
+                              "stop"])
+    assert res.exit_code == 0 and "estimated to take about 12 s" in res.output
+    assert runner.invoke(app, ["check", str(sc), "--max-time", "1h"]).exit_code == 0
