@@ -34,12 +34,11 @@ May import: config, spatial, errors, numpy, mujoco.
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc
+from mechkin.config.load import YamlDoc, note_once
 from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.config.tree_import import (
     Tree,
@@ -307,7 +306,7 @@ def _compile(mujoco, path: Path):
         model = spec.compile()
     except ValueError:
         raise fail(first) from None
-    sys.stderr.write(f"{path.name}: note: compiled without its {n} mesh / texture assets "
+    note_once(path, f"{path.name}: note: compiled without its {n} mesh / texture assets "
                      "(missing on disk; the kinematics need none; visuals still reference them)\n")
     return model, n
 
@@ -346,7 +345,7 @@ def _nonfinite(text: str, path: Path) -> list[str]:
         root = etree.fromstring(text.encode("utf-8"))
     except Exception:  # noqa: BLE001 - no lxml, or a file lxml cannot parse: MuJoCo reports it
         return []
-    from mechkin.config.tree_import import nonfinite_numbers
+    from mechkin.config.urdf_check import nonfinite_numbers
 
     return nonfinite_numbers(root, path, _NUMERIC_ATTRS)
 

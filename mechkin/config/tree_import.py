@@ -20,8 +20,6 @@ errors, numpy.
 
 from __future__ import annotations
 
-import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -29,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from mechkin.config.load import YamlDoc, read_yaml
+from mechkin.config.load import YamlDoc, note_once, read_yaml
 from mechkin.config.schema import (
     CouplingSpec,
     CutSpec,
@@ -398,10 +396,10 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     spec = validate_model(doc, MechanismSpec, data)
     if tree.ignored:
         what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
-        sys.stderr.write(f"{path.name}: note: ignored {what} (not kinematics)\n")
+        note_once(path, f"{path.name}: note: ignored {what} (not kinematics)\n")
     if renamed:
         eg = ", ".join(f"{a!r} -> {b!r}" for a, b in list(renamed.items())[:2])
-        sys.stderr.write(f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
+        note_once(path, f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
                          f"cannot hold (letters, digits, _ . - only): {eg}"
                          f"{', ...' if len(renamed) > 2 else ''}\n")
     return spec, doc
@@ -570,41 +568,3 @@ def spec_to_yaml_text(spec: MechanismSpec, header: str = "") -> str:
     _Dumper.add_representer(dict, _repr_dict)
     body = yaml.dump(d, Dumper=_Dumper, sort_keys=False, width=100)
     return header + body
-
-
-def nonfinite_numbers(root: Any, path: Any, attrs: dict[str, tuple[str, ...]]) -> list[str]:
-    """One line per numeric attribute (``attrs``: element tag -> attribute names) of an lxml
-    tree that is not all finite numbers (``nan``, ``inf``, ``1e999``, a word), located at its
-    element and named from the nearest named element (``joint[j1].origin.xyz``,
-    ``body[b2].pos``): a NaN in an origin would otherwise surface after the import as several
-    lines about derived values."""
-    from mechkin.config.load import short_str
-
-    out = []
-    for el in root.iter():
-        names = attrs.get(el.tag) if isinstance(el.tag, str) else None
-        for a in names or ():
-            raw = el.get(a)
-            if raw is None:
-                continue
-            try:
-                ok = bool(raw.split()) and all(math.isfinite(float(x)) for x in raw.split())
-            except ValueError:
-                ok = False
-            if not ok:
-                out.append(f"{path}:{el.sourceline}: {_owner(el)}.{a}: expected finite "
-                           f"numbers, got {short_str(raw, 40)!r}")
-    return out
-
-
-def _owner(el: Any) -> str:
-    from mechkin.config.load import short_str
-
-    parts = []
-    while el is not None and isinstance(el.tag, str):
-        if el.get("name") is not None:
-            parts.append(f"{el.tag}[{short_str(el.get('name'), 40)}]")
-            break
-        parts.append(el.tag)
-        el = el.getparent()
-    return ".".join(reversed(parts))

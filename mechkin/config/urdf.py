@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc, short_str
+from mechkin.config.load import YamlDoc, note_once, short_str
 from mechkin.config.schema import MechanismSpec
 from mechkin.config.tree_import import (
     Tree,
@@ -45,10 +45,9 @@ from mechkin.config.tree_import import (
     TreeLink,
     find_sidecar,
     merge_sidecar,
-    nonfinite_numbers,
     tree_to_spec,
 )
-from mechkin.config.urdf_check import element_problems, locate_rejection
+from mechkin.config.urdf_check import element_problems, locate_rejection, nonfinite_numbers
 from mechkin.config.visuals_import import attach_urdf_visuals
 from mechkin.errors import ConfigError
 
@@ -99,7 +98,6 @@ def _without_geometry(root, path: Path):
     reason to refuse the kinematics; one note); lxml keeps each element's source line in the
     copy."""
     import copy
-    import sys
 
     import yourdfpy
 
@@ -117,7 +115,7 @@ def _without_geometry(root, path: Path):
                 link.remove(e)
                 dropped += 1
     if dropped:
-        sys.stderr.write(f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
+        note_once(path, f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
                          "cannot read (no kinematics in them)\n")
     return light
 

@@ -101,7 +101,7 @@ IK = {
     "n_targets": NUM, "counts": _IK_STATUSES, "max_position_error": NUM,
     "max_orientation_error": NUM, "solve_time_s": NUM, "median_time_per_target_s": NUM,
     "end_effector": STR, "targets": Items(_IK_TARGET), "solutions": ANY,
-    "methods_used": WORDS,
+    "methods_used": WORDS, "analytic_structure": WORDS,
     # target sets (mechkin.tasks.ik_frames)
     "n_target_sets": NUM, "floating_base": NUM,
     "target_sets": Items({"name": STR, "status": STR, "base_pose": ANY, "q": Names(NUM),

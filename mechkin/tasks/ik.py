@@ -54,6 +54,7 @@ from mechkin.tasks.estimates import ik_seconds
 from mechkin.tasks.ik_all import _all_solutions, _clean, _solution_rows, _solutions_record
 from mechkin.tasks.ik_analytic import (
     analytic_problem,
+    analytic_structure,
     held_values,
     methods_used,
     solutions_summary_extra,
@@ -325,6 +326,10 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
         "end_effector": mech.frame_names[mech.end_effector],
         "targets": records,
     }
+    if "analytic" in summary["methods_used"]:
+        structure = analytic_structure(mech, fixed)
+        if structure:
+            summary["analytic_structure"] = structure
     if execution_info is not None:
         summary["execution"] = execution_info
     if all_sols is not None:

@@ -158,6 +158,25 @@ def methods_used(results: list[IkResult]) -> list[str]:
     return sorted({r.method for r in results})
 
 
+def analytic_structure(mech: Mechanism, fixed: dict[str, float] | None = None) -> str | None:
+    """The decomposition the analytic answers came from, for the summary: the serial class
+    (:func:`mechkin.solvers.ik.analytic.classify.classify`'s description, e.g. "spherical
+    wrist, h2 || h3") or the parallel mechanism's legs by kind; None when there is none."""
+    from mechkin.solvers.ik.analytic.classify import NotDecomposable, analytic_chain, held_chain
+
+    try:
+        if mech.cuts:
+            legs = parallel_legs(mech, "analytic")
+            if not legs:
+                return None
+            kinds = sorted({leg.kind for leg in legs})
+            return f"{len(legs)} legs solved one by one ({', '.join(kinds)})"
+        chain = held_chain(mech, fixed) if fixed else analytic_chain(mech)
+    except NotDecomposable:
+        return None
+    return None if chain is None else str(chain.description)
+
+
 def solutions_summary_extra(all_sols: list[IkSolutions]) -> dict[str, Any]:
     """``complete``: every target's list is every solution within the limits."""
     return {"complete": bool(all(a.complete for a in all_sols))}

@@ -463,6 +463,7 @@ _FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_m
 _IK_KEYS = {"scenario", "task", "mechanism", "method", "status", "n_targets", "counts",
             "max_position_error", "max_orientation_error", "solve_time_s",
             "median_time_per_target_s", "end_effector", "targets", "solutions", "methods_used",
+            "analytic_structure",
             "n_target_sets", "floating_base", "target_sets"}
 _IK_TARGET_KEYS = {"name", "status", "q", "q_v", "position_error", "orientation_error",
                    "weights", "f", "grad_norm", "iterations", "evaluations", "time_s",
