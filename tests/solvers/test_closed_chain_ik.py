@@ -157,3 +157,21 @@ def test_passive_limits_hold_on_every_route_and_the_status_is_the_targets(tmp_pa
         if r.status.value == "at a limit":
             assert r.at_limit  # names the joint (the driver's or a passive one)
     assert any(set(r.at_limit) & {mech.joint_names[k] for k in j} for r in batch)
+
+
+def test_cg_golden_from_a_start_beyond_a_passive_limit_returns_within_it(tmp_path):
+    # cg-golden (robust) keeps passive limits in its line searches but used to return its start
+    # when no step improved on it: here a start with finger_joint at 0.7 > 0.5 rad, the target
+    # its own pose. The answer is on the limit (0.5), at a limit, never outside
+    from mechkin.solvers.ik import IkOptions, solve_ik
+
+    mech, _ = load(tmp_path, M.XARM, **{"[0.035465, 0.042039, 0]}, limits: [0, 0.85]":
+                                         "[0.035465, 0.042039, 0]}, limits: [0, 0.5]"})
+    fk = mechkin.fk(mech, [[0.7]])
+    assert fk.status == ["outside limits"]
+    iv, j = mech.independent, mech.dependent
+    r = solve_ik(mech, fk.poses["end_effector"][0], q_v0=fk.q[0, iv], q_w0=fk.q[0, j],
+                 weights=W_POS, options=IkOptions(method="cg-golden"))
+    assert r.status.value == "at a limit" and "finger_joint" in r.at_limit
+    assert np.all(r.q[j] <= mech.upper[j] + 1e-9) and np.all(r.q[j] >= mech.lower[j] - 1e-9)
+    assert abs(r.q[mech.joint_index("finger_joint")] - 0.5) <= 1e-9
