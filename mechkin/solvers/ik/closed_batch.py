@@ -23,7 +23,7 @@ import numpy as np
 
 from mechkin.solvers.ik.kernel import IkKernel
 from mechkin.solvers.ik.lm import lm_batch
-from mechkin.solvers.ik.results import IkOptions
+from mechkin.solvers.ik.results import IkOptions, better
 
 JITTER = 0.02  # share of each independent joint's range (at most a turn) of the lone jitter
 
@@ -64,3 +64,12 @@ def jitter_pass(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndar
     out = {key: r[key][b] for key in ("q", "f", "converged", "closed", "gnorm")}
     out["iters"] = r["iters"].reshape(m, k).max(axis=1)
     return out
+
+
+def better_rows(st_new: np.ndarray, f_new: np.ndarray, st_old: np.ndarray, f_old: np.ndarray
+                ) -> np.ndarray:
+    """(m,) bool: rows whose new answer beats the old (:func:`mechkin.solvers.ik.results.
+    better`: a better status, then a lower f)."""
+    return np.array([better({"status": a, "f": fa}, {"status": b, "f": fb})
+                     for a, fa, b, fb in zip(st_new, f_new, st_old, f_old, strict=True)],
+                    dtype=bool)

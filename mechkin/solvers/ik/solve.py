@@ -32,6 +32,7 @@ import numpy as np
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik import accel
 from mechkin.solvers.ik.cg_golden import cg_golden
+from mechkin.solvers.ik.closed_batch import better_rows, jitter_pass, random_start
 from mechkin.solvers.ik.kernel import IkKernel, kernel_for, pose_errors
 from mechkin.solvers.ik.lm import LM_MU, MAX_ITER_LM, STALL_WINDOW, lm_batch
 from mechkin.solvers.ik.results import (
@@ -333,8 +334,6 @@ class _RestartStarts:
             if start is not None:
                 return start[:, 0]
         if kern.mech.cuts and kern.iw.size:  # closed chains: the rows' restarts alike
-            from mechkin.solvers.ik.closed_batch import random_start
-
             return np.tile(random_start(kern, self.seed, k), (bad.size, 1))
         if self.rng is None:
             self.rng = np.random.default_rng(self.seed)
@@ -542,9 +541,7 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         if closed_chain:  # a better status first, then a lower f (as a lone target's restarts)
             st2 = statuses_of(kern, r2["q"], T_P[bad], w[bad], r2["closed"], r2["converged"],
                               opts, r2["gnorm"])[0]
-            lower = np.array([better({"status": a, "f": fa}, {"status": b, "f": fb})
-                              for a, fa, b, fb in zip(st2, r2["f"], st[bad], f[bad],
-                                                      strict=True)], dtype=bool)
+            lower = better_rows(st2, r2["f"], st[bad], f[bad])
         else:
             lower = r2["f"] < f[bad]
         sel = bad[lower]
@@ -557,15 +554,11 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
             ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
     bad = np.flatnonzero(~ok)
     if closed_chain and lone_restarts and opts.restarts > 0 and bad.size:
-        from mechkin.solvers.ik.closed_batch import jitter_pass
-
         r3 = jitter_pass(kern, qv0[bad], qw0[bad], T_P[bad], w[bad], opts)
         iters[bad] += r3["iters"]
         st3 = statuses_of(kern, r3["q"], T_P[bad], w[bad], r3["closed"], r3["converged"],
                           opts, r3["gnorm"])[0]
-        lower = np.array([better({"status": a, "f": fa}, {"status": b, "f": fb})
-                          for a, fa, b, fb in zip(st3, r3["f"], st[bad], f[bad], strict=True)],
-                         dtype=bool)
+        lower = better_rows(st3, r3["f"], st[bad], f[bad])
         sel = bad[lower]
         q[sel], f[sel], gn[sel] = r3["q"][lower], r3["f"][lower], r3["gnorm"][lower]
         conv[sel], closed[sel] = r3["converged"][lower], r3["closed"][lower]
