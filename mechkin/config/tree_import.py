@@ -74,6 +74,8 @@ class TreeJoint:
     offset: float = 0.0
     line: int = 1
     label: str | None = None  # how messages name the element (default ``joint[<name>]``)
+    velocity: float | None = None  # rate limits (> 0; rad/s | m/s, N m | N) or None
+    effort: float | None = None
 
 
 @dataclass
@@ -308,6 +310,9 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
             d["offset"] = float(j.offset)
         if j.limits is not None:
             d["limits"] = [float(j.limits[0]), float(j.limits[1])]
+        for key, v in (("velocity_limit", j.velocity), ("torque_limit", j.effort)):
+            if v is not None and v > 0 and np.isfinite(v):
+                d[key] = float(v)
         home = tree.home.get(j.name)
         if j.kind == "spherical":  # whole (3 values) or by component (<name>_1.._3)
             h = list(home) if isinstance(home, (list, tuple, np.ndarray)) else [0.0] * 3

@@ -8,9 +8,10 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
   *link* axes: ``R I R^T`` with R the inertial origin's rotation);
 - ``revolute`` (limits; beyond +-1e6 both ways: no limit), ``continuous`` (no limits),
   ``prismatic`` -> origin + axis joints (the child link frame is ``T_origin Rot(axis, q)``, the
-  URDF convention); ``fixed`` -> the child link becomes a named frame on the parent link
-  (``mechkin.config.tree_import``); a name mechkin names cannot hold (``LFoot/FSR/x``) is
-  renamed (``LFoot_FSR_x``) with one note;
+  URDF convention), ``<limit velocity= effort=>`` -> ``velocity_limit`` and ``torque_limit``
+  (0, URDF's usual "not given", is left out); ``fixed`` -> the child link becomes a named
+  frame on the parent link (``mechkin.config.tree_import``); a name mechkin names cannot hold
+  (``LFoot/FSR/x``) is renamed (``LFoot_FSR_x``) with one note;
 - ``<mimic joint= multiplier= offset=>`` -> a joint coupling ``q = multiplier q_joint + offset``
   (``couplings:``; a constraint row of phi, :mod:`mechkin.model.couplings`); ``floating`` and
   ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming
@@ -232,12 +233,31 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             if (lo is not None and hi is not None and lo < hi
                     and min(abs(lo), abs(hi)) < UNLIMITED):
                 limits = (float(lo), float(hi))
-        joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line))
+        rates = _rates(j, f"{path}:{line}: joint[{j.name}].limit") if kind != "fixed" else {}
+        joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line,
+                                **rates))
     tree = Tree(name=robot.name or path.stem, path=path, links=links, joints=joints,
                 couplings=couplings)
     _read_extensions(root, tree, path)
     tree, _ = merge_sidecar(tree, find_sidecar(path, sidecar))
     return tree_to_spec(tree)
+
+
+def _rates(j, where: str) -> dict[str, float]:
+    """``{velocity, effort}`` of a moving joint's ``<limit>`` (URDF requires both on revolute
+    and prismatic joints; 0 is the common "not given" and is left out); a negative or
+    non-finite value is refused."""
+    out: dict[str, float] = {}
+    for key in ("velocity", "effort"):
+        v = getattr(j.limit, key, None) if j.limit is not None else None
+        if v is None:
+            continue
+        if not (np.isfinite(v) and v >= 0):
+            raise ConfigError(f"{where}.{key}: expected a finite number >= 0 (0: not given), "
+                              f"got {v}")
+        if v > 0:
+            out[key] = float(v)
+    return out
 
 
 def _read_extensions(root, tree: Tree, path: Path) -> None:

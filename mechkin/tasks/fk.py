@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from mechkin.config.load import note_once, short_list
 from mechkin.config.scenario import FkSpec, Scenario
 from mechkin.config.units import angle_factor
 from mechkin.errors import ConfigError
@@ -102,14 +103,16 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
         span = max(t[-1] - t[0], 1e-300)
         fill, bad = floating_base_fill(sc, mech, spec.motion)
         problems += bad
+        held: list[str] = []
         for i, name in enumerate(names):
             mo = spec.motion.get(name)
             if i in fill:  # a floating base at fk.base_pose or its home pose
                 qv[:, i] = fill[i]
                 continue
-            if mo is None:
-                problems.append(f"{doc.where(('fk', 'motion'))}: no motion for independent "
-                                f"joint {name!r}")
+            if mo is None:  # held at its home value (one note names them all, below)
+                h = float(mech.home[mech.independent[i]])
+                qv[:, i] = h if np.isfinite(h) else 0.0
+                held.append(name)
                 continue
             f = joint_factor(mech, mech.independent[i], sc.spec.units)
             if mo.type == "constant":
@@ -123,6 +126,11 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
                 qv[:, i] = (mo.offset + mo.amplitude * np.sin(arg)) * f
                 qd[:, i] = mo.amplitude * w * np.cos(arg) * f
                 qdd[:, i] = -mo.amplitude * w * w * np.sin(arg) * f
+        if held and not problems:
+            note_once(doc.path, f"{doc.where(('fk', 'motion'))}: note: {len(held)} independent "
+                      f"joint{'s' if len(held) > 1 else ''} without a motion hold "
+                      f"{'their' if len(held) > 1 else 'its'} home value: "
+                      f"{short_list(held, 120)}")
     elif spec.table is not None:
         tab = spec.table
         if "t" not in tab:

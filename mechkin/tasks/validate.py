@@ -134,10 +134,6 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
                                           "an independent joint"))
         fill, bad = floating_base_fill(sc, mech, spec.motion)
         out += bad
-        for i, n in enumerate(names):
-            if n not in spec.motion and i not in fill:
-                out.append(f"{doc.where(('fk', 'motion'))}: no motion for independent joint "
-                           f"{short(n)}")
     elif spec.table is not None:
         tab = spec.table
         if "t" not in tab:
