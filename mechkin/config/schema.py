@@ -253,26 +253,40 @@ def pydantic_problems(
 ) -> list[str]:
     """Turn a pydantic ValidationError into ``file:line: key.path: message`` lines.
 
-    Unions report one error per branch; only the first is kept for each key path, except that
-    a list given to a number-or-list key reports its elements' errors.
+    Unions report one error per branch. Where the input has the shape of one branch (its
+    errors lie inside the value: a list's elements, a mapping's keys), that branch's errors are
+    reported, every one (a list given to a number-or-list key names its bad elements; a
+    mapping given for a list-or-model key names its missing keys); otherwise only the first
+    branch's error is kept for the key path.
     """
     out: list[str] = []
     seen_union: set[tuple] = set()
     errors = exc.errors(include_url=False)
-    # a list given where a number or a list is allowed: report its elements, not "a number"
-    lists = {tuple(e["loc"][:i]) for e in errors for i, x in enumerate(e["loc"])
-             if _is_union_tag(x) and x.startswith("list[") and len(e["loc"]) > i + 1}
+    deep: dict[tuple, str] = {}  # key path -> the first branch whose errors are inside the value
+    shape_ok: set[tuple] = set()  # key paths where a branch refused the value, not its type
+    for e in errors:
+        r = e["loc"]
+        i = next((i for i, x in enumerate(r) if _is_union_tag(x)), None)
+        if i is not None and len(r) > i + 1:
+            deep.setdefault(tuple(r[:i]), r[i])
+        elif i is not None and not str(e["type"]).endswith("_type"):
+            shape_ok.add(tuple(r[:i]))  # e.g. a 3-list for a pair: the pair's branch fits best
+    for k in shape_ok:
+        deep.pop(k, None)
     for err in errors:
         raw = err["loc"]
         tag_at = next((i for i, x in enumerate(raw) if _is_union_tag(x)), None)
         loc = prefix + tuple(x for x in raw if not _is_union_tag(x))
         if tag_at is not None:
-            key = prefix + tuple(raw[:tag_at])
-            if tuple(raw[:tag_at]) in lists and not raw[tag_at].startswith("list["):
-                continue
-            if key in seen_union:
-                continue
-            seen_union.add(key)
+            kpath = tuple(raw[:tag_at])
+            if kpath in deep:
+                if raw[tag_at] != deep[kpath]:
+                    continue
+            else:
+                key = prefix + kpath
+                if key in seen_union:
+                    continue
+                seen_union.add(key)
         msg = err["msg"]
         typ = err["type"]
         if typ == "extra_forbidden":

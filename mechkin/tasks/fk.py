@@ -103,16 +103,14 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
         span = max(t[-1] - t[0], 1e-300)
         fill, bad = floating_base_fill(sc, mech, spec.motion)
         problems += bad
-        held: list[str] = []
         for i, name in enumerate(names):
             mo = spec.motion.get(name)
             if i in fill:  # a floating base at fk.base_pose or its home pose
                 qv[:, i] = fill[i]
                 continue
-            if mo is None:  # held at its home value (one note names them all, below)
+            if mo is None:  # held at its home value (:func:`_note_held` names them, once)
                 h = float(mech.home[mech.independent[i]])
                 qv[:, i] = h if np.isfinite(h) else 0.0
-                held.append(name)
                 continue
             f = joint_factor(mech, mech.independent[i], sc.spec.units)
             if mo.type == "constant":
@@ -126,11 +124,6 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
                 qv[:, i] = (mo.offset + mo.amplitude * np.sin(arg)) * f
                 qd[:, i] = mo.amplitude * w * np.cos(arg) * f
                 qdd[:, i] = -mo.amplitude * w * w * np.sin(arg) * f
-        if held and not problems:
-            note_once(doc.path, f"{doc.where(('fk', 'motion'))}: note: {len(held)} independent "
-                      f"joint{'s' if len(held) > 1 else ''} without a motion hold "
-                      f"{'their' if len(held) > 1 else 'its'} home value: "
-                      f"{short_list(held, 120)}")
     elif spec.table is not None:
         tab = spec.table
         if "t" not in tab:
@@ -336,6 +329,22 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
                           for f in fields(first)})
 
 
+def _note_held(sc: Scenario, mech: Mechanism) -> None:
+    """One note naming the independent joints a ``motion`` leaves out (they hold their home
+    values; a floating base's joints rest at its base pose and are not named)."""
+    motion = sc.section.motion
+    if motion is None:
+        return
+    fill, _ = floating_base_fill(sc, mech, motion)
+    held = [n for i, n in enumerate(mech.independent_names) if n not in motion and i not in fill]
+    if held:
+        many = len(held) > 1
+        note_once(sc.doc.path, f"{sc.doc.where(('fk', 'motion'))}: note: {len(held)} "
+                  f"independent joint{'s' if many else ''} without a motion "
+                  f"{'hold their' if many else 'holds its'} home value: "
+                  f"{short_list(held, 120)}")
+
+
 def run(scenario: Scenario, progress: bool | None = None) -> Report:
     """Solve the loop closure along the scenario's motion.
 
@@ -348,6 +357,7 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     base = base_trajectory(scenario, mech, t)  # kim1995 §5.1 Step 1 T_0(t); bad input first
     q_w0 = initial_dependent(scenario, mech)
     assembly_configs(scenario, mech)  # bad input before any work
+    _note_held(scenario, mech)
     tol = scenario.section.tolerances
     t0 = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
