@@ -101,7 +101,10 @@ def analytic_rows(mech: Mechanism, method: str, W: np.ndarray,
 
         chain = held_chain(mech, fixed)
     else:
-        chain = chain_for(mech, "auto", None)
+        try:
+            chain = chain_for(mech, method, None)
+        except NotDecomposable:
+            chain = None
     if chain is None:
         return np.zeros(len(W), dtype=bool)
     return np.all(W > 0, axis=1)
@@ -126,10 +129,11 @@ def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray,
                  fixed: dict[str, float] | None = None) -> list[IkSolutions]:
     """Every solution within the limits of each target T_P (k, 4, 4), ordered from its guess
     refs (k, n_v): the analytic branches, complete (``complete: true``; with ``fixed``
-    joints held: complete for those values)."""
+    joints held: complete for those values), except the 1-D search's (``complete: false``)."""
     from mechkin.solvers.ik.analytic.classify import analytic_chain, held_chain
 
-    chain = held_chain(mech, fixed) if fixed else analytic_chain(mech)
+    chain = held_chain(mech, fixed) if fixed else \
+        (analytic_chain(mech) or analytic_chain(mech, search=True))
     assert chain is not None
     t0 = time.perf_counter()
     b = analytic_batch(mech, chain, T_P, refs)
@@ -144,7 +148,7 @@ def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray,
                                position_error=b.position_error[i, :n].copy(),
                                orientation_error=b.orientation_error[i, :n].copy(),
                                distance=b.distance[i, :n].copy(), source="analytic", starts=8,
-                               time_s=per, complete=True))
+                               time_s=per, complete=chain.complete))
     return out
 
 

@@ -37,6 +37,7 @@ from mechkin.solvers.ik.analytic.solutions import analytic_batch, full_qv
 from mechkin.solvers.ik.analytic.solve6r import (
     KIND_ARM5,
     KIND_SCARA,
+    KIND_SEARCH,
     MAX_BRANCHES,
     fk_error,
     pris_bits,
@@ -63,7 +64,8 @@ def chain_for(mech: Mechanism, method: str, weights: np.ndarray | None = None
         if not full:
             raise NotDecomposable("method analytic solves the whole pose: give all six "
                                   "weights positive (or use method auto / lm)")
-        return classify(mech) if analytic_chain(mech) is None else analytic_chain(mech)
+        chain = analytic_chain(mech, search=True)
+        return classify(mech, search=True) if chain is None else chain
     if method == "auto" and full:
         return analytic_chain(mech)
     return None
@@ -80,7 +82,7 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
     iv = mech.independent
     T = np.ascontiguousarray(T_P, dtype=np.float64)
     ref = np.asarray(q_v0, dtype=np.float64)
-    if chain.kind in (KIND_SCARA, KIND_ARM5):
+    if chain.kind in (KIND_SCARA, KIND_ARM5, KIND_SEARCH):
         b = analytic_batch(mech, chain, T[None], ref)
         n, qv = int(b.count[0]), b.q_v[0, 0]
         pe, oe = float(b.position_error[0, 0]), float(b.orientation_error[0, 0])
@@ -110,7 +112,7 @@ def analytic_ik(mech: Mechanism, chain: AnalyticChain, T_P: np.ndarray, q_v0: np
     else:
         q = mech.home.copy()
         q[iv] = qv
-    if chain.kind in (KIND_SCARA, KIND_ARM5) or not chain.identity or n == 0:
+    if chain.kind in (KIND_SCARA, KIND_ARM5, KIND_SEARCH) or not chain.identity or n == 0:
         lo, hi = chain.limits_list
         at = tuple(mech.joint_names[iv[j]] for j, x in enumerate(qv.tolist())
                    if abs(x - lo[j]) < 1e-9 or abs(x - hi[j]) < 1e-9)
