@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from mechkin.solvers.ik.analytic.jit import jit
+from mechkin.solvers.ik.analytic.solve6r import _inverse, fk_error
 from mechkin.solvers.ik.analytic.subproblems import (
     Mat,
     Vec,
@@ -57,7 +58,6 @@ from mechkin.solvers.ik.analytic.subproblems import (
     sub,
     vec,
 )
-from mechkin.solvers.ik.analytic.solve6r import _inverse, fk_error
 from mechkin.solvers.ik.analytic.subproblems56 import sp5
 
 SEARCH_INT56 = 0  # h5 meets h6: search over q4, (q1, q2, q3) by Subproblem 5
@@ -275,25 +275,18 @@ def _track(H: np.ndarray, P: np.ndarray, o: Vec, x: Vec, RG: Mat, g: np.ndarray,
 
 @jit
 def _dip(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: Vec, x: Vec, RG: Mat,
-         T: np.ndarray, g: np.ndarray, S: np.ndarray, cnt: np.ndarray, th: np.ndarray, s: int,
-         j: int, size: float, out: np.ndarray, n: int) -> int:
-    """Branch j at sample s + 1 comes closer to zero without crossing: when it turns back at
-    s + 2 (a local minimum of |e|), minimise |e| there (golden section, the branch tracked);
-    a crossing at the minimum gives two roots (two brackets), a touch (|e| at round-off) a
-    double root. Appends what it finds (:func:`_keep`); returns the new count."""
-    eb = S[s + 1, j, 3]
-    ref = np.empty(3)
-    for k in range(3):
-        ref[k] = S[s + 1, j, k]
-    m, dist = _nearest(S[s + 2], cnt[s + 2], ref) if s + 2 <= th.size - 1 else (-1, 0.0)
-    if m < 0 or dist > MATCH_DIST or abs(S[s + 2, m, 3]) < abs(eb) or \
-            (S[s + 2, m, 3] > 0.0) != (eb > 0.0):
-        return n
-    sg = 1.0 if eb > 0.0 else -1.0
-    a, b = th[s], th[s + 2]
+         T: np.ndarray, g: np.ndarray, a: float, ea: float, b: float, eb: float,
+         ref_a: np.ndarray, size: float, out: np.ndarray, n: int) -> int:
+    """A branch with e of one sign at both ends of [a, b] (ea at a, the branch there ref_a
+    (3,); eb at b) that comes close to zero in between: minimise |e| (golden section, the
+    branch tracked); a crossing at the minimum gives two roots (two brackets), a touch (|e|
+    at round-off) a double root. Appends what it finds (:func:`_keep`); returns the new
+    count."""
+    sg = 1.0 if ea > 0.0 else -1.0
+    a0, b0 = a, b
     gr = 0.5 * (math.sqrt(5.0) - 1.0)
     c, d = b - gr * (b - a), a + gr * (b - a)
-    rc, rd = ref.copy(), ref.copy()
+    rc, rd = ref_a.copy(), ref_a.copy()
     fc = sg * _track(H, P, o, x, RG, g, c, rc)
     fd = sg * _track(H, P, o, x, RG, g, d, rd)
     for _ in range(60):
@@ -311,21 +304,63 @@ def _dip(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: Vec, x: Vec, RG: Mat,
             fd = sg * _track(H, P, o, x, RG, g, d, rd)
     tm, fm, rm = (c, fc, rc) if fc < fd else (d, fd, rd)
     q = np.empty(6)
+    if not math.isfinite(fm):
+        return n
     if fm < 0.0:  # two roots: one each side of the minimum
-        for k in range(3):
-            ref[k] = S[s + 1, j, k]
-        r0 = ref.copy()
-        e0 = sg * _track(H, P, o, x, RG, g, th[s + 1], r0)
-        if _refine(H, P, o, x, RG, g, th[s + 1], sg * e0, tm, sg * fm, r0, q):
+        r0 = ref_a.copy()
+        if _refine(H, P, o, x, RG, g, a0, ea, tm, sg * fm, r0, q):
             n = _keep(H, P, M, RG, T, g, q, size, NEWTON_STEPS, out, n)
         r1 = rm.copy()
-        for k in range(3):
-            r1[k] = S[s + 2, m, k]
-        if _refine(H, P, o, x, RG, g, tm, sg * fm, th[s + 2], S[s + 2, m, 3], r1, q):
+        if _refine(H, P, o, x, RG, g, tm, sg * fm, b0, eb, r1, q):
             n = _keep(H, P, M, RG, T, g, q, size, NEWTON_STEPS, out, n)
     elif fm < DOUBLE_E:  # a double root, or two roots too close to separate
         q[0], q[1], q[2], q[3] = rm[0], rm[1], rm[2], tm
         n = _keep(H, P, M, RG, T, g, q, size, 3 * NEWTON_STEPS, out, n)
+    return n
+
+
+@jit
+def _fold(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: Vec, x: Vec, RG: Mat,
+          T: np.ndarray, g: np.ndarray, S: np.ndarray, cnt: np.ndarray, th: np.ndarray,
+          s: int, size: float, out: np.ndarray, n: int) -> int:
+    """Branches of Subproblem 5 die (or are born) between samples s and s + 1: bisect for the
+    fold (where the count changes), then bracket each branch between its sample and the fold
+    when e changes sign on the way (the two branches meet at the fold, so a root on the arc
+    through it is on one of them). Appends what it finds; returns the new count."""
+    B = np.empty((8, 4))
+    die = cnt[s] > cnt[s + 1]
+    full = max(cnt[s], cnt[s + 1])
+    lo, hi = th[s], th[s + 1]
+    for _ in range(45):
+        mid = 0.5 * (lo + hi)
+        k = _branches(H, P, o, x, RG, mid, g, B)
+        if (k >= full) == die:
+            lo = mid
+        else:
+            hi = mid
+    tf = lo if die else hi
+    side = s if die else s + 1
+    mf = _branches(H, P, o, x, RG, tf, g, B)
+    ref = np.empty(3)
+    q = np.empty(6)
+    for i in range(cnt[side]):
+        for k in range(3):
+            ref[k] = S[side, i, k]
+        j, dist = _nearest(B, mf, ref)
+        if j < 0:
+            continue
+        ea, ef = S[side, i, 3], B[j, 3]
+        if (ea > 0.0) == (ef > 0.0) and ea != 0.0 and ef != 0.0:
+            if abs(ea) < DIP_E:  # two roots between the sample and the fold?
+                a, b, e0, e1 = (th[side], tf, ea, ef) if die else (tf, th[side], ef, ea)
+                r0 = ref.copy()
+                if not die:
+                    for k in range(3):
+                        r0[k] = B[j, k]
+                n = _dip(H, P, M, o, x, RG, T, g, a, e0, b, e1, r0, size, out, n)
+            continue
+        if _refine(H, P, o, x, RG, g, th[side], ea, tf, ef, ref, q):
+            n = _keep(H, P, M, RG, T, g, q, size, NEWTON_STEPS, out, n)
     return n
 
 
@@ -357,6 +392,7 @@ def search_int56(H: np.ndarray, P: np.ndarray, M: np.ndarray, o_: np.ndarray, T:
     q = np.empty(6)
     ref = np.empty(3)
     hit = np.zeros(8, dtype=np.int64)
+    ref2 = np.empty(3)
     for s in range(nsamp):
         # a fold of Subproblem 5 between the samples (branches born or dying) can hide a root
         # on the arc through it: Newton from every branch at both ends
@@ -374,8 +410,15 @@ def search_int56(H: np.ndarray, P: np.ndarray, M: np.ndarray, o_: np.ndarray, T:
             hit[j] += 1
             eb = S[s + 1, j, 3]
             if (ea > 0.0) == (eb > 0.0) and ea != 0.0:
-                if abs(eb) < abs(ea) and abs(eb) < DIP_E:
-                    n = _dip(H, P, M, o, x, RG, T, g, S, cnt, th, s, j, size, out, n)
+                if abs(eb) < abs(ea) and abs(eb) < DIP_E and s + 2 <= nsamp:
+                    # a local minimum of |e| at s + 1 (the branch turns back by s + 2)?
+                    for k in range(3):
+                        ref2[k] = S[s + 1, j, k]
+                    j2, dist2 = _nearest(S[s + 2], cnt[s + 2], ref2)
+                    if j2 >= 0 and dist2 <= MATCH_DIST and abs(S[s + 2, j2, 3]) > abs(eb) \
+                            and (S[s + 2, j2, 3] > 0.0) == (eb > 0.0):
+                        n = _dip(H, P, M, o, x, RG, T, g, th[s], ea, th[s + 2],
+                                 S[s + 2, j2, 3], ref, size, out, n)
                 continue
             if not _refine(H, P, o, x, RG, g, th[s], ea, th[s + 1], eb, ref, q):
                 continue
@@ -383,6 +426,8 @@ def search_int56(H: np.ndarray, P: np.ndarray, M: np.ndarray, o_: np.ndarray, T:
         for j in range(cnt[s + 1]):
             if hit[j] != 1:
                 irregular = True
+        if cnt[s] != cnt[s + 1]:
+            n = _fold(H, P, M, o, x, RG, T, g, S, cnt, th, s, size, out, n)
         if irregular:
             for e in range(2):
                 for i in range(cnt[s + e]):

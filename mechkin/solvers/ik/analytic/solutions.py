@@ -8,10 +8,10 @@ representative nearest the guess within the limits, keeps the branches within
 :data:`TOL_POS` / :data:`TOL_ORI`, orders them from the guess and merges coinciding ones.
 
 For a chain that decomposes in closed form the list is complete (the 1-D search's,
-:mod:`mechkin.solvers.ik.analytic.search1d`, is not proved so: ``chain.complete``): every solution of the pose within the
-limits, one per branch (a singular pose has a continuum; its representative keeps the free
-joint at its guess: wrist q5 = 0 keeps q4 and solves the sum q4 + q6, a wrist centre on the
-first axis keeps q1).
+:mod:`mechkin.solvers.ik.analytic.search1d`, is not proved so: ``chain.complete``): every
+solution of the pose within the limits, one per branch (a singular pose has a continuum; its
+representative keeps the free joint at its guess: wrist q5 = 0 keeps q4 and solves the sum
+q4 + q6, a wrist centre on the first axis keeps q1).
 
 Design
 ------
