@@ -26,14 +26,16 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
   meeting or parallel;
 * only with ``search`` (``method: analytic``): any other 6R whose h5 meets h6 (e.g. two
   intersecting pairs, h1 meeting h2 and h5 meeting h6), or reversed h1 meets h2: IK-Geo's
-  1-D search (:mod:`mechkin.solvers.ik.analytic.search1d`; ``complete`` False).
+  1-D search (:mod:`mechkin.solvers.ik.analytic.search1d`; ``complete`` False) when it
+  solves four seeded poses (Subproblem 5 degenerates on some axes, e.g. the Kinova Jaco's).
 
 Anything else (an offset wrist such as the Kinova Jaco's, other prismatic joints,
 other joint counts, a closed chain) raises :class:`NotDecomposable` naming the axes that break it.
 
 Design
 ------
-Part of :mod:`mechkin.solvers.ik.analytic`; imports numpy, :mod:`mechkin.model`; no numba.
+Part of :mod:`mechkin.solvers.ik.analytic`; imports numpy, :mod:`mechkin.model`; the 1-D search
+class is accepted only after its compiled search solves four seeded poses.
 """
 
 from __future__ import annotations
@@ -213,12 +215,37 @@ def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray
     return None
 
 
-def _try_search(H: np.ndarray, P: np.ndarray, tol: float
+def _search_works(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: np.ndarray) -> bool:
+    """Whether the 1-D search finds the generating joints of 4 seeded random poses (Subproblem
+    5 has degenerate geometries, e.g. the Kinova Jaco's axes, where it finds nothing)."""
+    from mechkin.solvers.ik.analytic.search1d import N_SAMPLES, search_int56
+
+    rng = np.random.default_rng(0)
+    out = np.empty((16, 6))
+    for q in rng.uniform(-np.pi, np.pi, (4, 6)):
+        T = np.eye(4)
+        for h, p, t in zip(H, P, q, strict=True):
+            K = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
+            R = np.eye(3) + np.sin(t) * K + (1 - np.cos(t)) * K @ K
+            E = np.eye(4)
+            E[:3, :3], E[:3, 3] = R, p - R @ p
+            T = T @ E
+        T = T @ M
+        n = search_int56(H, P, M, o, T, np.zeros(6), N_SAMPLES, out)
+        d = (out[:n] - q + np.pi) % (2 * np.pi) - np.pi
+        if n == 0 or np.abs(d).max(axis=1).min() > 1e-6:
+            return False
+    return True
+
+
+def _try_search(H: np.ndarray, P: np.ndarray, M: np.ndarray, tol: float
                 ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
-    """h5 meets h6 (no closed form): IK-Geo's 1-D search over q4
-    (:mod:`mechkin.solvers.ik.analytic.search1d`), or None."""
+    """h5 meets h6 and no two of h1..h3 parallel (no closed form): IK-Geo's 1-D search over
+    q4 (:mod:`mechkin.solvers.ik.analytic.search1d`), or None."""
     o56 = _meet(H[4], P[4], H[5], P[5], tol)
-    if o56 is None:
+    if o56 is None or _parallel(H[0], H[1]) or _parallel(H[1], H[2]):
+        return None  # Subproblem 5 in (q1, q2, q3) takes no two parallel axes
+    if not _search_works(H, P, M, o56):
         return None
     pairs = [f"h{i + 1} meets h{i + 2}" for i in range(3)
              if _meet(H[i], P[i], H[i + 1], P[i + 1], tol) is not None]
@@ -343,9 +370,9 @@ def classify(mech: Mechanism, frame: int | None = None,
         if found is not None:
             rev, H, P, M = True, Hr, Pr, Mi
         if found is None and search:
-            found = _try_search(H, P, tol)
+            found = _try_search(H, P, M, tol)
             if found is None:
-                found = _try_search(Hr, Pr, tol)
+                found = _try_search(Hr, Pr, Mi, tol)
                 if found is not None:
                     rev, H, P, M = True, Hr, Pr, Mi
     if found is None:

@@ -62,6 +62,7 @@ from mechkin.solvers.ik.analytic.subproblems56 import sp5
 
 SEARCH_INT56 = 0  # h5 meets h6: search over q4, (q1, q2, q3) by Subproblem 5
 N_SAMPLES = 200  # grid points of the searched angle on the circle
+REFINE = 4  # an odd count (a root missed, or a singular pose) is searched again, this finer
 MAX_SOLUTIONS = 16  # a 6R arm has at most 16 solutions
 NEWTON_STEPS = 8
 MATCH_DIST = 0.5  # [rad] a branch moves less than this between samples, else it is lost
@@ -370,12 +371,21 @@ def search_int56(H: np.ndarray, P: np.ndarray, M: np.ndarray, o_: np.ndarray, T:
     """Every solution the 1-D search finds for the target T (4, 4) of the chain (H, P, M)
     whose h5 and h6 meet at o (module docstring); guess g (6,) for continua. Writes
     out[:n] (16, 6), polished to round-off and distinct; returns n."""
-    RT = mat(T)
-    RG = mm(RT, ((M[0, 0], M[1, 0], M[2, 0]), (M[0, 1], M[1, 1], M[2, 1]),
-                 (M[0, 2], M[1, 2], M[2, 2])))
+    RG = mm(mat(T), ((M[0, 0], M[1, 0], M[2, 0]), (M[0, 1], M[1, 1], M[2, 1]),
+                     (M[0, 2], M[1, 2], M[2, 2])))
     pG = sub((T[0, 3], T[1, 3], T[2, 3]), mv(RG, (M[0, 3], M[1, 3], M[2, 3])))
     o = vec(o_)
     x = add(mv(RG, o), pG)
+    n = _pass(H, P, M, o, x, RG, T, g, nsamp, out, 0)
+    if n % 2 == 1:  # real solutions come in even numbers except at singular poses: look closer
+        n = _pass(H, P, M, o, x, RG, T, g, REFINE * nsamp, out, n)
+    return n
+
+
+@jit
+def _pass(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: Vec, x: Vec, RG: Mat,
+          T: np.ndarray, g: np.ndarray, nsamp: int, out: np.ndarray, n: int) -> int:
+    """One sweep of the search on nsamp samples, appending to out[:n]; returns the count."""
     S = np.empty((nsamp + 1, 8, 4))
     cnt = np.zeros(nsamp + 1, dtype=np.int64)
     th = np.empty(nsamp + 1)
@@ -388,7 +398,6 @@ def search_int56(H: np.ndarray, P: np.ndarray, M: np.ndarray, o_: np.ndarray, T:
     size = 1.0
     for i in range(6):
         size = max(size, abs(P[i, 0]), abs(P[i, 1]), abs(P[i, 2]))
-    n = 0
     q = np.empty(6)
     ref = np.empty(3)
     hit = np.zeros(8, dtype=np.int64)
