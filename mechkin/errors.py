@@ -7,7 +7,8 @@ from __future__ import annotations
 EXIT_OK, EXIT_SOLVER, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_OUTPUT, EXIT_EXPECT = 0, 1, 2, 3, 4, 5
 EXIT_CODES = {
     EXIT_OK: "ok: every solve reached its goal and every expect: held",
-    EXIT_SOLVER: "a solver did not reach a target (outputs written, status says which)",
+    EXIT_SOLVER: "a solver did not reach a target (outputs written, status says which), or "
+                 "the run was cut short (--max-time, a Dask worker lost mid-job)",
     EXIT_BAD_INPUT: "bad input or an unusable output folder (nothing written)",
     EXIT_INTERNAL: "internal error (a bug: please report it)",
     EXIT_OUTPUT: "an output file could not be written (previous outputs intact)",
@@ -95,3 +96,11 @@ class ClusterError(MechkinError):
     mechkin (not installed, another version): found before any job runs, exit 2."""
 
     exit_code = 2
+
+
+class ClusterLostError(MechkinError):
+    """The Dask cluster stopped answering while jobs ran (a stopped, hung or unreachable
+    worker or scheduler): the run stops with nothing written, previous outputs intact, exit 1
+    (the job was cut short, as by --max-time)."""
+
+    exit_code = 1

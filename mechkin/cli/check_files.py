@@ -18,15 +18,22 @@ from mechkin.errors import MechkinError
 
 
 def run_check(files: list[Path]) -> int:
-    """Check every file, print one line per problem (stderr) or ``FILE: ok`` (stdout); the
-    exit code (0 all ok, 2 bad input, 3 an internal error)."""
+    """Check every file, print one line per problem (stderr) or ``FILE: ok`` (stdout, with the
+    run's estimated time for a scenario); the exit code (0 all ok, 2 bad input, 3 an internal
+    error)."""
+    from mechkin.tasks.budget import human_time, time_budget
+
     code = 0
     for f in files:
-        problems, internal = check_file_status(f)
+        with time_budget(None) as found:  # the run's time estimates (tasks.estimates)
+            problems, internal = check_file_status(f)
         if problems:
             code = max(code, 3 if internal else 2)
             for p in problems:
                 echo(p, err=True)
+        elif found:
+            secs = sum(e["seconds"] for e in found)
+            echo(f"{f}: ok (the run is estimated to take about {human_time(secs)})")
         else:
             echo(f"{f}: ok")
     return code

@@ -41,8 +41,8 @@ MaxMemoryOption = Annotated[str | None, typer.Option(
 MaxTimeOption = Annotated[str | None, typer.Option(
     "--max-time", metavar="DURATION",
     help="Refuse a job estimated to take longer (e.g. 90s, 5m, 2h) and stop one that runs "
-         "longer, between two jobs, with nothing written [default: MECHKIN_MAX_TIME, else no "
-         "limit]")]
+         "longer at its next safe point: the finished rows are written, status 'stopped: "
+         "max-time', exit 1 [default: MECHKIN_MAX_TIME, else no limit]")]
 ProgressOption = Annotated[bool | None, typer.Option(
     "--progress/--no-progress",
     help="Progress bar on stderr for long runs [default: when stderr is a terminal]")]

@@ -48,13 +48,15 @@ def show_info(mechanism: Path, json_out: bool) -> None:
     echo(f"  dependent                 {', '.join(info['dependent']) or '-'}")
     echo(f"  end effector              {info['end_effector'] or '-'}"
          + (f" ({info['end_effector_note']})" if info.get("end_effector_note") else ""))
+    for line in rate_limit_lines(info):
+        echo(line)
     sing = info.get("singularity_at_home") or {}
     if sing:
         echo(f"  at home                   {sing.get('class', '?')}")
     modes = info.get("assembly_modes_at_home")
     if modes:
         echo(f"  assembly modes at home    {modes['count']} ({modes['within_limits']} within "
-             "the limits; nearest home first)")
+             "the limits; nearest home first; passive joints in rad / m)")
         for k, md in enumerate(modes["modes"][:SHOW_MODES]):
             qs = ", ".join(f"{n} {v:.6g}" for n, v in md["q_w"].items())
             echo(f"    {k}: {qs}{'' if md['within_limits'] else '  (outside limits)'}")
@@ -128,7 +130,9 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
         "end_effector_note": getattr(mech, "end_effector_note", "") or None,
         "joints": [
             {"name": g.name, "type": g.type,
-             "coordinates": [mech.joint_names[j] for j in g.joints]}
+             "coordinates": [mech.joint_names[j] for j in g.joints],
+             "velocity_limit": _given(mech.velocity_limit, g.joints),
+             "torque_limit": _given(mech.torque_limit, g.joints)}
             for g in mech.groups
         ],
         "cuts": [
@@ -146,6 +150,38 @@ def mechanism_info(mech: Mechanism) -> dict[str, Any]:
         "singularity_at_home": mechanism_singularity_at_home(mech),
         "assembly_modes_at_home": modes_at_home(mech),
     }
+
+
+def _given(values: Any, joints: tuple[int, ...]) -> list[float | None]:
+    """The file's rate limit of each coordinate (SI), None where it gives none."""
+    import math
+
+    out: list[float | None] = []
+    for j in joints:
+        v = float(values[j]) if values is not None else math.inf
+        out.append(v if math.isfinite(v) else None)
+    return out
+
+
+def rate_limit_lines(info: dict[str, Any]) -> list[str]:
+    """The text lines of the mechanism's own velocity / torque limits (none if it gives none):
+    what ``export`` writes into URDF ``<limit>``; a track scenario plans with its own
+    ``limits:`` only."""
+    rows = []
+    for g in info["joints"]:
+        for name, vel, tau, kind in zip(g["coordinates"], g["velocity_limit"],
+                                        g["torque_limit"], [g["type"]] * len(g["coordinates"]),
+                                        strict=True):
+            if vel is None and tau is None:
+                continue
+            pris = kind == "prismatic"
+            v = "-" if vel is None else f"{vel:.6g} {'m/s' if pris else 'rad/s'}"
+            t = "-" if tau is None else f"{tau:.6g} {'N' if pris else 'N m'}"
+            rows.append(f"    {name}: velocity {v}, torque {t}")
+    if not rows:
+        return []
+    return ["  velocity / torque limits  from the file (export writes them; track uses only "
+            "its scenario's limits:)"] + rows
 
 
 def modes_at_home(mech: Mechanism) -> dict[str, Any] | None:

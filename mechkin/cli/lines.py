@@ -7,7 +7,12 @@ from typing import Any
 
 
 def _fk_line(s: dict[str, Any]) -> str:
-    return (f"{s['scenario']}: {s['status']} ({s['n_steps']} steps, max ||phi|| "
+    # a failed run says how many steps failed how, and which passive joints left their limits
+    bad = [f"{v} {k}" for k, v in (s.get("steps") or {}).items() if k != "converged" and v]
+    joints = s.get("joints_outside_limits") or []
+    why = ("" if s["status"] == "ok" or not bad else
+           ": " + ", ".join(bad) + (f" ({', '.join(joints)})" if joints else ""))
+    return (f"{s['scenario']}: {s['status']} ({s['n_steps']} steps{why}, max ||phi|| "
             f"{s['closure']['max_residual']:.3g}); wrote {s['out_dir']}")
 
 

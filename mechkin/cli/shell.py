@@ -116,7 +116,8 @@ def _run_scenario(task: str, scenario: Path, out: Path | None, json_out: bool, p
             warnings.simplefilter("ignore", RuntimeWarning)
             rep = run(sc, **options)
         if estimates and isinstance(rep.summary, dict):  # the estimate made before the job
-            rep.summary["estimated_time_s"] = round(sum(e["seconds"] for e in estimates), 1)
+            total = sum(e["seconds"] for e in estimates)
+            rep.summary["estimated_time_s"] = float(f"{total:.3g}")
         summary = rep.write(out_dir, plots=plots)
     report(summary, json_out, line(summary))
     for msg in rep.messages:

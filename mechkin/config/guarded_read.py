@@ -9,6 +9,8 @@ files of an MJCF that MuJoCo reads, :func:`check_file` first):
   again on the open descriptor, so a file swapped after the check is still refused);
 * at most ``limit`` bytes: the size is checked before reading and the read stops one byte past
   the limit (a file that grows while read is refused too), so memory is bounded by the limit;
+* a read that stalls (no byte for ``MECHKIN_READ_TIMEOUT`` s, default 30: a hung NFS or FUSE
+  file) is given up with one line;
 * every problem is one :class:`~mechkin.errors.ConfigError` line naming the file, what it is
   and what is wrong; file contents are never echoed.
 
@@ -95,23 +97,78 @@ def read_bytes(path: str | os.PathLike[str], *, what: str, limit: int, hint: str
         raise ConfigError(f"{p}: cannot read the {what}: {exc.strerror or exc}") from None
     try:
         mode = os.fstat(fd).st_mode
-        if not stat.S_ISREG(mode):  # swapped between the check and the open
-            raise ConfigError(f"{p}: the {what} is not a regular file ({_kind(mode)})")
-        chunks: list[bytes] = []
-        got = 0
-        while got <= limit:
-            b = os.read(fd, min(1 << 20, limit + 1 - got))
-            if not b:
-                break
-            chunks.append(b)
-            got += len(b)
     except OSError as exc:
-        raise ConfigError(f"{p}: cannot read the {what}: {exc.strerror or exc}") from None
-    finally:
         os.close(fd)
-    if got > limit:
+        raise ConfigError(f"{p}: cannot read the {what}: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(mode):  # swapped between the check and the open
+        os.close(fd)
+        raise ConfigError(f"{p}: the {what} is not a regular file ({_kind(mode)})")
+    return _read_fd(fd, p, what=what, limit=limit, hint=hint)
+
+
+#: Seconds a read may go without receiving a byte (a stalled NFS or FUSE file, a FIFO whose
+#: writer stopped); ``MECHKIN_READ_TIMEOUT`` sets it in (0, 3600].
+READ_TIMEOUT_S = 30.0
+
+
+def read_timeout() -> float:
+    """:data:`READ_TIMEOUT_S`, or ``MECHKIN_READ_TIMEOUT`` seconds when in (0, 3600]."""
+    try:
+        t = float(os.environ.get("MECHKIN_READ_TIMEOUT", "") or READ_TIMEOUT_S)
+    except ValueError:
+        t = READ_TIMEOUT_S
+    return t if 0 < t <= 3600 else READ_TIMEOUT_S
+
+
+def _read_fd(fd: int, p: Path, *, what: str, limit: int, hint: str = "",
+             timeout: float | None = None) -> bytes:
+    """Read ``fd`` (closed here) to its end, at most ``limit`` bytes, giving up when no byte
+    arrives for ``timeout`` seconds (:func:`read_timeout`). The reads run in a daemon thread:
+    a read blocked in the kernel (a hung network file system) cannot be interrupted, so the
+    caller stops waiting for it, and the thread closes the descriptor if it ever returns."""
+    import select
+    import threading
+    import time
+
+    timeout = read_timeout() if timeout is None else timeout
+    state: dict[str, Any] = {"chunks": [], "got": 0, "last": time.monotonic(), "stop": False}
+
+    def reader() -> None:
+        try:
+            while state["got"] <= limit and not state["stop"]:
+                try:
+                    b = os.read(fd, min(1 << 20, limit + 1 - state["got"]))
+                except BlockingIOError:  # a non-blocking pipe without data: wait for some
+                    select.select([fd], [], [], 0.1)
+                    continue
+                if not b:
+                    break
+                state["chunks"].append(b)
+                state["got"] += len(b)
+                state["last"] = time.monotonic()
+        except OSError as exc:
+            state["error"] = exc
+        finally:
+            os.close(fd)
+
+    th = threading.Thread(target=reader, daemon=True, name="mechkin-read")
+    th.start()
+    while True:
+        th.join(min(0.5, timeout))
+        if not th.is_alive():
+            break
+        idle = time.monotonic() - state["last"]
+        if idle > timeout:
+            state["stop"] = True
+            raise ConfigError(f"{p}: reading the {what} stalled: no data for {timeout:g} s "
+                              f"after {state['got']} bytes (a hung file system or pipe?); "
+                              "MECHKIN_READ_TIMEOUT sets the wait")
+    if "error" in state:
+        exc = state["error"]
+        raise ConfigError(f"{p}: cannot read the {what}: {exc.strerror or exc}") from None
+    if state["got"] > limit:
         raise _refuse_size(p, f"the {what}", None, limit, hint)
-    return b"".join(chunks)
+    return b"".join(state["chunks"])
 
 
 def read_text(path: str | os.PathLike[str], *, what: str, limit: int, hint: str = "") -> str:

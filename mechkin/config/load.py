@@ -26,6 +26,7 @@ messages (keys, values, names) go through :func:`short` so a 1 MB name cannot fl
 from __future__ import annotations
 
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -413,3 +414,25 @@ def read_yaml(path: str | Path, max_bytes: int | None = None) -> YamlDoc:
     text = _read_text(path, max_file_bytes() if max_bytes is None else max_bytes)
     data, lines = parse_yaml_text(path, text)
     return YamlDoc(path=path, data=data, lines=lines)
+
+
+#: notes already written: (file, its mtime and size, the line)
+_NOTED: set[tuple[str, object, str]] = set()
+
+
+def note_once(path: Path, line: str) -> None:
+    """Write the note ``line`` (``robot.urdf: note: ...``) to stderr once per file version: a
+    robot file read twice in one run (``check``'s spec read and the run's cached build) says
+    it once. The same file changed on disk (a new mtime or size) says it again."""
+    try:
+        st = os.stat(path)
+        version: object = (st.st_mtime_ns, st.st_size)
+    except (OSError, ValueError):
+        version = None
+    key = (os.path.realpath(path), version, line)
+    if key in _NOTED:
+        return
+    if len(_NOTED) > 10_000:  # a long-lived process reading many files: forget the oldest
+        _NOTED.clear()
+    _NOTED.add(key)
+    sys.stderr.write(line if line.endswith("\n") else line + "\n")

@@ -24,6 +24,9 @@ frames, ...); this module reads the compiled arrays, never the XML, for the kine
 - a free joint: the body is the root of a floating base (``base: floating``, its home the
   keyframe's pose); ball joints start at the keyframe's quaternion; missing mesh / texture
   files: compiled without them (``mujoco.MjSpec``);
+- joint torque (force) limits -> ``torque_limit`` where unambiguous (:func:`joint_efforts`:
+  ``actuatorfrcrange``, a single actuator's ``forcerange`` times gear, a motor's ``ctrlrange``
+  times gain and gear); MuJoCo has no velocity limit;
 - independent joints of a closed chain: the joints driven by actuators (``actuator_trnid``),
   unless the sidecar says otherwise (an open chain: every joint but the coupled ones); home:
   the keyframe named ``home`` if there is one, else ``qpos0``.
@@ -34,12 +37,11 @@ May import: config, spatial, errors, numpy, mujoco.
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc
+from mechkin.config.load import YamlDoc, note_once
 from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.config.tree_import import (
     Tree,
@@ -84,6 +86,9 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
 
     redirect_mujoco_log(mujoco)  # never MUJOCO_LOG.TXT in the working directory
     text = check_mjcf_files(path)  # regular files within the limits, includes and meshes too
+    bad = _nonfinite(text, path)
+    if bad:
+        raise ConfigError(bad)
 
     def line_of(tag: str, name: str) -> int:
         m = re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
@@ -122,6 +127,7 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
     links = [TreeLink(bodies[root_body], line=blines[root_body])]
     joints: list[TreeJoint] = []
     skipped: set[int] = set()
+    efforts = joint_efforts(mujoco, m)
     for b in range(1, m.nbody):
         bname = bodies[b]
         parent_id = int(m.body_parentid[b])
@@ -163,7 +169,8 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
                 lim = (float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])) \
                     if m.jnt_limited[j] and m.jnt_range[j, 0] < m.jnt_range[j, 1] else None
                 joints.append(TreeJoint(jname, kind, prev, child, T, m.jnt_axis[j].copy(), lim,
-                                        offset=-float(m.qpos0[qa]), line=jline, label=label))
+                                        offset=-float(m.qpos0[qa]), line=jline, label=label,
+                                        effort=efforts.get(j)))
                 home[jname] = float(home_q[qa])
             prev, prev_p = child, p
         if prev != bname:  # the body frame sits at -p from the last joint's anchor
@@ -266,6 +273,52 @@ def read_mjcf_spec(path: str | Path, sidecar: str | Path | None = None
     return tree_to_spec(tree)
 
 
+def joint_efforts(mujoco, m) -> dict[int, float]:
+    """joint id -> the torque (force) bound of a hinge or slide joint where the model gives
+    one unambiguously, as a symmetric magnitude (the smaller of ``|lo|``, ``|hi|``):
+
+    - the joint's ``actuatorfrcrange`` (``actuatorfrclimited``): the bound on the sum of its
+      actuators' forces;
+    - the one actuator with a joint transmission on it: ``forcerange`` (``forcelimited``) times
+      ``|gear[0]|``, and for a plain ``<motor>`` (gain fixed, no bias, no dynamics) its
+      ``ctrlrange`` (``ctrllimited``) times ``|gainprm[0] gear[0]|``.
+
+    The smallest of these when several are given; joints with two or more actuators take only
+    ``actuatorfrcrange``. MuJoCo has no joint velocity limit, so none is read."""
+    def mag(lo: float, hi: float) -> float:
+        v = min(abs(float(lo)), abs(float(hi)))
+        return v if lo < hi and np.isfinite(v) and v > 0 else np.inf
+
+    bounds: dict[int, list[float]] = {}
+    for j in range(m.njnt):
+        if getattr(m, "jnt_actfrclimited", None) is not None and m.jnt_actfrclimited[j]:
+            bounds.setdefault(j, []).append(mag(*m.jnt_actfrcrange[j]))
+    on_joint: dict[int, list[int]] = {}
+    for a in range(m.nu):
+        if int(m.actuator_trntype[a]) == mujoco.mjtTrn.mjTRN_JOINT:
+            on_joint.setdefault(int(m.actuator_trnid[a, 0]), []).append(a)
+    for j, acts in on_joint.items():
+        if len(acts) != 1:
+            continue
+        a = acts[0]
+        gear = abs(float(m.actuator_gear[a, 0]))
+        if m.actuator_forcelimited[a]:
+            bounds.setdefault(j, []).append(mag(*m.actuator_forcerange[a]) * gear)
+        motor = (int(m.actuator_gaintype[a]) == mujoco.mjtGain.mjGAIN_FIXED
+                 and int(m.actuator_biastype[a]) == mujoco.mjtBias.mjBIAS_NONE
+                 and int(m.actuator_dyntype[a]) == mujoco.mjtDyn.mjDYN_NONE)
+        if motor and m.actuator_ctrllimited[a]:
+            gain = abs(float(m.actuator_gainprm[a, 0]))
+            bounds.setdefault(j, []).append(mag(*m.actuator_ctrlrange[a]) * gain * gear)
+    out = {}
+    for j, b in bounds.items():
+        v = min(b)
+        if np.isfinite(v) and v > 0 and int(m.jnt_type[j]) in (
+                mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            out[j] = float(v)
+    return out
+
+
 def _compile(mujoco, path: Path):
     """MjModel of the file; when MuJoCo cannot open an asset file (meshes, textures, height
     fields shipped separately, as is common), compile again through ``mujoco.MjSpec`` with those
@@ -304,7 +357,7 @@ def _compile(mujoco, path: Path):
         model = spec.compile()
     except ValueError:
         raise fail(first) from None
-    sys.stderr.write(f"{path.name}: note: compiled without its {n} mesh / texture assets "
+    note_once(path, f"{path.name}: note: compiled without its {n} mesh / texture assets "
                      "(missing on disk; the kinematics need none; visuals still reference them)\n")
     return model, n
 
@@ -324,6 +377,28 @@ class _Elements:
     @staticmethod
     def pick(lines: list[int], i: int) -> int:
         return lines[i] if 0 <= i < len(lines) else 1
+
+
+#: Numeric attributes of MJCF elements that must hold finite numbers (MuJoCo takes ``nan``).
+_NUMERIC_ATTRS = {tag: ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "axis",
+                        "range", "ref", "springref", "size", "mass", "diaginertia",
+                        "fullinertia", "fromto", "damping", "armature", "stiffness",
+                        "frictionloss", "polycoef")
+                  for tag in ("body", "joint", "geom", "site", "inertial", "frame", "camera",
+                              "light", "freejoint", "weld", "connect")}
+
+
+def _nonfinite(text: str, path: Path) -> list[str]:
+    """One line per numeric attribute of the main file that is not all finite numbers."""
+    try:
+        from lxml import etree
+
+        root = etree.fromstring(text.encode("utf-8"))
+    except Exception:  # noqa: BLE001 - no lxml, or a file lxml cannot parse: MuJoCo reports it
+        return []
+    from mechkin.config.urdf_check import nonfinite_numbers
+
+    return nonfinite_numbers(root, path, _NUMERIC_ATTRS)
 
 
 def _elements(text: str) -> _Elements:

@@ -6,13 +6,14 @@ The common part is validated here; each task's own section (``fk:``, ``ik:``, ``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from mechkin.config.load import YamlDoc, read_yaml, short, short_str, short_tail
+from mechkin.config.load import YamlDoc, note_once, read_yaml, short, short_str, short_tail
 from mechkin.config.schema import Name, Num, PosNum, Spec, Units, Vec3, validate_model
 from mechkin.errors import ConfigError
 
@@ -330,6 +331,8 @@ def load_scenario(path: str | Path, doc: YamlDoc | None = None) -> Scenario:
         raise ConfigError(f"{doc.where((section_name,))}: section {short(section_name)} is not "
                           "available in this version")
     parsed = validate_model(doc, model, section, prefix=(section_name,))
+    if spec.units.angle == "rad":
+        _note_degrees_read_as_radians(doc, section, (section_name,))
     return Scenario(spec=spec, section=parsed, doc=doc, mechanism_path=mech_path,
                     section_name=section_name)
 
@@ -351,3 +354,25 @@ def scenario_json_schema() -> dict[str, Any]:
         defs[model.__name__] = sub
         props[task] = {"anyOf": [{"$ref": f"#/$defs/{model.__name__}"}, {"type": "null"}]}
     return schema
+
+
+def _note_degrees_read_as_radians(doc: YamlDoc, node: Any, at: tuple) -> None:
+    """One note for the first orientation angle (``rpy``, ``euler.angles``) above 2 pi in a
+    file whose angle unit is rad (the default): ``rpy: [180, 0, 0]`` is then 180 rad, almost
+    surely meant in degrees. A note, not a refusal: the numbers are valid."""
+    stack = [(at, node)]
+    while stack:
+        path, v = stack.pop()
+        if isinstance(v, dict):
+            for k, w in reversed(v.items()):  # popped in the file's order
+                if k in ("rpy", "angles") and isinstance(w, list):
+                    big = [x for x in w if isinstance(x, (int, float)) and not isinstance(x, bool)
+                           and abs(x) > 2 * math.pi + 1e-9]
+                    if big:
+                        note_once(doc.path, f"{doc.where((*path, k))}: note: {big[0]:g} is read "
+                                  "as radians (the file's angle unit is rad, the default); if "
+                                  "you meant degrees, set 'units: {angle: deg}'")
+                        return
+                stack.append(((*path, k), w))
+        elif isinstance(v, list) and len(v) <= 100_000:
+            stack.extend(((*path, i), w) for i, w in reversed(list(enumerate(v))))

@@ -130,7 +130,15 @@ class JointSpec(Spec):
     ``revolute``/``prismatic`` are 1-DOF; ``universal`` and ``spherical`` expand to 2 and 3
     revolute joints with concurrent axes (``axes``, successive body axes; default x-y and
     x-y-z), named ``<name>_1``, ``<name>_2``, ``<name>_3``. For compound joints ``offset``,
-    ``limits`` and ``home`` take one entry per axis.
+    ``limits``, ``home``, ``velocity_limit`` and ``torque_limit`` take one entry per axis (or
+    one for every axis).
+
+    ``velocity_limit`` (angle unit per s; length unit per s for prismatic joints) and
+    ``torque_limit`` (N m; N for prismatic joints, as a track scenario's ``limits.qd`` and
+    ``limits.torque``) are the joint's symmetric rate limits as its robot file gives them (URDF
+    ``<limit velocity= effort=>``); ``mechkin export`` and the URDF in MCAPs write them. A
+    track scenario does not take them as defaults: its ``limits:`` are the only ones it plans
+    with.
     """
 
     name: Name
@@ -145,6 +153,8 @@ class JointSpec(Spec):
     offset: Num | list[Num] = 0.0
     limits: Limits | list[Limits] | None = None
     home: Num | list[Num] = 0.0
+    velocity_limit: PosNum | list[PosNum] | None = None
+    torque_limit: PosNum | list[PosNum] | None = None
 
     @model_validator(mode="after")
     def _check_placement(self) -> JointSpec:
@@ -161,7 +171,7 @@ class JointSpec(Spec):
         n = {"universal": 2, "spherical": 3}.get(self.type, 1)
         if self.axes is not None and len(self.axes) != n:
             raise ValueError(f"a {self.type} joint has {n} axes, got {len(self.axes)}")
-        for key in ("offset", "home"):
+        for key in ("offset", "home", "velocity_limit", "torque_limit"):
             v = getattr(self, key)
             if n == 1 and isinstance(v, list):
                 raise ValueError(f"{key}: expected one number for a {self.type} joint")
@@ -243,16 +253,23 @@ def pydantic_problems(
 ) -> list[str]:
     """Turn a pydantic ValidationError into ``file:line: key.path: message`` lines.
 
-    Unions report one error per branch; only the first is kept for each key path.
+    Unions report one error per branch; only the first is kept for each key path, except that
+    a list given to a number-or-list key reports its elements' errors.
     """
     out: list[str] = []
     seen_union: set[tuple] = set()
-    for err in exc.errors(include_url=False):
+    errors = exc.errors(include_url=False)
+    # a list given where a number or a list is allowed: report its elements, not "a number"
+    lists = {tuple(e["loc"][:i]) for e in errors for i, x in enumerate(e["loc"])
+             if _is_union_tag(x) and x.startswith("list[") and len(e["loc"]) > i + 1}
+    for err in errors:
         raw = err["loc"]
         tag_at = next((i for i, x in enumerate(raw) if _is_union_tag(x)), None)
         loc = prefix + tuple(x for x in raw if not _is_union_tag(x))
         if tag_at is not None:
             key = prefix + tuple(raw[:tag_at])
+            if tuple(raw[:tag_at]) in lists and not raw[tag_at].startswith("list["):
+                continue
             if key in seen_union:
                 continue
             seen_union.add(key)
@@ -299,7 +316,24 @@ def number_hint(value: Any) -> str | None:
 
 
 def _is_union_tag(x: Any) -> bool:
-    return isinstance(x, str) and ("[" in x or x in ("float", "int", "str", "bool"))
+    """A pydantic union branch in an error location (``float``, ``list[float]``,
+    ``constrained-str``, ``function-after[...]``), never a YAML key of a mechkin file."""
+    return isinstance(x, str) and ("[" in x or x in ("float", "int", "str", "bool")
+                                   or x.startswith(("constrained-", "function-"))
+                                   or x in _spec_names())
+
+
+def _spec_names() -> set[str]:
+    """The names of the spec models (a union of models tags its branches with them)."""
+    out: set[str] = set()
+    todo = [Spec]
+    while todo:
+        c = todo.pop()
+        for sub in c.__subclasses__():
+            if sub.__name__ not in out:
+                out.add(sub.__name__)
+                todo.append(sub)
+    return out
 
 
 def _submodels(annotation: Any) -> list[type[BaseModel]]:

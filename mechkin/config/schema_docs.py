@@ -134,6 +134,12 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                   "joints.",
         "limits": f"Joint limits [lo, hi] {_A} (prismatic: {_L}); one pair, or one per axis.",
         "home": f"Home configuration {_A} (prismatic: {_L}); one per axis for compound joints.",
+        "velocity_limit": f"Joint velocity limit (> 0) {_A} per s (prismatic: {_L} per s), as "
+                          "URDF <limit velocity=>; one, or one per axis. Written by export; "
+                          "not a track default (track.limits.qd).",
+        "torque_limit": "Joint torque limit (> 0) [N m] (prismatic: force [N]), as URDF <limit "
+                        "effort=>; one, or one per axis. Written by export; not a track default "
+                        "(track.limits.torque).",
     },
     "CouplingSpec": {
         "joint": "The coupled (dependent) joint: q_joint = multiplier * q_master + offset "

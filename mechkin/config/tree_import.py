@@ -20,7 +20,6 @@ errors, numpy.
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -28,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from mechkin.config.load import YamlDoc, read_yaml
+from mechkin.config.load import YamlDoc, note_once, read_yaml
 from mechkin.config.schema import (
     CouplingSpec,
     CutSpec,
@@ -75,6 +74,8 @@ class TreeJoint:
     offset: float = 0.0
     line: int = 1
     label: str | None = None  # how messages name the element (default ``joint[<name>]``)
+    velocity: float | None = None  # rate limits (> 0; rad/s | m/s, N m | N) or None
+    effort: float | None = None
 
 
 @dataclass
@@ -309,6 +310,9 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
             d["offset"] = float(j.offset)
         if j.limits is not None:
             d["limits"] = [float(j.limits[0]), float(j.limits[1])]
+        for key, v in (("velocity_limit", j.velocity), ("torque_limit", j.effort)):
+            if v is not None and v > 0 and np.isfinite(v):
+                d[key] = float(v)
         home = tree.home.get(j.name)
         if j.kind == "spherical":  # whole (3 values) or by component (<name>_1.._3)
             h = list(home) if isinstance(home, (list, tuple, np.ndarray)) else [0.0] * 3
@@ -397,10 +401,10 @@ def tree_to_spec(tree: Tree, source_lines: dict | None = None) -> tuple[Mechanis
     spec = validate_model(doc, MechanismSpec, data)
     if tree.ignored:
         what = ", ".join(f"{v} <{k}>" for k, v in sorted(tree.ignored.items()))
-        sys.stderr.write(f"{path.name}: note: ignored {what} (not kinematics)\n")
+        note_once(path, f"{path.name}: note: ignored {what} (not kinematics)\n")
     if renamed:
         eg = ", ".join(f"{a!r} -> {b!r}" for a, b in list(renamed.items())[:2])
-        sys.stderr.write(f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
+        note_once(path, f"{path.name}: note: renamed {len(renamed)} names that mechkin names "
                          f"cannot hold (letters, digits, _ . - only): {eg}"
                          f"{', ...' if len(renamed) > 2 else ''}\n")
     return spec, doc

@@ -31,7 +31,8 @@ def mechanism_to_si(spec: MechanismSpec) -> MechanismSpec:
     """The same mechanism with every length in m and every angle in rad.
 
     Joint offsets, limits and home values are angles for revolute-type joints and lengths for
-    prismatic ones; inertia tensors scale with length squared.
+    prismatic ones (velocity limits: per s); torque limits stay N m (N); inertia tensors scale
+    with length squared.
     """
     L = length_factor(spec.units.length)
     A = angle_factor(spec.units.angle)
@@ -61,6 +62,7 @@ def mechanism_to_si(spec: MechanismSpec) -> MechanismSpec:
         j["offset"] = _scale(j["offset"], f)
         j["home"] = _scale(j["home"], f)
         j["limits"] = _scale(j["limits"], f)
+        j["velocity_limit"] = _scale(j.get("velocity_limit"), f)
     if d.get("base_pose"):
         d["base_pose"]["xyz"] = _scale(d["base_pose"]["xyz"], L)
         d["base_pose"]["rpy"] = _scale(d["base_pose"]["rpy"], A)

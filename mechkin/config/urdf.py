@@ -8,9 +8,10 @@ line numbers of the problems and for mechkin's own extension elements. The mappi
   *link* axes: ``R I R^T`` with R the inertial origin's rotation);
 - ``revolute`` (limits; beyond +-1e6 both ways: no limit), ``continuous`` (no limits),
   ``prismatic`` -> origin + axis joints (the child link frame is ``T_origin Rot(axis, q)``, the
-  URDF convention); ``fixed`` -> the child link becomes a named frame on the parent link
-  (``mechkin.config.tree_import``); a name mechkin names cannot hold (``LFoot/FSR/x``) is
-  renamed (``LFoot_FSR_x``) with one note;
+  URDF convention), ``<limit velocity= effort=>`` -> ``velocity_limit`` and ``torque_limit``
+  (0, URDF's usual "not given", is left out); ``fixed`` -> the child link becomes a named
+  frame on the parent link (``mechkin.config.tree_import``); a name mechkin names cannot hold
+  (``LFoot/FSR/x``) is renamed (``LFoot_FSR_x``) with one note;
 - ``<mimic joint= multiplier= offset=>`` -> a joint coupling ``q = multiplier q_joint + offset``
   (``couplings:``; a constraint row of phi, :mod:`mechkin.model.couplings`); ``floating`` and
   ``planar`` joints are refused (no 6-DOF or planar joint): one ``file:line`` message naming
@@ -37,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mechkin.config.load import YamlDoc, short_str
+from mechkin.config.load import YamlDoc, note_once, short_str
 from mechkin.config.schema import MechanismSpec
 from mechkin.config.tree_import import (
     Tree,
@@ -47,7 +48,7 @@ from mechkin.config.tree_import import (
     merge_sidecar,
     tree_to_spec,
 )
-from mechkin.config.urdf_check import element_problems, locate_rejection
+from mechkin.config.urdf_check import element_problems, locate_rejection, nonfinite_numbers
 from mechkin.config.visuals_import import attach_urdf_visuals
 from mechkin.errors import ConfigError
 
@@ -98,7 +99,6 @@ def _without_geometry(root, path: Path):
     reason to refuse the kinematics; one note); lxml keeps each element's source line in the
     copy."""
     import copy
-    import sys
 
     import yourdfpy
 
@@ -116,7 +116,7 @@ def _without_geometry(root, path: Path):
                 link.remove(e)
                 dropped += 1
     if dropped:
-        sys.stderr.write(f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
+        note_once(path, f"{path.name}: note: left out {dropped} <visual> elements yourdfpy "
                          "cannot read (no kinematics in them)\n")
     return light
 
@@ -129,6 +129,16 @@ def _floats(s: str | None, n: int, where: str) -> list[float]:
     if len(v) != n or not all(np.isfinite(v)):
         raise ConfigError(f"{where}: expected {n} finite numbers, got {s!r}")
     return v
+
+
+#: The numeric attributes of URDF elements: each must hold finite numbers (a NaN in an origin
+#: would otherwise surface as several derived lines, or a numpy message, after the import).
+_NUMERIC_ATTRS = {"origin": ("xyz", "rpy"), "axis": ("xyz",),
+                  "limit": ("lower", "upper", "effort", "velocity"), "mass": ("value",),
+                  "inertia": ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"),
+                  "dynamics": ("damping", "friction"), "box": ("size",),
+                  "cylinder": ("radius", "length"), "sphere": ("radius",),
+                  "mesh": ("scale",)}
 
 
 def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
@@ -182,6 +192,7 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
                             f"{short_str(typ)} joints are not supported (mechkin joints: revolute, "
                             "continuous, prismatic, fixed); fix: make it type=\"fixed\" (or "
                             "remove it and its parent link, so its child is the base)")
+    problems += nonfinite_numbers(root, path, _NUMERIC_ATTRS)
     if problems:
         raise ConfigError(problems)
     light = _without_geometry(root, path)
@@ -222,12 +233,31 @@ def read_urdf_spec(path: str | Path, sidecar: str | Path | None = None
             if (lo is not None and hi is not None and lo < hi
                     and min(abs(lo), abs(hi)) < UNLIMITED):
                 limits = (float(lo), float(hi))
-        joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line))
+        rates = _rates(j, f"{path}:{line}: joint[{j.name}].limit") if kind != "fixed" else {}
+        joints.append(TreeJoint(j.name, kind, j.parent, j.child, T, axis, limits, line=line,
+                                **rates))
     tree = Tree(name=robot.name or path.stem, path=path, links=links, joints=joints,
                 couplings=couplings)
     _read_extensions(root, tree, path)
     tree, _ = merge_sidecar(tree, find_sidecar(path, sidecar))
     return tree_to_spec(tree)
+
+
+def _rates(j, where: str) -> dict[str, float]:
+    """``{velocity, effort}`` of a moving joint's ``<limit>`` (URDF requires both on revolute
+    and prismatic joints; 0 is the common "not given" and is left out); a negative or
+    non-finite value is refused."""
+    out: dict[str, float] = {}
+    for key in ("velocity", "effort"):
+        v = getattr(j.limit, key, None) if j.limit is not None else None
+        if v is None:
+            continue
+        if not (np.isfinite(v) and v >= 0):
+            raise ConfigError(f"{where}.{key}: expected a finite number >= 0 (0: not given), "
+                              f"got {v}")
+        if v > 0:
+            out[key] = float(v)
+    return out
 
 
 def _read_extensions(root, tree: Tree, path: Path) -> None:

@@ -7,7 +7,8 @@ place in the file. :func:`element_problems` checks, on the raw XML with lxml's l
 what mechkin reads from each element: names, joint type, parent and child, origins, axes,
 limits, mimic numbers, inertials. :func:`locate_rejection` is the fallback for anything else
 yourdfpy refuses: each ``<link>``, ``<joint>`` and ``<material>`` is parsed alone with
-yourdfpy's own element parser to find the one that fails.
+yourdfpy's own element parser to find the one that fails. :func:`nonfinite_numbers` (URDF and
+MJCF) flags every numeric attribute that is not all finite numbers, at its element.
 
 One line per problem: ``file:line: joint[j2].origin.xyz: expected 3 numbers, got '0.3 0';
 fix: ...``; an element without a name is labelled by its place (``joint (unnamed, 2.)``).
@@ -177,3 +178,41 @@ def locate_rejection(root: Any, path: Path, exc: BaseException) -> str:
     why = f"{type(exc).__name__}: {exc}"
     return (f"{path}:{root.sourceline}: robot: not a valid URDF ({why[:160]}); fix: correct it "
             "against the URDF specification (wiki.ros.org/urdf/XML)")
+
+
+def nonfinite_numbers(root: Any, path: Any, attrs: dict[str, tuple[str, ...]]) -> list[str]:
+    """One line per numeric attribute (``attrs``: element tag -> attribute names) of an lxml
+    tree that is not all finite numbers (``nan``, ``inf``, ``1e999``, a word), located at its
+    element and named from the nearest named element (``joint[j1].origin.xyz``,
+    ``body[b2].pos``): a NaN in an origin would otherwise surface after the import as several
+    lines about derived values."""
+    from mechkin.config.load import short_str
+
+    out = []
+    for el in root.iter():
+        names = attrs.get(el.tag) if isinstance(el.tag, str) else None
+        for a in names or ():
+            raw = el.get(a)
+            if raw is None:
+                continue
+            try:
+                ok = bool(raw.split()) and all(math.isfinite(float(x)) for x in raw.split())
+            except ValueError:
+                ok = False
+            if not ok:
+                out.append(f"{path}:{el.sourceline}: {_owner(el)}.{a}: expected finite "
+                           f"numbers, got {short_str(raw, 40)!r}")
+    return out
+
+
+def _owner(el: Any) -> str:
+    from mechkin.config.load import short_str
+
+    parts = []
+    while el is not None and isinstance(el.tag, str):
+        if el.get("name") is not None:
+            parts.append(f"{el.tag}[{short_str(el.get('name'), 40)}]")
+            break
+        parts.append(el.tag)
+        el = el.getparent()
+    return ".".join(reversed(parts))

@@ -30,12 +30,12 @@ May import: config, errors, numpy, mujoco (passed in).
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from mechkin.config.load import note_once
 from mechkin.config.visual_spec import MESH_SCHEMES, mesh_uri
 
 __all__ = ["attach_mjcf_visuals", "attach_urdf_visuals"]
@@ -97,7 +97,7 @@ def attach_urdf_visuals(links: list[Any], robot: Any, path: Path) -> None:
     if skipped:
         what = ", ".join(f"{n} {k}" + ("" if k == "degenerate" else ":")
                          for k, n in sorted(skipped.items()))
-        sys.stderr.write(f"{path.name}: note: left out {what} <visual> elements (mechkin draws "
+        note_once(path, f"{path.name}: note: left out {what} <visual> elements (mechkin draws "
                          "boxes, cylinders, spheres of positive size and meshes by "
                          f"{', '.join(s + '://' for s in MESH_SCHEMES)} URI or path)\n")
 
@@ -124,7 +124,7 @@ def attach_mjcf_visuals(links: list[Any], mujoco: Any, path: Path, bodies: list[
         model, meshes, skip = _visual_model(mujoco, path)
     except Exception as exc:  # noqa: BLE001 - visuals are optional; the import goes on
         why = " ".join(str(exc).split())[:200]
-        sys.stderr.write(f"{path.name}: note: no visuals imported ({why})\n")
+        note_once(path, f"{path.name}: note: no visuals imported ({why})\n")
         return
     if model.nbody != len(bodies):
         return

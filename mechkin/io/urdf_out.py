@@ -15,9 +15,11 @@ revolute joints ``<name>_1..3`` with their inner links ``<name>_link1..2``:
 - unlimited revolute joints are ``continuous``; an unlimited prismatic joint gets limits
   +-1e6 m (URDF requires them) and ``unlimited="true"`` in its extension element;
 - ``<limit>`` carries the position limits of the mechanism file; URDF requires ``effort`` and
-  ``velocity`` too (urdfdom refuses a limit without them) and a mechanism file has neither, so
-  they are the run's rate limits where it has them (a track scenario's ``limits:``) and
-  otherwise ``0``, which the ``<!-- -->`` comment at the top says means "not given";
+  ``velocity`` too (urdfdom refuses a limit without them): they are the joint's
+  ``torque_limit`` and ``velocity_limit`` where the mechanism file gives them (imported from
+  the robot file's ``<limit>``), else the run's rate limits where it has them (a track
+  scenario's ``limits:``), else ``0``, which the ``<!-- -->`` comment at the top says means
+  "not given";
 - with ``visuals`` (:func:`robot_urdf`, :mod:`mechkin.tasks.robot`) every link carries the
   generated ``<visual>`` elements (cylinders, spheres, boxes, meshes by URI, plates as
   COLLADA meshes in ``data:`` URIs: :mod:`mechkin.io.collada`) and the robot the
@@ -64,6 +66,14 @@ def _origin(T: np.ndarray) -> str:
     return f'<origin xyz="{_vec(T[:3, 3])}" rpy="{_vec(rpy_of(T[:3, :3]))}"/>'
 
 
+def _own(mech: Any, key: str, k: int, otherwise: float) -> float:
+    """The mechanism's own rate limit ``key`` of joint k where it gives one, else
+    ``otherwise``."""
+    arr = getattr(mech, key, None)
+    v = float(arr[k]) if arr is not None else np.inf
+    return v if np.isfinite(v) and v > 0 else float(otherwise)
+
+
 def _visual_xml(visuals: Sequence[Any]) -> str:
     """``<visual>`` elements of one link (records.robot.Visual, duck-typed)."""
     out = []
@@ -99,7 +109,8 @@ def mechanism_to_urdf(mech: Mechanism, *, visuals: Sequence[Any] = (),
     """The URDF text of ``mech`` (SI: m, rad, kg); see the module docstring for the mapping.
 
     ``visuals`` (records.robot.Visual) go into their links, ``materials`` (name -> rgba) are
-    declared once, ``rate_limits`` (joint -> (velocity, effort)) fill ``<limit>``.
+    declared once, ``rate_limits`` (joint -> (velocity, effort)) fill ``<limit>`` where the
+    mechanism gives no ``velocity_limit`` / ``torque_limit`` of its own.
     """
     by_link: dict[str, list[Any]] = {}
     for v in visuals:
@@ -162,8 +173,11 @@ def mechanism_to_urdf(mech: Mechanism, *, visuals: Sequence[Any] = (),
             typ = "continuous" if unlimited else "revolute"
             lim = None if unlimited else (lo, hi)
         vel, eff = rates.get(jname, (0.0, 0.0))
+        vel, eff = _own(mech, "velocity_limit", k, vel), _own(mech, "torque_limit", k, eff)
         limit = (f'<limit lower="{_num(lim[0])}" upper="{_num(lim[1])}" effort="{_num(eff)}" '
                  f'velocity="{_num(vel)}"/>') if lim else ""
+        if not lim and (vel or eff):  # a continuous joint: rate limits only
+            limit = f'<limit effort="{_num(eff)}" velocity="{_num(vel)}"/>'
         joint_pos[k] = len(joint_xml)
         joint_xml.append(
             f'  <joint name={quoteattr(jname)} type="{typ}"><parent link={quoteattr(parent)}/>'

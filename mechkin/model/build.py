@@ -9,7 +9,14 @@ import numpy as np
 from mechkin.config.load import YamlDoc, short, short_list
 from mechkin.config.schema import FLOATING_JOINTS, MechanismSpec
 from mechkin.errors import ConfigError
-from mechkin.model.mechanism import AXIS_NAMES, Coupling, Cut, JointGroup, Mechanism
+from mechkin.model.mechanism import (
+    AXIS_NAMES,
+    Coupling,
+    Cut,
+    JointGroup,
+    Mechanism,
+    joint_rate_limits,
+)
 from mechkin.model.visuals import link_visuals_of
 from mechkin.spatial.dh import dh_modified, dh_standard
 from mechkin.spatial.rotations import rot_z
@@ -441,6 +448,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
     gravity = np.array(spec.gravity if spec.gravity is not None else [0.0, 0.0, -9.81])
     names = [jt[0] for jt in joints]
     s = np.array([jt[1] for jt in joints], dtype=int)
+    vel_lim, tau_lim = joint_rate_limits(spec.joints, groups, len(names))
     mech = Mechanism(
         name=spec.name,
         source=doc.path if doc is not None else None,
@@ -474,7 +482,7 @@ def build_mechanism(spec: MechanismSpec, doc: YamlDoc | None = None) -> Mechanis
         description=spec.description or "",
         visuals=link_visuals_of(spec, doc.path if doc is not None else None),
         couplings=couplings,
-        floating=floating,
+        floating=floating, velocity_limit=vel_lim, torque_limit=tau_lim,
         end_effector_note=(spec.notes[len(EE_NOTE):] if spec.notes and ee is not None
                            and spec.notes.startswith(EE_NOTE) else ""),
     )

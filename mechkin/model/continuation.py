@@ -378,25 +378,41 @@ def _big_step(mech: Mechanism, q_v: np.ndarray, prev: np.ndarray, ckw: dict) -> 
     return continue_closure(mech, q_v, prev, **ckw)
 
 
-def _on_branch(mech: Mechanism, q: np.ndarray, ok: np.ndarray) -> np.ndarray:
-    """(m,) bool: sample k (solved by Newton from sample k - 1) passes the corrector's
-    acceptance test of :func:`_correct` against the first-order predictor from k - 1 (the
-    correction at most half the predicted move): a step-to-step solve that jumped to another
-    assembly mode fails it. Row 0 and rows after a failed one pass."""
-    from mechkin.model.closure import dependent_sensitivity
+def _on_branch(mech: Mechanism, q: np.ndarray, ok: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(m,) bool on-branch and (m,) bool singular base.
 
+    On-branch: sample k (solved by Newton from sample k - 1) passes the corrector's acceptance
+    test of :func:`_correct` against the first-order predictor from k - 1 (the correction at
+    most half the predicted move): a step-to-step solve that jumped to another assembly mode
+    fails it. Row 0 and rows after a failed one pass. A sample whose predecessor is at a
+    constraint singularity (:func:`_scaled_ratio` < :data:`RATIO_SINGULAR`: a change point
+    where two modes cross, e.g. a parallelogram four-bar with all links in line) fails too:
+    there the tangent is not determined and Newton from it may leave on either branch, so
+    :func:`solve_motion` reaches it from the last regular sample instead (the predictor then
+    steps across the crossing along the incoming tangent: the smooth continuation).
+    Singular base: sample k is assembled and at such a constraint singularity."""
     m = q.shape[0]
     out = np.ones(m, dtype=bool)
+    sing = np.zeros(m, dtype=bool)
+    iv, iw = mech.independent, mech.dependent
+    done = np.flatnonzero(ok)
+    if done.size == 0:
+        return out, sing
+    with np.errstate(all="ignore"):
+        _, J = closure_jacobian(mech, forward_kinematics(mech, q[done]))
+        sing[done] = _scaled_ratio(mech, J[:, :, iw]) < RATIO_SINGULAR
     both = np.flatnonzero(ok[:-1] & ok[1:]) if m > 1 else np.zeros(0, dtype=int)
     if both.size == 0:
-        return out
-    iv, iw = mech.independent, mech.dependent
+        return out, sing
     with np.errstate(all="ignore"):
-        S = dependent_sensitivity(mech, q[both])
+        Jb = J[np.searchsorted(done, both)]  # dq_w/dq_v = -Phi_w^+ Phi_v at the bases
+        S = -np.linalg.pinv(Jb[:, :, iw]) @ Jb[:, :, iv]
         move = np.einsum("kwv,kv->kw", S, q[both + 1][:, iv] - q[both][:, iv])
         corr = np.linalg.norm(q[both + 1][:, iw] - q[both][:, iw] - move, axis=1)
-        out[both + 1] = corr <= 0.5 * np.linalg.norm(move, axis=1) + ABS_CORRECTION
-    return out
+        out[both + 1] = ((corr <= 0.5 * np.linalg.norm(move, axis=1) + ABS_CORRECTION)
+                         & ~sing[both])
+    return out, sing
 
 
 def _put(dst: dict, sl, r: ClosureResult) -> None:
@@ -496,12 +512,18 @@ def solve_motion(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = 
                               np.concatenate([start_r.cond, r.cond[1:]]))
         else:
             r = start_r
-        okr = r.ok & _on_branch(mech, r.q, r.ok)
+        on, sing = _on_branch(mech, r.q, r.ok)
+        okr = r.ok & on
         j = int(np.argmin(okr)) if not okr.all() else len(okr)
         window = 2 * window if j == len(okr) else WINDOW0
         _put(out, slice(k, k + j), ClosureResult(r.q[:j], r.status[:j], r.iterations[:j],
                                                  r.residual[:j], r.cond[:j]))
-        prev = out["q"][k + j - 1].copy()
+        # the next sample is reached from the last regular one: never from a change point
+        regular = np.flatnonzero(~sing[:j])
+        if regular.size:
+            prev = out["q"][k + int(regular[-1])].copy()
+        elif prev is None:
+            prev = out["q"][k + j - 1].copy()
         k += j
         start_r = None
     return ClosureResult(out["q"], out["status"], out["iterations"], out["residual"],

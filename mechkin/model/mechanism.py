@@ -9,8 +9,10 @@ the mechanism is built, so forward kinematics is one code path for every descrip
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -110,6 +112,10 @@ class Mechanism:
     auto_plates: bool = True
     #: the file's visuals of its links (mechkin.model.visuals.LinkVisual): what viewers draw
     visuals: tuple = ()
+    #: (n,) joint velocity [rad/s | m/s] and torque [N m | N] limits as the file gives them
+    #: (``velocity_limit``, ``torque_limit``; > 0), inf where it gives none; None: not read
+    velocity_limit: np.ndarray | None = None
+    torque_limit: np.ndarray | None = None
 
     # ---- sizes -------------------------------------------------------------------------------
     @property
@@ -196,6 +202,23 @@ class Mechanism:
             return int(self.frame_link[f])
         j = self.link_parent_joint[f]
         return -1 if j < 0 else int(self.joint_parent_frame[j])
+
+
+def joint_rate_limits(joints: Sequence[Any], groups: Sequence[JointGroup], n: int
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """(velocity (n,), torque (n,)): the file joints' ``velocity_limit`` and ``torque_limit``
+    (SI; one value for every axis of a compound joint, or one per axis) on their coordinates,
+    inf where a joint gives none (the virtual joints of a floating base)."""
+    by_name = {j.name: j for j in joints}
+    vel, tau = np.full(n, np.inf), np.full(n, np.inf)
+    for g in groups:
+        j = by_name.get(g.name)
+        if j is None or j.type != g.type:
+            continue
+        for arr, v in ((vel, j.velocity_limit), (tau, j.torque_limit)):
+            if v is not None:
+                arr[list(g.joints)] = v
+    return vel, tau
 
 
 def end_effector_hint(mech: Mechanism, limit: int = 4) -> str:

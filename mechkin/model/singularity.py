@@ -342,6 +342,69 @@ def classify(
         tol_singular=tol_singular, tol_near=tol_near, end_effector=ee_name, phi_w=Phi_w)
 
 
+CROSSED = "constraint singularity crossed"
+
+
+def constraint_crossings(mech: Mechanism, q: np.ndarray, ok: np.ndarray,
+                         report: SingularityReport) -> np.ndarray:
+    r"""(m,) bool: a motion q (m, n) crossed a constraint singularity just before step k.
+
+    Between two consecutive assembled, non-singular steps i < k (``ok``, and no singular level
+    in ``report``) the nondimensionalised ``Phi_w`` changes orientation,
+    :math:`\det(\Phi_{w,i}^T \Phi_{w,k}) < 0` (for a square ``Phi_w`` the sign of
+    :math:`\det\Phi_w` flips): a singular value passed through zero between them, e.g. a
+    four-bar at a Grashof change point (all links in line, two assembly modes crossing) or a
+    parallelogram folding flat, stepped over between samples. Steps with a singular sample
+    between them are not flagged again (that sample already is). Rows with no dependent joint
+    never cross.
+
+    References
+    ----------
+    Allgower and Georg (2003) §8.1: a simple bifurcation point is detected by the sign change
+    of the determinant along the solution curve.
+    """
+    m = q.shape[0]
+    out = np.zeros(m, dtype=bool)
+    iw = mech.dependent
+    if len(iw) == 0 or not mech.is_closed:
+        return out
+    bad = np.asarray(report.constraint_level == "singular", dtype=bool)
+    keep = np.flatnonzero(np.asarray(ok, bool) & np.isfinite(q).all(axis=1) & ~bad)
+    if keep.size < 2:
+        return out
+    _, Phi = closure_jacobian(mech, forward_kinematics(mech, q[keep]))
+    row, col = constraint_scaling(mech, report.length_scale)
+    if row.size != Phi.shape[1]:
+        row = np.ones(Phi.shape[1])
+    A = Phi[:, :, iw] * row[None, :, None] * col[None, None, :]
+    with np.errstate(all="ignore"):
+        d = np.linalg.det(np.swapaxes(A[:-1], 1, 2) @ A[1:])
+    flip = d < 0
+    gap = np.array([bad[i + 1:k].any() for i, k in zip(keep[:-1], keep[1:], strict=True)],
+                   dtype=bool) if flip.any() else np.zeros(len(d), bool)
+    out[keep[1:][flip & ~gap]] = True
+    return out
+
+
+def mark_crossings(report: SingularityReport, crossed: np.ndarray) -> SingularityReport:
+    """The report with the steps ``crossed`` (m,) at the constraint singular level, kind
+    ``CONSTRAINT`` (``BOTH`` with an inverse-kinematic singularity) and label
+    :data:`CROSSED` (:func:`constraint_crossings`)."""
+    if not np.any(crossed):
+        return report
+    from dataclasses import replace
+
+    lc = report.constraint_level.copy()
+    kind = report.kind.copy()
+    label = report.label.copy()
+    for k in np.flatnonzero(crossed):
+        lc[k] = "singular"
+        both = report.inverse_level[k] == "singular"
+        kind[k] = SingularityKind.BOTH if both else SingularityKind.CONSTRAINT
+        label[k] = CROSSED + ("; inverse-kinematic singularity" if both else "")
+    return replace(report, constraint_level=lc, kind=kind, label=label)
+
+
 def mechanism_singularity_at_home(mech: Mechanism) -> dict[str, Any]:
     """Singularity measures at the home configuration, as JSON-ready values (``mechkin info``).
 

@@ -72,7 +72,8 @@ class RobotDescription:
         Colours the visuals name.
     rate_limits : dict of str to (velocity, effort)
         Joint velocity [rad/s | m/s] and effort [N m | N] limits where the run knows them (a
-        track scenario's limits); written into the URDF ``<limit>`` elements.
+        track scenario's limits); written into the URDF ``<limit>`` elements of the joints whose
+        mechanism file gives no ``velocity_limit`` / ``torque_limit`` of its own.
     """
 
     mechanism: Any

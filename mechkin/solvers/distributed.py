@@ -43,14 +43,26 @@ SAME_MODE_TOL = 1e-6
 
 
 def trajectory_job(job: dict[str, Any]) -> ClosureResult:
-    """One chunk (module level, so it pickles): :func:`solve_trajectory` over its steps from
+    """One chunk (module level, so it pickles): :func:`_motion` over its steps from
     its warm start."""
     mech = job["mechanism"]
     if not hasattr(mech, "dependent"):
         from mechkin.solvers.workspace.sweeps import job_mechanism
 
         mech = job_mechanism(mech)
-    return solve_trajectory(mech, job["q_v"], job["q_w0"], **job["kw"])
+    return _motion(mech, job["q_v"], job["q_w0"], job["kw"])
+
+
+def _motion(mech: Any, q_v: np.ndarray, q_w0: np.ndarray, kw: dict[str, Any]) -> ClosureResult:
+    """The loop closure along q_v from the guess q_w0 at its first sample: step to step with
+    the branch checks and continuation of :func:`mechkin.model.continuation.solve_motion` (a
+    step that jumps mode, a big step, a change point), as the single-process run; an open chain
+    or one without loops: :func:`solve_trajectory`."""
+    if len(mech.dependent) == 0 or mech.n_equations == 0:
+        return solve_trajectory(mech, q_v, q_w0, **kw)
+    from mechkin.model.continuation import solve_motion
+
+    return solve_motion(mech, q_v, q_w0=np.asarray(q_w0, float), guess=True, **kw)
 
 
 def _cat(parts: list[ClosureResult]) -> ClosureResult:
@@ -126,7 +138,7 @@ def solve_trajectory_chunks(
     warm = [max(0, (s - overlap) // stride * stride) for s in starts]
     coarse_idx = np.unique(np.concatenate([np.arange(0, m, stride), warm])) if m else \
         np.zeros(0, dtype=int)
-    coarse = solve_trajectory(mech, qv[coarse_idx], q_w0, **kw)
+    coarse = _motion(mech, qv[coarse_idx], q_w0, kw)
     at = {int(i): k for k, i in enumerate(coarse_idx)}
     carried = mech if mechanism is None else mechanism
     jobs = []
@@ -145,7 +157,8 @@ def solve_trajectory_chunks(
     parts = run_jobs(trajectory_job, jobs, progress)
     kept: list[ClosureResult] = []
     repaired: list[int] = []
-    for k, (job, r) in enumerate(zip(jobs, parts, strict=True)):
+    for k, (job, r) in enumerate(zip(jobs[:len(parts)], parts, strict=True)):  # a prefix
+        # after a stop (run_jobs' stop=): the chunks finished
         sk = job["skip"]
         if k > 0:
             prev = kept[-1]
@@ -158,7 +171,7 @@ def solve_trajectory_chunks(
                 if not np.all(np.isfinite(last)):
                     last = np.asarray(q_w0, float)
                 s = starts[k]
-                r = solve_trajectory(mech, qv[s:s + c], last, **kw)
+                r = _motion(mech, qv[s:s + c], last, kw)
                 sk = 0
                 repaired.append(k)
         kept.append(_cut(r, sk))

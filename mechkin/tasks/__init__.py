@@ -37,6 +37,8 @@ def run(scenario: Any, **options: Any) -> Report:
     ``options`` are the task's own run options (workspace: ``workers``, ``scheduler``,
     ``progress``).
     """
+    from mechkin.solvers.result import stop_when
+    from mechkin.tasks import budget
     from mechkin.tasks.prepare import prepare
 
     # load and validate (everything short of solving, as `mechkin check` does), keeping what
@@ -48,7 +50,11 @@ def run(scenario: Any, **options: Any) -> Report:
     accepted = inspect.signature(mod.run).parameters
     if "prepared" in accepted:
         options = {**options, "prepared": prepared}
-    return mod.run(scenario, **{k: v for k, v in options.items() if k in accepted})
+    # --max-time: the task stops at its next safe point once the time is used, keeps the
+    # finished rows, and the report says so (budget.mark_stopped: exit 1)
+    with stop_when(budget.overrun if budget.time_limit() is not None else None):
+        rep = mod.run(scenario, **{k: v for k, v in options.items() if k in accepted})
+    return budget.mark_stopped(rep, scenario.path)
 
 
 def run_file(path: str | Path, task: str | None = None, **options: Any) -> Report:

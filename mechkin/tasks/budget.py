@@ -142,7 +142,16 @@ _ESTIMATES: contextvars.ContextVar[list[dict[str, Any]] | None] = contextvars.Co
     "mechkin_estimates", default=None)
 _START: contextvars.ContextVar[float | None] = contextvars.ContextVar("mechkin_start",
                                                                       default=None)
+_STOP: contextvars.ContextVar[dict[str, Any] | None] = contextvars.ContextVar("mechkin_stop",
+                                                                              default=None)
 _DURATION_UNITS = {"": 1.0, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+def _clock() -> float:
+    """The run's clock (``time.monotonic``; tests replace it to make a run overrun)."""
+    import time
+
+    return time.monotonic()
 
 
 def parse_duration(text: str) -> float:
@@ -176,41 +185,81 @@ def time_limit() -> float | None:
 def time_budget(max_seconds: float | None) -> Iterator[list[dict[str, Any]]]:
     """Set the run's time limit (None: the environment's) and collect the run's estimates
     (``{"where", "what", "seconds"}``) in the yielded list."""
-    import time
-
     found: list[dict[str, Any]] = []
     t1 = _TIME.set(max_seconds)
     t2 = _ESTIMATES.set(found)
-    t3 = _START.set(time.monotonic())
+    t3 = _START.set(_clock())
+    t4 = _STOP.set({})
     try:
         yield found
     finally:
+        _STOP.reset(t4)
         _START.reset(t3)
         _ESTIMATES.reset(t2)
         _TIME.reset(t1)
 
 
 class TimeLimitExceeded(MechkinError):
-    """The run went past ``--max-time``: stopped between two jobs, nothing written (exit 1)."""
+    """The run went past ``--max-time`` on a path that keeps no partial result (a motion or a
+    target sequence split over workers): stopped between two jobs, nothing written (exit 1)."""
 
     exit_code = 1
 
 
+def _limit_now() -> float | None:
+    """:func:`time_limit` (``--max-time``, else ``MECHKIN_MAX_TIME``), None if unusable (a bad
+    ``MECHKIN_MAX_TIME`` is refused, with its line, where the run's estimates are checked)."""
+    try:
+        return time_limit()
+    except ConfigError:
+        return None
+
+
+def overrun() -> bool:
+    """True once the run has used its ``--max-time``: the task stops at its next safe point
+    (between samples, targets, sweep chunks, DP stages), keeps the finished rows and says how
+    many with :func:`note_done`; :func:`stop_info` then holds the stop for the summary."""
+    lim, start, info = _limit_now(), _START.get(), _STOP.get()
+    if lim is None or start is None or info is None:
+        return False
+    if info:
+        return True
+    used = _clock() - start
+    if used <= lim:
+        return False
+    info.update({"reason": "max-time", "limit_s": lim, "after_s": round(used, 3)})
+    return True
+
+
+def note_done(done: int, total: int, unit: str) -> None:
+    """After a stop: ``done`` of ``total`` rows (``unit``: steps, targets, poses, samples,
+    grids) were finished and are kept."""
+    info = _STOP.get()
+    if info:
+        info.update({"done": int(done), "total": int(total), "unit": unit})
+
+
+def stop_info() -> dict[str, Any] | None:
+    """The run's stop (``reason``, ``limit_s``, ``after_s`` and the rows done), or None."""
+    info = _STOP.get()
+    return dict(info) if info else None
+
+
 def check_deadline() -> None:
     """Raise :class:`TimeLimitExceeded` once the run has used its ``--max-time`` (called
-    between the jobs of a split run)."""
-    import time
-
-    lim, start = _TIME.get(), _START.get()
+    between the jobs of a split run that keeps no partial result)."""
+    lim, start = _limit_now(), _START.get()
     if lim is None or start is None:
         return
-    used = time.monotonic() - start
+    used = _clock() - start
     if used > lim:
         raise TimeLimitExceeded(f"--max-time: stopped after {human_time(used)} (limit "
                                 f"{human_time(lim)}) between two jobs; no output was changed")
 
 
 def human_time(sec: float) -> str:
+    if sec < 10:
+        return f"{sec:.2g} s"
     if sec < 120:
         return f"{sec:.0f} s"
     if sec < 7200:
@@ -222,9 +271,10 @@ def human_time(sec: float) -> str:
 
 def estimate_time(where: str, seconds: float, what: str) -> None:
     """Before a job: refuse it when its estimated run time exceeds ``--max-time`` (one line,
-    exit 2); when it exceeds :data:`NOTICE_S`, print it on stderr and keep it for the summary
-    (``estimated_time_s``). The estimate is an order of magnitude (this machine's speed
-    is not measured), so the refusal has a factor of 2 of slack."""
+    exit 2); keep it for the summary (``estimated_time_s``, the sum of the run's estimates);
+    when it exceeds :data:`NOTICE_S`, print it on stderr. The estimate
+    (:mod:`mechkin.tasks.estimates`) is within a factor of a few of this machine's time, so
+    the refusal has a factor of 2 of slack."""
     import sys
 
     seconds = float(seconds) if seconds == seconds else 0.0
@@ -234,9 +284,34 @@ def estimate_time(where: str, seconds: float, what: str) -> None:
                           f"more than --max-time {human_time(lim)} (raise it, or make the job "
                           "smaller)")
     found = _ESTIMATES.get()
-    if seconds > NOTICE_S and found is not None:  # a short job's summary stays as it was
-        found.append({"where": where, "what": what, "seconds": round(seconds, 1)})
+    if found is not None:
+        found.append({"where": where, "what": what, "seconds": seconds})
     if seconds > NOTICE_S:
         sys.stderr.write(f"mechkin: {what}: estimated about {human_time(seconds)} "
                          f"({where.split(': ', 1)[0]}); --max-time bounds a run\n")
         sys.stderr.flush()
+
+
+#: ``summary["status"]`` of a run stopped by ``--max-time`` (exit 1, the finished rows written).
+STOPPED = "stopped: max-time"
+
+
+def mark_stopped(rep: Any, path: Any) -> Any:
+    """A task's report after :func:`overrun` stopped it: status :data:`STOPPED`, the stop under
+    ``summary["stopped"]`` (``reason``, ``limit_s``, ``after_s``, ``done``, ``total``,
+    ``unit``), no ``expect:`` results (a part of the job proves nothing), exit 1 and one line
+    saying what was kept. The rows kept are complete (the task truncated its tables). A task
+    that noted no partial result (:func:`note_done`) finished every row: its report stands."""
+    info = stop_info()
+    if info is None or "done" not in info:  # not stopped, or every row finished anyway
+        return rep
+    rep.summary["status"] = STOPPED
+    rep.summary["stopped"] = info
+    rep.summary.pop("expect", None)
+    rep.checks = []
+    rep.solver_ok = False
+    kept = f"{info['done']} of {info['total']} {info['unit']} finished and written"
+    rep.messages = [f"{path}: --max-time {human_time(info['limit_s'])}: stopped after "
+                    f"{human_time(info['after_s'])} at a safe point; {kept} (status "
+                    f"'{STOPPED}')"]
+    return rep

@@ -131,7 +131,8 @@ def check(ex: Execution) -> None:
 
 def map_jobs(fn: Callable[[Any], Any], jobs: Sequence[Any], description: str,
              ex: Execution | None = None, *, default_workers: int = 1,
-             progress: Callable[[int, int], None] | None = None) -> list[Any]:
+             progress: Callable[[int, int], None] | None = None,
+             partial: bool = False) -> list[Any]:
     """``[fn(job) for job in jobs]`` on the run's executor, with a progress bar of the jobs
     (stderr; :mod:`mechkin.tasks.progress`) unless ``progress`` is given.
 
@@ -147,9 +148,13 @@ def map_jobs(fn: Callable[[Any], Any], jobs: Sequence[Any], description: str,
         Default :func:`current`.
     default_workers : int
         Local processes when ``ex.workers`` is None.
+    partial : bool
+        The caller keeps a prefix of the results: once the run's ``--max-time`` is used no
+        further job starts and the results so far are returned
+        (:func:`mechkin.tasks.budget.overrun`); else the run stops with nothing written.
     """
     from mechkin.solvers.workspace.sweeps import run_jobs
-    from mechkin.tasks.budget import check_deadline
+    from mechkin.tasks.budget import check_deadline, overrun, time_limit
     from mechkin.tasks.progress import progress_bar
 
     ex = current() if ex is None else ex
@@ -157,15 +162,19 @@ def map_jobs(fn: Callable[[Any], Any], jobs: Sequence[Any], description: str,
 
     def timed(update: Callable[[int, int], None] | None) -> Callable[[int, int], None]:
         def call(done: int, total: int) -> None:
-            check_deadline()  # --max-time: stop between two jobs
+            if not partial:
+                check_deadline()  # --max-time: stop between two jobs
             if update is not None:
                 update(done, total)
         return call
 
+    stop = overrun if partial and time_limit() is not None else None
     if progress is not None:
-        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=timed(progress))
-    with progress_bar(ex.progress, description) as update:
-        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=timed(update))
+        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=timed(progress),
+                        stop=stop)
+    with progress_bar(ex.progress, description, deadline=not partial) as update:
+        return run_jobs(fn, jobs, workers=workers, address=ex.address, progress=timed(update),
+                        stop=stop)
 
 
 def call(job: tuple[Callable[..., Any], tuple[Any, ...]]) -> Any:

@@ -101,7 +101,7 @@ IK = {
     "n_targets": NUM, "counts": _IK_STATUSES, "max_position_error": NUM,
     "max_orientation_error": NUM, "solve_time_s": NUM, "median_time_per_target_s": NUM,
     "end_effector": STR, "targets": Items(_IK_TARGET), "solutions": ANY,
-    "methods_used": WORDS,
+    "methods_used": WORDS, "analytic_structure": WORDS,
     # target sets (mechkin.tasks.ik_frames)
     "n_target_sets": NUM, "floating_base": NUM,
     "target_sets": Items({"name": STR, "status": STR, "base_pose": ANY, "q": Names(NUM),
@@ -161,6 +161,15 @@ TASK_SPACE = {
     "max_orientation_error_rad": NUM,
     "reachable_bounding_box": {"min_m": V3, "max_m": V3, "size_m": V3},
 }
+
+
+#: What every task's summary may hold: a --max-time stop (mechkin.tasks.budget.mark_stopped),
+#: the run's time estimate (``estimated_time_s``).
+RUN = {"stopped": {"reason": STR, "limit_s": NUM, "after_s": NUM, "done": NUM, "total": NUM,
+                   "unit": STR},
+       "estimated_time_s": NUM}
+for _tpl in (FK, IK, TRACK, JOINT_SWEEP, TASK_SPACE):
+    _tpl.update(RUN)
 
 
 def template(sc: Any) -> dict[str, Any] | None:

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from mechkin.config.load import note_once, short_list
 from mechkin.config.scenario import FkSpec, Scenario
 from mechkin.config.units import angle_factor
 from mechkin.errors import ConfigError
@@ -32,8 +33,10 @@ from mechkin.model.closure import ClosureStatus
 from mechkin.model.continuation import solve_motion, with_limits
 from mechkin.model.differential import motion_derivatives
 from mechkin.model.kinematics import closure_residual, forward_kinematics
+from mechkin.model.singularity import constraint_crossings, mark_crossings
 from mechkin.records import Report
-from mechkin.tasks.budget import MAX_TIME_S
+from mechkin.tasks import budget
+from mechkin.tasks.budget import MAX_TIME_S, estimate_time
 from mechkin.tasks.common import (
     UNIT_TO_SI,
     check_motion_budget,
@@ -43,6 +46,7 @@ from mechkin.tasks.common import (
     output_flags,
     with_expect,
 )
+from mechkin.tasks.estimates import fk_seconds
 from mechkin.tasks.fk_base import (
     base_into_record,
     base_into_summary,
@@ -52,10 +56,13 @@ from mechkin.tasks.fk_base import (
 )
 from mechkin.tasks.fk_batch import (
     is_open_chain,
-    label_counts,
     open_chain_derivatives,
-    singular_masks,
     status_values,
+)
+from mechkin.tasks.fk_singularity import (
+    singularity_columns,
+    singularity_messages,
+    singularity_summary,
 )
 
 # CSV column suffixes of joint values and their SI factors
@@ -96,14 +103,16 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
         span = max(t[-1] - t[0], 1e-300)
         fill, bad = floating_base_fill(sc, mech, spec.motion)
         problems += bad
+        held: list[str] = []
         for i, name in enumerate(names):
             mo = spec.motion.get(name)
             if i in fill:  # a floating base at fk.base_pose or its home pose
                 qv[:, i] = fill[i]
                 continue
-            if mo is None:
-                problems.append(f"{doc.where(('fk', 'motion'))}: no motion for independent "
-                                f"joint {name!r}")
+            if mo is None:  # held at its home value (one note names them all, below)
+                h = float(mech.home[mech.independent[i]])
+                qv[:, i] = h if np.isfinite(h) else 0.0
+                held.append(name)
                 continue
             f = joint_factor(mech, mech.independent[i], sc.spec.units)
             if mo.type == "constant":
@@ -117,6 +126,11 @@ def independent_motion_rates(sc: Scenario, mech: Mechanism
                 qv[:, i] = (mo.offset + mo.amplitude * np.sin(arg)) * f
                 qd[:, i] = mo.amplitude * w * np.cos(arg) * f
                 qdd[:, i] = -mo.amplitude * w * w * np.sin(arg) * f
+        if held and not problems:
+            note_once(doc.path, f"{doc.where(('fk', 'motion'))}: note: {len(held)} independent "
+                      f"joint{'s' if len(held) > 1 else ''} without a motion hold "
+                      f"{'their' if len(held) > 1 else 'its'} home value: "
+                      f"{short_list(held, 120)}")
     elif spec.table is not None:
         tab = spec.table
         if "t" not in tab:
@@ -227,10 +241,16 @@ def _check_steps(scenario: Scenario, mech: Mechanism, m: int) -> None:
     """m fk steps with their rates (qd, qdd, twists) against the memory budget."""
     check_motion_budget(scenario, mech, m, ("fk",), "fk steps", extra_per_item=
                         8.0 * (4 * mech.n + 24 * len(mech.frame_names)))
+    estimate_time(scenario.doc.where(("fk",)), fk_seconds(mech, m, scenario.spec.outputs),
+                  f"{m} fk steps of {mech.name}")
 
 
 #: Steps per loop-closure chunk of a long motion (progress and Ctrl-C between chunks).
 CHUNK_STEPS = 20_000
+
+
+#: Steps per chunk under ``--max-time`` (the run may stop between two chunks).
+TIMED_CHUNK_STEPS = 1_000
 
 
 #: Fewest steps per chunk of a motion split over workers (``--workers`` / ``--scheduler``).
@@ -249,11 +269,13 @@ def _solve_split(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, kw: dict[str
     m = len(qv)
     n = ex.n_workers(1) or 8
     chunk = int(min(CHUNK_STEPS, max(SPLIT_MIN_STEPS, -(-m // (2 * n)))))
-    with progress_bar(ex.progress, f"fk: {m} steps in chunks") as update:
+    stop = budget.overrun if budget.time_limit() is not None else None  # keep the chunks done
+    with progress_bar(ex.progress, f"fk: {m} steps in chunks", deadline=False) as update:
         res, _ = solve_trajectory_chunks(
             mech, qv, q_w0, chunk_steps=chunk, progress=update,
             run_jobs=lambda fn, jobs, prog: run_jobs(fn, jobs, workers=ex.n_workers(1),
-                                                     address=ex.address, progress=prog),
+                                                     address=ex.address, progress=prog,
+                                                     stop=stop),
             **kw)
     return res
 
@@ -288,22 +310,29 @@ def _solve_in_chunks(mech: Mechanism, qv: np.ndarray, q_w0: np.ndarray, tol: Any
         first = solve_motion(mech, qv[:1], q_w0=q_w0, guess=guess, **kw)
         start_w = first.q[0, mech.dependent] if first.ok[0] else q_w0
         return _solve_split(mech, qv, start_w, kw, ex)
-    if m <= CHUNK_STEPS:
+    # under --max-time: shorter chunks, the run stops between two (budget.overrun)
+    timed = budget.time_limit() is not None
+    size = TIMED_CHUNK_STEPS if timed else CHUNK_STEPS
+    if m <= size:
         return solve_motion(mech, qv, q_w0=q_w0, guess=guess, **kw)
     parts = []
-    with progress_bar(progress, f"fk: {m} steps") as update:
+    with progress_bar(progress, f"fk: {m} steps", deadline=False) as update:
         start_q = None
-        for k in range(0, m, CHUNK_STEPS):
-            r = solve_motion(mech, qv[k:k + CHUNK_STEPS], q_w0=q_w0, guess=guess,
+        for k in range(0, m, size):
+            r = solve_motion(mech, qv[k:k + size], q_w0=q_w0, guess=guess,
                              q_start=start_q, **kw)
             parts.append(r)
             good = np.flatnonzero(r.ok)
             if good.size:
                 start_q = r.q[good[-1]]
             if update is not None:
-                update(min(k + CHUNK_STEPS, m), m)
+                update(min(k + size, m), m)
+            if timed and k + size < m and budget.overrun():
+                break  # the run notes the steps done
     first = parts[0]
-    return type(first)(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
+    # the optional fields (T_links, jacobian) only when every chunk has them
+    return type(first)(**{f.name: None if any(getattr(p, f.name) is None for p in parts)
+                          else np.concatenate([getattr(p, f.name) for p in parts])
                           for f in fields(first)})
 
 
@@ -324,6 +353,11 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         res = _solve_in_chunks(mech, qv, q_w0, tol, progress,
                                guess=bool(scenario.section.initial_guess))
+        if len(res.q) < len(t):  # stopped by --max-time: the finished steps only
+            k = len(res.q)
+            budget.note_done(k, len(t), "steps")
+            t, qv, qd_v, qdd_v = t[:k], qv[:k], qd_v[:k], qdd_v[:k]
+            base = base_trajectory(scenario, mech, t)
         res = with_limits(mech, _finite_closure(mech, res, q_w0))
         solve_s = time.perf_counter() - t0
         kin = forward_kinematics(mech, res.q)
@@ -346,6 +380,9 @@ def run(scenario: Scenario, progress: bool | None = None) -> Report:
             md = motion_derivatives(mech, q_ok, qd_v, qdd_v, frames=ee)
     rates_s = time.perf_counter() - t1
     sing = md.singularity
+    if mech.is_closed and len(mech.dependent):  # a change point stepped over: flagged too
+        sing = mark_crossings(sing, constraint_crossings(
+            mech, res.q, conv | by_status[ClosureStatus.OUTSIDE_LIMITS], sing))
     n_ok = int(conv.sum())
     overall = "ok" if n_ok == len(t) else next(
         s for s in ("constraint singularity", "singular", "outside limits", "not converged")
@@ -535,53 +572,3 @@ def rate_columns(mech: Mechanism, md: Any, ee: list[int]) -> dict[str, np.ndarra
         for k, ax in enumerate("xyz"):
             cols[f"ee_a{ax}_m_s2"] = ac[:, 3 + k]
     return cols
-
-
-def singularity_columns(sing: Any) -> dict[str, Any]:
-    """Per-step condition numbers (-1 where the rank is lost or undefined) and the class."""
-    def finite(c: Any) -> np.ndarray:  # _finite, vectorised
-        c = np.asarray(c, dtype=np.float64)
-        return np.where(np.isfinite(c), c, -1.0)
-
-    return {"cond_constraint": finite(sing.cond_constraint),
-            "cond_reduced": finite(sing.cond_reduced),
-            "singularity": list(map(str, sing.label))}
-
-
-def singularity_summary(sing: Any, t: np.ndarray) -> dict[str, Any]:
-    """Counts of each class, the worst condition numbers and the first singular / near step."""
-    counts = label_counts(sing.label)
-    is_singular, is_near = singular_masks(sing)
-    singular = np.flatnonzero(is_singular)
-    near = np.flatnonzero(is_near)
-
-    def worst(c: np.ndarray) -> float | None:
-        c = np.asarray(c, float)
-        fin = c[np.isfinite(c)]
-        if np.any(np.isinf(c)):
-            return -1.0
-        return float(fin.max()) if fin.size else None
-
-    return {
-        "counts": counts,
-        "max_cond_constraint": worst(sing.cond_constraint),
-        "max_cond_reduced": worst(sing.cond_reduced),
-        "first_singular_step": int(singular[0]) if singular.size else None,
-        "first_singular_t_s": float(t[singular[0]]) if singular.size else None,
-        "first_near_step": int(near[0]) if near.size else None,
-        "length_scale_m": float(sing.length_scale),
-        "thresholds": {"singular": float(sing.tol_singular), "near": float(sing.tol_near)},
-    }
-
-
-def singularity_messages(s: dict[str, Any], path: Any) -> list[str]:
-    """Warning lines when the motion passes a singularity or within the near threshold."""
-    out = []
-    if s["first_singular_step"] is not None:
-        kinds = ", ".join(k for k in s["counts"] if "singularity" in k and "near" not in k)
-        out.append(f"{path}: warning: the motion passes a singularity ({kinds}) first at step "
-                   f"{s['first_singular_step']} (t = {s['first_singular_t_s']:.6g} s)")
-    elif s["first_near_step"] is not None:
-        out.append(f"{path}: warning: the motion comes near a singularity (sigma_min/sigma_max "
-                   f"< {s['thresholds']['near']:g}) first at step {s['first_near_step']}")
-    return out

@@ -40,6 +40,7 @@ from mechkin.solvers.ik.all_solutions import (
     TOL_ORI_ALL,
     TOL_POS_ALL,
 )
+from mechkin.tasks import budget
 from mechkin.tasks.common import (
     check_motion_budget,
     expect_messages,
@@ -49,14 +50,17 @@ from mechkin.tasks.common import (
     with_expect,
 )
 from mechkin.tasks.distributed import resolve as resolve_execution
+from mechkin.tasks.estimates import ik_seconds
 from mechkin.tasks.ik_all import _all_solutions, _clean, _solution_rows, _solutions_record
 from mechkin.tasks.ik_analytic import (
     analytic_problem,
+    analytic_structure,
     held_values,
     methods_used,
     solutions_summary_extra,
     solve_batch_analytic,
     solve_held,
+    solve_sequence_batched,
 )
 from mechkin.tasks.ik_frames import has_target_sets, run_target_sets
 from mechkin.tasks.ik_solve import _safe_norm, _solve_batch, _solve_split, solve_sequence
@@ -65,8 +69,9 @@ from mechkin.tasks.prepare import Prepared
 
 def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
     """The closed form of the mechanism by structure (recognised once: by the validation
-    when it ran); a declared one that does not fit, or none that fits, is bad input naming
-    the mismatch."""
+    when it ran), or ``legs`` for a parallel mechanism without a named closed form whose legs
+    decompose; a declared one that does not fit, or none that fits, is bad input naming the
+    mismatch."""
     from mechkin.solvers.closed_form.recognise import ClosedFormMismatch
 
     mech = prepared.mechanism
@@ -75,9 +80,14 @@ def _closed_form_kind(scenario: Scenario, prepared: Prepared) -> str:
     except ClosedFormMismatch as exc:
         raise ConfigError(f"{scenario.doc.where(('mechanism',))}: {exc}") from None
     if kind is None:
+        from mechkin.tasks.validate import _legs_decompose
+
+        if _legs_decompose(mech):
+            return "legs"  # any parallel mechanism whose legs decompose: the legs route
         raise ConfigError(f"{scenario.doc.where(('ik', 'method'))}: no closed form fits "
                           f"mechanism {mech.name} (declare closed_form: stewart | direct_drive | "
-                          "lee_spherical in the mechanism file, or use method: lm)")
+                          "lee_spherical in the mechanism file, give a parallel mechanism whose "
+                          "legs decompose, or use method: lm)")
     return kind
 
 
@@ -165,11 +175,24 @@ def beyond_reach(mech: Mechanism, T_P: np.ndarray, W: np.ndarray) -> np.ndarray:
 
 
 def check_budget(scenario: Scenario) -> None:
-    """The run's memory budget check (random targets), without solving."""
-    rt = scenario.section.random_targets
+    """The run's memory budget check (random targets) and time estimate, without solving."""
+    spec: IkSpec = scenario.section
+    if has_target_sets(spec):
+        return
+    rt = spec.random_targets
+    mech = load_mechanism(scenario.mechanism_path)
     if rt is not None:
-        mech = load_mechanism(scenario.mechanism_path)
-        _check_targets(scenario, mech, rt.count + len(scenario.section.targets))
+        _check_targets(scenario, mech, rt.count + len(spec.targets))
+    _estimate(scenario, mech, (rt.count if rt is not None else 0) + len(spec.targets))
+
+
+def _estimate(scenario: Scenario, mech: Mechanism, k: int) -> None:
+    """k targets' time before any work (:func:`mechkin.tasks.estimates.ik_seconds`)."""
+    spec: IkSpec = scenario.section
+    key = ("ik", "random_targets") if spec.random_targets is not None else ("ik", "targets")
+    budget.estimate_time(scenario.doc.where(key), ik_seconds(
+        mech, k, spec.method, spec.restarts, scenario.spec.outputs),
+        f"{k} ik targets ({spec.method}, up to {spec.restarts} restarts each)")
 
 
 def _check_targets(scenario: Scenario, mech: Mechanism, k: int) -> None:
@@ -204,6 +227,7 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     T_P, W, labels = _targets(scenario, mech)
     if len(T_P) == 0:
         raise ConfigError(f"{scenario.doc.where(('ik',))}: no targets to solve")
+    _estimate(scenario, mech, len(T_P))
     qv0, qw0 = _initial(scenario, mech)
     far = beyond_reach(mech, T_P, W)
     opts = ik_options(spec, scenario.spec.units)
@@ -213,10 +237,17 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
     fixed = held_values(scenario, mech)
     exact_batch = (solve_batch_analytic(mech, spec.method, T_P, W, qv0, qw0, opts)
                    if spec.batch and not far.any() and not fixed else None)
+    # many targets of an open chain that decomposes: the sequence in one compiled loop
+    # (the same answers as one by one, warm starts included)
+    seq_batch = (solve_sequence_batched(mech, T_P, W, far, spec.method, opts, qv0, qw0,
+                                        spec.warm_start)
+                 if not spec.batch and not fixed else None)
     if fixed:  # held joints: the remaining chain by subproblems, warm-started
         results, guesses = solve_held(mech, fixed, T_P, W, qv0, opts, spec.warm_start)
     elif exact_batch is not None:  # auto / analytic: one compiled call for every target
         results, guesses = exact_batch, [(qv0, qw0)] * len(T_P)
+    elif seq_batch is not None:
+        results, guesses = seq_batch
     elif spec.batch and not far.any():
         results, execution_info = _solve_batch(scenario, T_P, W, qv0, qw0, opts, ex)
         guesses = [(qv0, qw0)] * len(T_P)
@@ -227,10 +258,15 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
         from mechkin.tasks.progress import progress_bar
 
         show = progress if progress is not None or len(T_P) >= 1000 else False
-        with progress_bar(show, f"ik: {len(T_P)} targets") as update:
+        with progress_bar(show, f"ik: {len(T_P)} targets", deadline=False) as update:
             results, guesses, _ = solve_sequence(mech, T_P, W, far, spec.method, kind, opts,
-                                                 qv0, qw0, spec.warm_start, update)
+                                                 qv0, qw0, spec.warm_start, update,
+                                                 stop=budget.overrun)
     solve_s = time.perf_counter() - t0
+    if len(results) < len(T_P):  # stopped by --max-time: the solved targets only
+        budget.note_done(len(results), len(T_P), "targets")
+        k = len(results)
+        T_P, W, labels, far, guesses = T_P[:k], W[:k], labels[:k], far[:k], guesses[:k]
     all_sols = (_all_solutions(scenario, prepared, T_P, W, results, guesses, far, opts)
                 if spec.solutions == "all" else None)
     q = np.array([r.q for r in results])
@@ -290,6 +326,10 @@ def run(scenario: Scenario, progress: bool | None = None, prepared: Prepared | N
         "end_effector": mech.frame_names[mech.end_effector],
         "targets": records,
     }
+    if "analytic" in summary["methods_used"]:
+        structure = analytic_structure(mech, fixed)
+        if structure:
+            summary["analytic_structure"] = structure
     if execution_info is not None:
         summary["execution"] = execution_info
     if all_sols is not None:

@@ -62,6 +62,10 @@ def _all_solutions(sc: Scenario, prepared: Prepared, T_P: np.ndarray, W: np.ndar
         kind = prepared.recognise_closed_form()
     except ClosedFormMismatch:
         kind = None
+    if legs is None and kind is None and spec.method == "closed-form":
+        from mechkin.solvers.ik.analytic.legs import legs_for
+
+        legs = legs_for(mech)  # closed-form on a parallel mechanism whose legs decompose
     out: list[IkSolutions] = []
     for i, (T, w) in enumerate(zip(T_P, W, strict=True)):
         qv, qw = guesses[i]

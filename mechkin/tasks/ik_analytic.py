@@ -118,6 +118,12 @@ def solve_batch_analytic(mech: Mechanism, method: str, T_P: np.ndarray, W: np.nd
     lm), or None when the route does not apply to every target."""
     from mechkin.solvers.ik.analytic.api_ik import ik_analytic
 
+    if mech.cuts and method in ANALYTIC_METHODS and bool((W > 0).all()):
+        # Stewart-type legs: each leg's targets in one compiled loop, each from the guess
+        seq = _legs_sequence_batched(mech, T_P, W, np.zeros(len(T_P), dtype=bool), method,
+                                     opts, qv0, qw0, False)
+        if seq is not None:
+            return seq[0]
     rows = analytic_rows(mech, method, W)
     if not rows.all() or not np.allclose(W, W[:1]):
         return None
@@ -138,23 +144,41 @@ def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray,
     t0 = time.perf_counter()
     b = analytic_batch(mech, chain, T_P, refs)
     per = (time.perf_counter() - t0) / max(len(T_P), 1)
-    out = []
     iv = mech.independent
-    for i in range(len(T_P)):
-        n = int(b.count[i])
-        q = np.repeat(np.where(np.isfinite(mech.home), mech.home, 0.0)[None], n, axis=0)
-        q[:, iv] = b.q_v[i, :n]
-        out.append(IkSolutions(q=q, q_v=b.q_v[i, :n].copy(),
-                               position_error=b.position_error[i, :n].copy(),
-                               orientation_error=b.orientation_error[i, :n].copy(),
-                               distance=b.distance[i, :n].copy(), source="analytic", starts=8,
-                               time_s=per, complete=chain.complete))
-    return out
+    # every target's rows at once (views of fresh arrays, one per field), no per-row work
+    Q = np.broadcast_to(np.where(np.isfinite(mech.home), mech.home, 0.0),
+                        b.q_v.shape[:2] + (mech.n,)).copy()
+    Q[:, :, iv] = b.q_v
+    QV, PE = b.q_v.copy(), b.position_error.copy()
+    OE, D = b.orientation_error.copy(), b.distance.copy()
+    return [IkSolutions(q=Q[i, :n], q_v=QV[i, :n], position_error=PE[i, :n],
+                        orientation_error=OE[i, :n], distance=D[i, :n], source="analytic",
+                        starts=8, time_s=per, complete=chain.complete)
+            for i, n in enumerate(b.count.tolist())]
 
 
 def methods_used(results: list[IkResult]) -> list[str]:
     """The methods that produced the answers (``auto`` resolves to analytic or lm)."""
     return sorted({r.method for r in results})
+
+
+def analytic_structure(mech: Mechanism, fixed: dict[str, float] | None = None) -> str | None:
+    """The decomposition the analytic answers came from, for the summary: the serial class
+    (:func:`mechkin.solvers.ik.analytic.classify.classify`'s description, e.g. "spherical
+    wrist, h2 || h3") or the parallel mechanism's legs by kind; None when there is none."""
+    from mechkin.solvers.ik.analytic.classify import NotDecomposable, analytic_chain, held_chain
+
+    try:
+        if mech.cuts:
+            legs = parallel_legs(mech, "analytic")
+            if not legs:
+                return None
+            kinds = sorted({leg.kind for leg in legs})
+            return f"{len(legs)} legs solved one by one ({', '.join(kinds)})"
+        chain = held_chain(mech, fixed) if fixed else analytic_chain(mech)
+    except NotDecomposable:
+        return None
+    return None if chain is None else str(chain.description)
 
 
 def solutions_summary_extra(all_sols: list[IkSolutions]) -> dict[str, Any]:
@@ -190,3 +214,198 @@ def legs_all_solutions(mech: Mechanism, legs: Any, T: np.ndarray, qv: np.ndarray
                 np.asarray(qv, float), TOL_POS_ALL, TOL_ORI_ALL, SAME_TOL, "analytic legs",
                 len(q), t0)
     return replace(a, complete=True)
+
+
+#: Targets from which the ik task solves an analytic sequence in one compiled loop
+#: (:func:`solve_sequence_batched`); fewer go one by one (same answers, no extra compile).
+BATCH_MIN = 200
+
+
+def solve_sequence_batched(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndarray,
+                           method: str, opts: IkOptions, qv0: np.ndarray, qw0: np.ndarray,
+                           warm: bool) -> tuple[list[IkResult],
+                                                list[tuple[np.ndarray, np.ndarray]]] | None:
+    """The ik task's sequence (:func:`mechkin.tasks.ik_solve.solve_sequence`) of an open chain
+    that decomposes (``auto`` / ``analytic``, all six weights positive), solved in one compiled
+    loop (:func:`mechkin.solvers.ik.analytic.sequence.solve_sequence_into`): each target from
+    the previous answer when ``warm`` (else from the initial guess), every answer, status and
+    error identical to the per-target route; a target the loop cannot settle (beyond reach,
+    no analytic solution) goes through the per-target route there, and its answer becomes the
+    next guess as in the sequence. None when the route does not apply (the caller goes one by
+    one)."""
+    from mechkin.solvers.ik.analytic.dispatch import solve_ik_method
+    from mechkin.solvers.ik.analytic.finish import solve_one
+    from mechkin.solvers.ik.analytic.sequence import solve_sequence_into
+    from mechkin.solvers.ik.analytic.solve6r import KIND_ARM5, KIND_SCARA, KIND_SEARCH
+    from mechkin.solvers.ik.results import IkStatus
+    from mechkin.tasks.ik_solve import _out_of_reach
+
+    if method not in ANALYTIC_METHODS or len(T_P) < BATCH_MIN or not bool((W > 0).all()):
+        return None
+    chain = chain_for(mech, method, W[0])
+    if chain is None and mech.cuts:
+        return _legs_sequence_batched(mech, T_P, W, far, method, opts, qv0, qw0, warm)
+    if chain is None or chain.kind in (KIND_SCARA, KIND_ARM5, KIND_SEARCH) or \
+            not chain.identity:
+        return None
+    from mechkin.solvers.ik.accel import announce
+
+    announce(solve_one, "analytic IK (finish.solve_one)")
+    announce(solve_sequence_into, "analytic IK (sequence.solve_sequence_into)")
+    t0 = time.perf_counter()
+    m = len(T_P)
+    Ts = np.ascontiguousarray(T_P, dtype=np.float64)
+    q6 = np.empty((m, 6))
+    e3 = np.empty((m, 3))
+    mask = np.zeros(m, dtype=np.int64)
+    settled = np.zeros(m, dtype=bool)
+    lone: dict[int, IkResult] = {}
+    guess_of: list[tuple[np.ndarray, np.ndarray]] = [None] * m  # type: ignore[list-item]
+    skip = np.ascontiguousarray(far, dtype=bool)
+    qv, qw = np.asarray(qv0, dtype=np.float64), np.asarray(qw0, dtype=np.float64)
+    start = 0
+    while start < m:
+        stop = int(solve_sequence_into(chain.packed, Ts, np.ascontiguousarray(qv), skip,
+                                       float(opts.tol_pos), float(opts.tol_ori), bool(warm),
+                                       start, q6, e3, mask))
+        settled[start:stop] = True
+        for r in range(start, stop):  # the guesses the sequence had
+            guess_of[r] = (qv, qw)
+            if warm:
+                qv = q6[r]
+        if stop == m:
+            break
+        guess_of[stop] = (qv, qw)
+        if far[stop]:
+            res = _out_of_reach(mech, qv, qw)
+        else:
+            res = solve_ik_method(mech, T_P[stop], method=method, q_v0=qv, q_w0=qw,
+                                  weights=W[stop], options=opts)
+            if warm and res.status is not IkStatus.SINGULAR:
+                qv, qw = res.q_v, res.q_w
+        lone[stop] = res
+        start = stop + 1
+    per = (time.perf_counter() - t0) / m
+    iv, dep = mech.independent, mech.dependent
+    names = [mech.joint_names[j] for j in iv]
+    Q = np.array(q6) if chain.all_joints else np.repeat(mech.home[None].astype(np.float64),
+                                                        m, axis=0)
+    if not chain.all_joints:
+        Q[:, iv] = q6
+    QV = np.array(q6)
+    QW = np.zeros((m, 0)) if chain.all_joints else Q[:, dep]
+    PE, OE = e3[:, 0].copy(), e3[:, 1].copy()
+    # the per-target route's f, elementwise in the same order of operations
+    F = 0.5 * ((W[:, 0] + W[:, 1] + W[:, 2]) * PE * PE + (W[:, 3] + W[:, 4] + W[:, 5]) * OE
+               * OE) / 3.0
+    FH = F[:, None].copy()
+    ok = IkStatus.OK
+    results: list[IkResult] = [
+        lone[r] if not settled[r] else IkResult(
+            q_v=QV[r], q_w=QW[r], q=Q[r], status=ok, position_error=float(PE[r]),
+            orientation_error=float(OE[r]), f=float(F[r]), grad_norm=0.0, iterations=0,
+            evaluations=1, time_s=per, f_history=FH[r],
+            at_limit=tuple(names[j] for j in range(6) if int(mask[r]) >> j & 1),
+            method="analytic")
+        for r in range(m)]
+    return results, guess_of
+
+
+def _legs_sequence_batched(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndarray,
+                           method: str, opts: IkOptions, qv0: np.ndarray, qw0: np.ndarray,
+                           warm: bool
+                           ) -> tuple[list[IkResult],
+                                      list[tuple[np.ndarray, np.ndarray]]] | None:
+    """:func:`solve_sequence_batched` of a parallel mechanism whose legs are all arms of the
+    compiled classes (Stewart-type U-P-S legs, :mod:`mechkin.solvers.ik.analytic.legs`): each
+    leg's sequence in one compiled loop (each target from the previous answer when ``warm``),
+    the answers verified together (FK of {E}, the loop closure); a target where a leg has no
+    solution, or the verification fails, goes through the per-target route there (``auto``:
+    lm) and the legs go on from its answer. The joints equal the per-target route's bit for
+    bit (the same compiled call per leg and target); the verification errors are the batched
+    FK's (equal to round-off). None when a leg is of another kind."""
+    from mechkin.model.kinematics import closure_residual, forward_kinematics
+    from mechkin.solvers.ik.analytic.dispatch import solve_ik_method
+    from mechkin.solvers.ik.analytic.legs import _leg_targets, legs_for
+    from mechkin.solvers.ik.analytic.sequence import solve_sequence_into
+    from mechkin.solvers.ik.analytic.solve6r import KIND_ARM5, KIND_SCARA
+    from mechkin.solvers.ik.kernel import pose_errors
+    from mechkin.solvers.ik.results import IkStatus
+    from mechkin.tasks.ik_solve import _out_of_reach
+
+    legs = legs_for(mech)
+    if legs is None or any(
+            leg.kind != "chain" or leg.prefix.size or not leg.chain.identity or
+            leg.chain.kind in (KIND_SCARA, KIND_ARM5) for leg in legs):
+        return None
+    t0 = time.perf_counter()
+    m, n = len(T_P), mech.n
+    iv, dep = mech.independent, mech.dependent
+    e = int(mech.end_effector)
+    # the legs' targets exactly as solve_legs forms them, one pose at a time
+    inv_e = np.linalg.inv(mech.frame_offset[e])
+    T_ends = [np.empty((m, 4, 4)) for _ in legs]
+    q_dummy = np.zeros((1, n))
+    for k in range(m):
+        Tp = (np.asarray(T_P[k], dtype=np.float64) @ inv_e)[None]
+        for leg, out in zip(legs, T_ends, strict=True):
+            out[k] = _leg_targets(mech, leg, Tp, q_dummy)[0]
+    skip = np.ascontiguousarray(far, dtype=bool)
+    cur = np.where(np.isfinite(mech.home), mech.home, 0.0)
+    cur[iv], cur[dep] = qv0, qw0
+    Q = np.empty((m, n))
+    PE, OE = np.empty(m), np.empty(m)
+    settled = np.zeros(m, dtype=bool)
+    lone: dict[int, IkResult] = {}
+    guess_of: list[tuple[np.ndarray, np.ndarray]] = [None] * m  # type: ignore[list-item]
+    q6, e3, mask = np.empty((m, 6)), np.empty((m, 3)), np.zeros(m, dtype=np.int64)
+    inf = float("inf")
+    start = 0
+    while start < m:
+        stop = m
+        Q[start:] = cur
+        for leg, T_end in zip(legs, T_ends, strict=True):
+            s = int(solve_sequence_into(leg.chain.packed, T_end,
+                                        np.ascontiguousarray(cur[leg.joints]), skip, inf,
+                                        inf, bool(warm), start, q6, e3, mask))
+            stop = min(stop, s)
+            Q[start:s, leg.joints] = q6[start:s]
+        if stop > start:  # verified like legs_ik: FK of {E}, the loops closed, the tolerances
+            kin = forward_kinematics(mech, Q[start:stop])
+            T_E = kin.frames(mech, [mech.end_effector])[:, 0]
+            pe, oe = pose_errors(T_E, np.asarray(T_P[start:stop], dtype=np.float64))
+            phi = closure_residual(mech, kin)
+            closed = (np.linalg.norm(phi, axis=1) < 1e-8 if phi.shape[1]
+                      else np.ones(stop - start, dtype=bool))
+            good = closed & (pe <= opts.tol_pos) & (oe <= opts.tol_ori)
+            if not good.all():
+                stop = start + int(np.argmin(good))
+            PE[start:stop], OE[start:stop] = pe[:stop - start], oe[:stop - start]
+        settled[start:stop] = True
+        for r in range(start, stop):  # the guesses the sequence had
+            guess_of[r] = (cur[iv], cur[dep])
+            if warm:
+                cur = Q[r]
+        if stop == m:
+            break
+        guess_of[stop] = (cur[iv], cur[dep])
+        if far[stop]:
+            res = _out_of_reach(mech, cur[iv], cur[dep])
+        else:
+            res = solve_ik_method(mech, T_P[stop], method=method, q_v0=cur[iv], q_w0=cur[dep],
+                                  options=opts, weights=W[stop])
+        if warm and res.status is not IkStatus.SINGULAR:
+            cur = cur.copy()
+            cur[iv], cur[dep] = res.q_v, res.q_w
+        lone[stop] = res
+        start = stop + 1
+    per = (time.perf_counter() - t0) / m
+    QV, QW = Q[:, iv], Q[:, dep]
+    ok = IkStatus.OK
+    results = [
+        lone[r] if not settled[r] else IkResult(
+            q_v=QV[r], q_w=QW[r], q=Q[r], status=ok, position_error=float(PE[r]),
+            orientation_error=float(OE[r]), f=0.0, grad_norm=0.0, iterations=0,
+            evaluations=1, time_s=per, f_history=np.zeros(1), method="analytic legs")
+        for r in range(m)]
+    return results, guess_of

@@ -38,12 +38,23 @@ from mechkin.solvers.ik.analytic.dispatch import ANALYTIC_METHODS, solve_ik_meth
 from mechkin.tasks.distributed import Execution, map_jobs
 
 
-def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str) -> IkResult:
+def _closed_form(mech: Mechanism, T: np.ndarray, q_w0: np.ndarray, kind: str,
+                 q_v0: np.ndarray | None = None) -> IkResult:
     """The closed form the mechanism's structure admits (``closed_form:`` or recognised from
-    the geometry: Stewart leg lengths, kim1995's direct-drive appendix, lee's legs), then the
-    loop closure and verification by forward kinematics."""
+    the geometry: Stewart leg lengths, kim1995's direct-drive appendix, lee's legs; all solved
+    through the leg decomposition), then the loop closure and verification by forward
+    kinematics. ``kind`` ``legs`` (a parallel mechanism without a named closed form whose legs
+    decompose): every joint from the legs, each leg's branch nearest the guess (q_v0, q_w0)."""
     from mechkin.solvers.closed_form.recognise import closed_form_ik
 
+    if kind == "legs":
+        from dataclasses import replace
+
+        from mechkin.solvers.ik.analytic.legs import legs_for, legs_ik
+
+        qv = mech.home[mech.independent] if q_v0 is None else q_v0
+        r = legs_ik(mech, legs_for(mech), T, qv, q_w0, 1e-4, 1e-4)
+        return replace(r, method="closed-form")
     t0 = time.perf_counter()
     qv, _ = closed_form_ik(mech, T[None], kind, tol=1e-4)
     res = solve_closure(mech, qv, q_w0[None])
@@ -72,7 +83,8 @@ def _out_of_reach(mech: Mechanism, qv: np.ndarray, qw: np.ndarray) -> IkResult:
     return IkResult(q_v=np.asarray(qv, float), q_w=np.asarray(qw, float), q=q,
                     status=IkStatus.UNREACHABLE, position_error=float("inf"),
                     orientation_error=0.0, f=0.0, grad_norm=0.0, iterations=0, evaluations=0,
-                    time_s=0.0, f_history=np.zeros(0), method="reach bound")
+                    time_s=0.0, f_history=np.zeros(0), method="reach bound",
+                    at_limit=joints_at_limit(mech, q[None])[0])
 
 
 def joints_at_limit(mech: Mechanism, q: np.ndarray, tol: float = 1e-9) -> list[tuple[str, ...]]:
@@ -116,7 +128,8 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
                    method: str, kind: str | None, opts: IkOptions, qv: np.ndarray,
                    qw: np.ndarray, warm: bool, update: Any = None, offset: int = 0,
                    total: int | None = None,
-                   cold: tuple[np.ndarray, np.ndarray] | None = None
+                   cold: tuple[np.ndarray, np.ndarray] | None = None,
+                   stop: Any = None,
                    ) -> tuple[list[IkResult], list[tuple[np.ndarray, np.ndarray]],
                               tuple[np.ndarray, np.ndarray]]:
     """Solve the targets in order, each warm-started from the previous solution when
@@ -137,7 +150,7 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
             results.append(_out_of_reach(mech, qv, qw))
         else:
             if method == "closed-form":
-                r = _closed_form(mech, T, qw, kind)
+                r = _closed_form(mech, T, qw, kind, qv)
             elif method in ANALYTIC_METHODS:
                 r = solve_ik_method(mech, T, method=method, q_v0=qv, q_w0=qw, weights=w,
                                     options=opts)
@@ -149,6 +162,8 @@ def solve_sequence(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far: np.ndar
                 qv, qw = r.q_v, r.q_w
         if update is not None and (i % 50 == 49 or i == len(T_P) - 1):
             update(offset + i + 1, total)
+        if stop is not None and i + 1 < len(T_P) and stop():
+            break  # --max-time: the targets solved so far are kept
     return results, guesses, (qv, qw)
 
 
@@ -211,7 +226,7 @@ def _solve_split(sc: Scenario, mech: Mechanism, T_P: np.ndarray, W: np.ndarray,
         jobs.append({"mechanism": mspec, "T_P": T_P[sl], "W": W[sl], "far": far[sl],
                      "method": spec.method, "kind": kind, "options": opts, "q_v0": qv0,
                      "q_w0": qw0, "warm": warm, "overlap": o, "start": a})
-    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex)
+    parts = map_jobs(_sequence_job, jobs, f"ik: {k} targets", ex, partial=True)
     repaired = []
     for j in range(1, len(parts)):
         if warm and not _same_start(mech, parts[j]["entry"], parts[j - 1]["last"]):
@@ -251,6 +266,6 @@ def _solve_batch(sc: Scenario, T_P: np.ndarray, W: np.ndarray, qv0: np.ndarray,
     mspec = mechanism_spec(sc.mechanism_path)
     jobs = [{"mechanism": mspec, "T_P": T_P[a:a + BATCH_CHUNK], "W": W[a:a + BATCH_CHUNK],
              "q_v0": qv0, "q_w0": qw0, "options": opts} for a in range(0, k, BATCH_CHUNK)]
-    parts = map_jobs(_batch_job, jobs, f"ik: {k} targets (batch)", ex)
+    parts = map_jobs(_batch_job, jobs, f"ik: {k} targets (batch)", ex, partial=True)
     info = ({**ex.describe(len(jobs)), "chunk": BATCH_CHUNK} if ex.split else None)
     return [r for p in parts for r in p], info

@@ -24,15 +24,18 @@ def resolve(progress: bool | None) -> tuple[bool, bool]:
 
 
 @contextlib.contextmanager
-def progress_bar(progress: bool | None, description: str
+def progress_bar(progress: bool | None, description: str, deadline: bool = True
                  ) -> Iterator[Callable[[int, int], None] | None]:
-    """A rich progress bar on stderr as a callback ``update(done, total)``; None when off."""
+    """A rich progress bar on stderr as a callback ``update(done, total)``; None when off.
+    ``deadline=False``: the caller stops at its own safe points (budget.overrun) and keeps
+    the finished rows, so the callback never raises."""
     from mechkin.tasks.budget import check_deadline, time_limit
 
     show, force = resolve(progress)
     if not show:
         # with a --max-time the callback still runs: it stops the run between two jobs
-        yield (lambda done, total: check_deadline()) if time_limit() is not None else None
+        yield ((lambda done, total: check_deadline()) if time_limit() is not None and deadline
+               else None)
         return
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -44,6 +47,7 @@ def progress_bar(progress: bool | None, description: str
 
         def update(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
-            check_deadline()
+            if deadline:
+                check_deadline()
 
         yield update

@@ -43,6 +43,7 @@ from mechkin.solvers.dynamics.from_mechanism import (
     planar_two_link_from_mechanism,
 )
 from mechkin.solvers.dynamics.open_chain import InverseDynamics
+from mechkin.solvers.result import Stopped, stop_when
 from mechkin.solvers.track.dpct import (
     ConveyorReference,
     TrackLimits,
@@ -59,6 +60,7 @@ from mechkin.solvers.track.path_geometry import (
 from mechkin.solvers.track.path_ik import HandLineIK, HandPathIK, PathIKError
 from mechkin.solvers.track.plan import plan_track
 from mechkin.spatial.rotations import matrix_from_rpy
+from mechkin.tasks import budget
 from mechkin.tasks.common import evaluate_expect, expect_messages, joint_factor, output_flags
 from mechkin.tasks.track_cases import case_record, case_traces, dp_options, solve_cases
 
@@ -190,6 +192,13 @@ def _solve(spec: TrackSpec, grid: GridSpec, dyn: InverseDynamics, path: HandPath
     )
 
 
+def _solve_whole(*args: Any) -> TrackResult:
+    """:func:`_solve` of one grid of a grid study (a job): never stopped inside its DP (the
+    run stops between two grids, keeping the grids solved)."""
+    with stop_when(None):
+        return _solve(*args)
+
+
 def _grid_record(res: TrackResult) -> dict[str, Any]:
     s = res.summary()
     keys = ("status", "message", "t_a_s", "t_start_s", "duration_s", "peak_torque", "limits_ok",
@@ -200,15 +209,10 @@ def _grid_record(res: TrackResult) -> dict[str, Any]:
     return rec
 
 
-#: Seconds per DP transition (N1 x N2 x N2 of a grid): 50 x 100 solves in 0.13 s, 50 x 500 in
-#: 2.2 s on a loaded 2-core machine (1.8e-7 to 2.6e-7 s each); for the estimate before a job.
-DP_S_PER_TRANSITION = 3e-7
-
-
 def _check_budget(scenario: Scenario, mech: Any) -> None:
     """The DP's memory before any work: N1 x N2 states (cost, predecessor, times, joint
     values, rates and torques per state) plus one stage's N2 x N2 transitions per joint."""
-    from mechkin.tasks import budget
+    from mechkin.tasks.estimates import dp_seconds
 
     spec: TrackSpec = scenario.section
     grids = [spec.grid] + list(spec.grid_study or [])
@@ -218,7 +222,7 @@ def _check_budget(scenario: Scenario, mech: Any) -> None:
         key = ("track", "grid") if k == 0 else ("track", "grid_study", str(k - 1))
         budget.check(scenario.doc.where(key), 2.0 * (states + stage),
                      f"a {g.N1} x {g.N2} DP grid for {mech.n} joints")
-        budget.estimate_time(scenario.doc.where(key), DP_S_PER_TRANSITION * g.N1 * g.N2 ** 2,
+        budget.estimate_time(scenario.doc.where(key), dp_seconds(g.N1, g.N2, k == 0),
                              f"a {g.N1} x {g.N2} DP grid")
 
 
@@ -261,7 +265,13 @@ def run(scenario: Scenario) -> Report:
         except ConfigError as exc:
             raise ConfigError(f"{doc.where(('track', 'conveyor'))}: {exc}") from None
 
-    res = _solve(spec, spec.grid, dyn, path, ref, limits, list(mech.joint_names))
+    n_plans = (1 + len([g for g in spec.grid_study or [] if g != spec.grid])
+               + len(spec.cases or []))  # the scenario's grid, the other grids, the cases
+    try:
+        res = _solve(spec, spec.grid, dyn, path, ref, limits, list(mech.joint_names))
+    except Stopped:  # --max-time between two DP stages: no plan, the summary says so
+        budget.note_done(0, n_plans, "plans")
+        return _stopped_report(scenario, mech)
     study: list[dict[str, Any]] | None = None
     study_results: list[TrackResult] = []
     if spec.grid_study is not None:
@@ -270,13 +280,18 @@ def run(scenario: Scenario) -> Report:
         from mechkin.tasks.distributed import call, map_jobs
 
         todo = [g for g in spec.grid_study if g != spec.grid]
-        solved = iter(map_jobs(call, [(_solve, (spec, g, dyn, path, ref, limits,
+        solved = iter(map_jobs(call, [(_solve_whole, (spec, g, dyn, path, ref, limits,
                                                 list(mech.joint_names))) for g in todo],
-                               f"track: grid study ({len(todo)} grids)"))
-        study_results = [res if g == spec.grid else next(solved) for g in spec.grid_study]
+                               f"track: grid study ({len(todo)} grids)", partial=True))
+        # after a --max-time stop: the grids solved so far
+        study_results = [r for r in (res if g == spec.grid else next(solved, None)
+                                     for g in spec.grid_study) if r is not None]
         study = [_grid_record(r) for r in study_results]
     cases = solve_cases(scenario, mech, res, lambda lm, dp: _solve(
         spec, spec.grid, dyn, path, ref, lm, list(mech.joint_names), dp))  # track.cases
+    done = 1 + len([r for r in study_results if r is not res]) + len(cases)
+    if budget.stop_info() is not None and done < n_plans:  # stopped before the last plan
+        budget.note_done(done, n_plans, "plans")
 
     summary: dict[str, Any] = {
         "scenario": scenario.name,
@@ -344,6 +359,18 @@ def run(scenario: Scenario) -> Report:
     return Report(task="track", scenario=scenario.name, summary=summary, checks=checks,
                   solver_ok=ok, writer="track", data=rec, outputs=output_flags(scenario),
                   scenario_path=scenario.path, messages=messages)
+
+
+def _stopped_report(scenario: Scenario, mech: Mechanism) -> Report:
+    """The report of a run stopped by ``--max-time`` inside the scenario's own DP: no plan
+    (only summary.json; :func:`mechkin.tasks.budget.mark_stopped` adds the status)."""
+    g = scenario.section.grid
+    summary = {"scenario": scenario.name, "task": "track", "mechanism": mech.name,
+               "dynamics": scenario.section.dynamics, "status": "stopped",
+               "grid": {"N1": g.N1, "N2": g.N2}}
+    return Report(task="track", scenario=scenario.name, summary=summary, solver_ok=False,
+                  writer="track", data=None, outputs=output_flags(scenario),
+                  scenario_path=scenario.path)
 
 
 def _record(scenario: Scenario, mech: Mechanism, res: TrackResult, others: list[TrackResult],

@@ -26,6 +26,7 @@ from mechkin.config.track_spec import (
 )
 from mechkin.errors import ConfigError
 from mechkin.records.track import CaseTrace
+from mechkin.solvers.result import Stopped
 from mechkin.solvers.track.dpct import DPOptions, TrackLimits, TrackResult
 
 
@@ -68,7 +69,10 @@ def solve_cases(
         if lim_spec == spec.limits and dp_spec == spec.dp:
             res = own
         else:
-            res = solve(TrackLimits(**lim), dp_options(dp_spec))
+            try:
+                res = solve(TrackLimits(**lim), dp_options(dp_spec))
+            except Stopped:  # --max-time: the cases solved so far
+                break
         out.append((case, res, lim))
     return out
 

@@ -134,10 +134,6 @@ def fk_problems(sc: Any, mech: Any) -> list[str]:
                                           "an independent joint"))
         fill, bad = floating_base_fill(sc, mech, spec.motion)
         out += bad
-        for i, n in enumerate(names):
-            if n not in spec.motion and i not in fill:
-                out.append(f"{doc.where(('fk', 'motion'))}: no motion for independent joint "
-                           f"{short(n)}")
     elif spec.table is not None:
         tab = spec.table
         if "t" not in tab:
@@ -231,10 +227,11 @@ def ik_problems(sc: Any, mech: Any, prepared: Any = None) -> list[str]:
         try:
             kind = (recognise_closed_form(mech) if prepared is None
                     else prepared.recognise_closed_form())
-            if kind is None:
+            if kind is None and not _legs_decompose(mech):
                 out.append(f"{doc.where(('ik', 'method'))}: no closed form fits mechanism "
                            f"{short(mech.name)} (declare closed_form: stewart | direct_drive | "
-                           "lee_spherical in the mechanism file, or use method: lm)")
+                           "lee_spherical in the mechanism file, give a parallel mechanism "
+                           "whose legs decompose, or use method: lm)")
         except ClosedFormMismatch as exc:
             out.append(f"{doc.where(('mechanism',))}: {short_str(str(exc), 200)}")
     if spec.method == "analytic":
@@ -462,6 +459,7 @@ _FK_NESTED = {"closure": {"n_cuts", "n_equations", "max_residual", "iterations_m
 _IK_KEYS = {"scenario", "task", "mechanism", "method", "status", "n_targets", "counts",
             "max_position_error", "max_orientation_error", "solve_time_s",
             "median_time_per_target_s", "end_effector", "targets", "solutions", "methods_used",
+            "analytic_structure",
             "n_target_sets", "floating_base", "target_sets"}
 _IK_TARGET_KEYS = {"name", "status", "q", "q_v", "position_error", "orientation_error",
                    "weights", "f", "grad_norm", "iterations", "evaluations", "time_s",
@@ -495,8 +493,16 @@ _JOINT_SWEEP_KEYS = _HEAD | {"mechanism", "method", "seed", "swept_joints", "ful
                              "isotropy_normalized", "isotropy_position"}
 
 
+#: Keys of every task's summary: a --max-time stop (budget.mark_stopped), the time estimate.
+_RUN_KEYS = {"stopped", "estimated_time_s"}
+
+
 def summary_top_keys(sc: Any) -> set[str]:
     """The top-level keys a run of ``sc`` can put in summary.json before the expects."""
+    return _task_top_keys(sc) | _RUN_KEYS
+
+
+def _task_top_keys(sc: Any) -> set[str]:
     name = sc.section_name
     if name == "fk":
         return _FK_KEYS
@@ -564,3 +570,11 @@ def _deep_key_problem(sc: Any, mech: Any | None, parts: list[str]) -> str | None
         if len(parts) >= 4 and parts[2] == "q" and parts[3] not in joints:
             return f"q has no joint {short(parts[3])} (joints: {short_list(joints)})"
     return None
+
+
+def _legs_decompose(mech: Any) -> bool:
+    """Whether ``method: closed-form`` can solve a mechanism without a named closed form: a
+    parallel mechanism whose legs decompose (:mod:`mechkin.solvers.ik.analytic.legs`)."""
+    from mechkin.solvers.ik.analytic.legs import legs_for
+
+    return bool(mech.cuts) and mech.end_effector is not None and legs_for(mech) is not None

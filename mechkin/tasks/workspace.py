@@ -92,7 +92,7 @@ def _grid_size(axes: list[Any]) -> int:
 def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
     """Estimate the sweep's peak memory from the scenario (grid sizes x joints and frames,
     samples, poses) and refuse it beyond the budget, before any work (mechkin.tasks.budget)."""
-    from mechkin.tasks import budget
+    from mechkin.tasks import budget, estimates
 
     spec = sc.section
     doc = sc.doc
@@ -120,6 +120,8 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
             m = _grid_size(list((spec.joints or {}).values()))
         budget.check(doc.where(("workspace",)), 2.0 * per * m,
                      f"a joint sweep of {m} samples of {mech.name} ({mech.n} joints)")
+        budget.estimate_time(doc.where(("workspace",)), estimates.joint_sweep_seconds(mech, m),
+                             f"a joint sweep of {m} samples of {mech.name}")
     else:
         axes = [a for a in (getattr(spec, "positions", None) or {}).values()] if isinstance(
             getattr(spec, "positions", None), dict) else []
@@ -127,13 +129,8 @@ def check_workspace_budget(sc: Scenario, ex: dict[str, Any]) -> None:
         budget.check(doc.where(("workspace",)), 3.0 * per * m,
                      f"a task-space sweep of {m} poses of {mech.name} ({mech.n} joints)")
         starts = 1 + int(getattr(spec, "restarts", 0) or 0)
-        budget.estimate_time(doc.where(("workspace",)), IK_S_PER_START * m * starts,
+        budget.estimate_time(doc.where(("workspace",)), estimates.task_space_seconds(m, starts),
                              f"a task-space sweep of {m} poses x {starts} starts")
-
-
-#: Seconds per ik start of a task-space sweep (121 poses x 9 starts of the PUMA: 10 s of compute
-#: on a loaded 2-core machine); for the estimate before a long job.
-IK_S_PER_START = 1e-2
 
 
 def _execution(sc: Scenario, workers: int | None, scheduler: str | None,

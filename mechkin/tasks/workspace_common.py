@@ -22,12 +22,13 @@ from mechkin.tasks.common import expect_messages, output_flags, with_expect
 
 MAX_SWEEP_SAMPLES = 5_000_000
 
-def _progress_bar(ex: dict[str, Any], description: str) -> Any:
-    """The shared progress bar (:mod:`mechkin.tasks.progress`) for the resolved options."""
+def _progress_bar(ex: dict[str, Any], description: str, deadline: bool = True) -> Any:
+    """The shared progress bar (:mod:`mechkin.tasks.progress`) for the resolved options
+    (``deadline=False``: the sweep stops at its own safe points under --max-time)."""
     from mechkin.tasks.progress import progress_bar
 
     flag = False if not ex["progress"] else (True if ex["force_terminal"] else None)
-    return progress_bar(flag, description)
+    return progress_bar(flag, description, deadline)
 
 
 def _head(sc: Scenario, kind: str) -> dict[str, Any]:

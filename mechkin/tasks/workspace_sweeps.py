@@ -22,6 +22,7 @@ from mechkin.config.units import angle_factor, length_factor
 from mechkin.errors import ConfigError
 from mechkin.records import Report
 from mechkin.records.workspace import WorkspaceOutput
+from mechkin.tasks import budget
 from mechkin.tasks.workspace_common import (
     MAX_SWEEP_SAMPLES,
     NORMALIZED_DEFINITION,
@@ -98,11 +99,13 @@ def _run_task_space(sc: Scenario, ex: dict[str, Any]) -> Report:
     T_P = _task_poses(sc)
     t0 = time.perf_counter()
     n_jobs = max(1, -(-T_P.shape[0] // spec.chunk))
-    with _progress_bar(ex, f"{sc.name}: ik chunks") as cb:
+    with _progress_bar(ex, f"{sc.name}: ik chunks", deadline=False) as cb:
         rec = task_space_sweep(sc.mechanism_path, T_P, frame=f, weights=spec.weights,
                                restarts=spec.restarts, seed=spec.seed, max_iter=spec.max_iter,
                                chunk=spec.chunk, workers=ex["workers"], address=ex["address"],
-                               progress=cb, length=_char_length(sc))
+                               progress=cb, length=_char_length(sc), stop=_stop())
+    if len(rec.reachable) < T_P.shape[0]:  # stopped by --max-time: the finished chunks
+        budget.note_done(len(rec.reachable), T_P.shape[0], "poses")
     summary: dict[str, Any] = {
         **_head(sc, "task_space"),
         "mechanism": mech.name,
@@ -221,11 +224,15 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
         jobs_kw = {"run_jobs": lambda fn, jobs, prog: run_jobs(
                        fn, jobs, workers=n_w, address=ex["address"], progress=prog),
                    "n_jobs": 4 * (n_w or 4), "mechanism": mechanism_spec(sc.mechanism_path)}
-    with _progress_bar(ex, f"{sc.name}: {'jobs' if split else 'samples'}") as cb:
+    with _progress_bar(ex, f"{sc.name}: {'jobs' if split else 'samples'}",
+                       deadline=split) as cb:
         rec = joint_sweep(mech, qv, f, chunk=spec.chunk, manipulability=spec.manipulability,
                           grid_shape=grid_shape, seed_from=spec.seed_from,
                           mode_jump=spec.mode_jump, progress=cb, length=_char_length(sc),
-                          **jobs_kw)
+                          stop=None if split else _stop(), **jobs_kw)
+    if len(rec.reachable) < m:  # stopped by --max-time: the evaluated samples
+        budget.note_done(len(rec.reachable), m, "samples")
+        qv, m, grid_shape = qv[:len(rec.reachable)], len(rec.reachable), None
     reach = rec.reachable
     elapsed = time.perf_counter() - t0
     bbox, volume = point_cloud_volume(rec.position[reach],
@@ -297,6 +304,11 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
     return _report(sc, summary, WorkspaceOutput("joint_sweep", rec, title=title,
                                                 joint_columns=_joint_columns(mech),
                                                 slices=slices, robot=_snapshot(sc, mech)))
+
+
+def _stop() -> Any:
+    """The sweep's stop hook under ``--max-time`` (keep the finished chunks), else None."""
+    return budget.overrun if budget.time_limit() is not None else None
 
 
 def _snapshot(sc: Scenario, mech: Any) -> Any:

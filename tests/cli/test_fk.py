@@ -97,3 +97,29 @@ def test_info_json_keys():
               "dependent"):
         assert k in info
     assert (info["n_coordinates"], info["n_cuts"], info["n_equations"], info["dof"]) == (3, 1, 2, 1)
+
+
+def test_joints_without_a_motion_hold_their_home_value(tmp_path):
+    """An fk motion that names some joints: the others hold their home values (one note
+    names them), equal to giving them as constants at home; `check` accepts the file."""
+    root = Path(__file__).resolve().parents[2]
+    mech = root / "mechanisms" / "puma560.yaml"
+    head = (f"name: part\ntask: fk\nmechanism: {mech}\nunits: {{angle: deg}}\nfk:\n"
+            "  time: {start: 0, stop: 1, step: 0.25}\n  motion:\n"
+            "    q2: {type: ramp, from: 0, to: 40}\n")
+    part = tmp_path / "part.yaml"
+    part.write_text(head)
+    full = tmp_path / "full.yaml"
+    full.write_text(head.replace("name: part", "name: full") + "".join(
+        f"    {q}: {{type: constant, value: 0}}\n" for q in ("q1", "q3", "q4", "q5", "q6")))
+    res = runner.invoke(app, ["fk", str(part), "--out", str(tmp_path / "p"), "--no-plots"])
+    assert res.exit_code == 0, res.output
+    notes = [ln for ln in res.stderr.splitlines() if "without a motion" in ln]
+    assert runner.invoke(app, ["check", str(part)]).exit_code == 0
+    assert len(notes) == 1 and notes[0].startswith(f"{part}:7: fk.motion: note: 5 independent")
+    assert "q1, q3, q4, q5, q6" in notes[0]
+    res = runner.invoke(app, ["fk", str(full), "--out", str(tmp_path / "f"), "--no-plots"])
+    assert res.exit_code == 0, res.output
+    a, b = read_csv(tmp_path / "p" / "fk.csv"), read_csv(tmp_path / "f" / "fk.csv")
+    for k in ("q1_rad", "q3_rad", "q6_rad", "ee_x_m", "ee_z_m"):
+        assert np.array_equal(np.asarray(a[k]), np.asarray(b[k])), k

@@ -392,10 +392,10 @@ for link in NO_INERTIA["links"]:
     link.pop("inertial", None)
 scen_case("scenario: track on a mechanism without inertial data", "track", dump(TRACK),
           r"track\.dynamics: rnea: no link of the chain has a mass",
-          mech=NO_INERTIA, run_names_file=False)
+          mech=NO_INERTIA)
 scen_case("scenario: closed_form_2link on the puma", "track",
           dump(mutated(TRACK, ["track", "dynamics"], "closed_form_2link")),
-          r"track\.dynamics: closed_form_2link: ", mech=PUMA, run_names_file=False)
+          r"track\.dynamics: closed_form_2link: ", mech=PUMA)
 NO_EE = mutated(FOURBAR, ["end_effector"], DELETE)
 scen_case("scenario: ik on a mechanism without end effector", "ik",
           dump(mutated(IK, ["ik", "targets", 0], {"xyz": [1, 0, 0], "quaternion": [1, 0, 0, 0]})),

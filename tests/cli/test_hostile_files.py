@@ -186,12 +186,14 @@ def test_a_joint_whose_column_collides_is_refused_naming_both(tmp_path, name):
     assert r.returncode == 2 and f"'{name}_m'" in r.stderr
 
 
-@pytest.mark.parametrize("lo,hi", [("1", "-1"), ("nan", "1"), ("0", "inf")])
-def test_the_urdf_importer_refuses_inverted_or_nonfinite_limits(tmp_path, lo, hi):
+@pytest.mark.parametrize("lo,hi,key", [("1", "-1", "joint[j].limit"),
+                                        ("nan", "1", "joint[j].limit"),
+                                        ("0", "inf", "joint[j].limit")])
+def test_the_urdf_importer_refuses_inverted_or_nonfinite_limits(tmp_path, lo, hi, key):
     robot = tmp_path / "r.urdf"
     robot.write_text(URDF.replace("TYPE", "revolute").replace("LO", lo).replace("HI", hi))
     r = _mechkin(tmp_path, "import", str(robot))
-    _one_line(r, f"{robot}:3:", "joint[j].limit")  # the <limit> element's own line
+    _one_line(r, f"{robot}:3:", key)  # at the <limit> element's own line
 
 
 # ---- item 9: the exit-3 list ------------------------------------------------------------------

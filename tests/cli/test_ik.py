@@ -94,3 +94,22 @@ ik:
     assert res.exit_code == 2
     assert "rpy, euler or quaternion" in res.output
     assert not (tmp_path / "o").exists()
+
+
+
+@pytest.mark.parametrize("name, edit, structure", [
+    # UR5: three parallel axes (shoulder, elbow, wrist 1) and the last two meeting; PUMA 560:
+    # a spherical wrist (the descriptions of mechkin.solvers.ik.analytic.classify)
+    ("ur5_ik", ("method: lm", "method: auto"), "three parallel axes h2 || h3 || h4"),
+    ("puma560_analytic_ik", ("task: ik", "task: ik"), "spherical wrist"),
+])
+def test_the_summary_names_the_analytic_structure(tmp_path, name, edit, structure):
+    from tests.scenario_copy import local_scenario
+
+    out = tmp_path / name
+    res = runner.invoke(app, ["ik", str(local_scenario(tmp_path, name, edit)), "--out", str(out),
+                              "--no-plots"])
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert "analytic" in s["methods_used"]
+    assert s["analytic_structure"].startswith(structure), s["analytic_structure"]

@@ -347,23 +347,3 @@ def test_mjcf_visuals_survive_the_yaml_round_trip(tmp_path):
     colours = [sorted(tuple(m.color.rgba) for m in r.robot.materials if m.color is not None)
                for r in (direct, via_yaml)]
     assert colours[0] == colours[1] and (1.0, 0.0, 0.0, 1.0) in colours[0]
-
-
-def test_export_of_an_imported_urdf_says_effort_and_velocity_are_not_given():
-    """The mechanism schema has no velocity or effort limits (a track scenario's ``limits:``
-    has them, and its MCAP's URDF carries them): ``mechkin export`` of the UR5 file (effort
-    150, 28; velocity 3.15, 3.2 in the source) writes the URDF-required 0 for both, which its
-    header comment says means "not given", and the source's position limits."""
-    from mechkin.config.schema import JointSpec
-
-    assert not {"velocity", "effort", "torque"} & set(JointSpec.model_fields)
-    text = _exported(robots_dir() / "ur_description/urdf/ur5_robot.urdf")
-    assert 'effort="0" velocity="0" in a limit: not given' in text
-    src = {j.name: j.limit for j in load_urdf(robots_dir() / "ur_description/urdf/ur5_robot.urdf"
-                                               ).robot.joints if j.limit is not None}
-    out = {j.name: j.limit for j in load_urdf(text).robot.joints if j.limit is not None}
-    assert set(out) == set(src) and len(src) == 6
-    for name, lim in out.items():
-        assert (lim.effort, lim.velocity) == (0.0, 0.0)
-        assert src[name].effort in (150.0, 28.0) and src[name].velocity in (3.15, 3.2)
-        assert (lim.lower, lim.upper) == (src[name].lower, src[name].upper)

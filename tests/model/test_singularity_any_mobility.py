@@ -106,13 +106,24 @@ def test_scara_characteristic_length_within_reach_and_isotropy_recomputed(tmp_pa
     L = rec.characteristic_length
     assert rep.summary["characteristic_length"]["value_m"] == L
     assert 0.0 < L <= 0.45 + 1e-12
+    q = np.asarray(rec.q)
+    # the SCARA's Jacobian (omega; v of the flange) written out in numpy: flange at
+    # p = (0.25 c1 + 0.2 c12, 0.25 s1 + 0.2 s12, 0.2 - d3), every revolute axis along z
+    c1, s1 = np.cos(q[:, 0]), np.sin(q[:, 0])
+    c12, s12 = np.cos(q[:, 0] + q[:, 1]), np.sin(q[:, 0] + q[:, 1])
+    px, py = 0.25 * c1 + 0.2 * c12, 0.25 * s1 + 0.2 * s12
+    J = np.zeros((len(q), 6, 4))
+    J[:, 2, [0, 1, 3]] = 1.0
+    J[:, 3, 0], J[:, 4, 0] = -py, px
+    J[:, 3, 1], J[:, 4, 1] = -0.2 * s12, 0.2 * c12
+    J[:, 5, 2] = -1.0
     mech = mechkin.load_mechanism(tmp_path / "scara.yaml")
     from mechkin.model.kinematics import forward_kinematics, frame_jacobian
 
-    q = rec.q
-    J = frame_jacobian(mech, forward_kinematics(mech, q), mech.end_effector)
-    J[:, 3:6, :] /= L
-    J[:, :, mech.s == 1] *= L
+    J_mk = frame_jacobian(mech, forward_kinematics(mech, q), mech.end_effector)
+    np.testing.assert_allclose(J_mk, J, atol=1e-12)  # mechkin's own Jacobian agrees
+    J[:, 3:6, :] /= L  # nondimensionalised: v rows / L, the prismatic column * L
+    J[:, :, 2] *= L
     s = np.linalg.svd(J, compute_uv=False)
     iso = s[:, -1] / s[:, 0]
     reach = np.asarray(rec.reachable, bool) if hasattr(rec, "reachable") else slice(None)

@@ -4,6 +4,7 @@ loses a target the same defaults solve alone."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import mechkin
 from tests.model import closed_chain_models as M
@@ -47,3 +48,84 @@ def test_batch_ik_never_reports_ok_outside_passive_limits(tmp_path):
             assert _passive_inside(mech, r.q)[0]
         if not _passive_inside(mech, r.q)[0]:
             assert r.status.value != "ok" and r.at_limit
+
+
+@pytest.mark.parametrize("name", ["xarm", "robotiq", "cassie", "slider", "watt"])
+def test_sequential_ik_with_the_defaults_loses_no_target(tmp_path, name):
+    # the five models (default passive limits), targets at random within-limit q_v: the same
+    # defaults (no restarts given) solve every target alone, in a warm-started sequence and in a
+    # batch
+    text = {"xarm": M.XARM, "robotiq": M.ROBOTIQ, "cassie": M.CASSIE, "slider": M.SLIDER,
+            "watt": M.WATT}[name]
+    mech, _ = load(tmp_path, text)
+    T = mechkin.fk(mech, random_qv(mech, 10, seed=7)).poses["end_effector"]
+    alone = [mechkin.ik(mech, T[k], weights=W_POS)[0].status.value for k in range(len(T))]
+    seq = [r.status.value for r in mechkin.ik(mech, T, weights=W_POS,
+                                              q_v0=mech.home[mech.independent])]
+    batch = [r.status.value for r in mechkin.ik(mech, T, weights=W_POS, batch=True)]
+    assert alone == ["ok"] * len(T)
+    assert seq == alone and batch == alone
+
+
+def test_a_passive_limit_that_blocks_the_target_is_reported_at_a_limit(tmp_path):
+    # the xArm gripper's finger joint limited to [0, 0.5] rad: driver 0.7 puts the pad where
+    # the parallelogram needs finger_joint = 0.7 (its limit blocks it); single, sequential and
+    # batch IK all say "at a limit" and name the joint (single used to say "unreachable")
+    mech, _ = load(tmp_path, M.XARM, **{"[0.035465, 0.042039, 0]}, limits: [0, 0.85]":
+                                         "[0.035465, 0.042039, 0]}, limits: [0, 0.5]"})
+    assert mech.upper[mech.joint_index("finger_joint")] == 0.5
+    fk = mechkin.fk(mech, [[0.7], [0.3]])
+    assert fk.status == ["outside limits", "converged"]
+    T = fk.poses["end_effector"]
+    runs = {"single": mechkin.ik(mech, T[0], weights=W_POS),
+            "sequence": mechkin.ik(mech, T, weights=W_POS, q_v0=[0.0]),
+            "batch": mechkin.ik(mech, T, weights=W_POS, batch=True)}
+    for how, res in runs.items():
+        r = res[0]
+        assert r.status.value == "at a limit", how
+        assert "finger_joint" in r.at_limit, how
+        assert r.position_error > 1e-4, how  # the target is not reached: never ok
+        if len(res) > 1:
+            assert res[1].status.value == "ok", how
+
+
+def test_the_ik_task_names_the_passive_joint_at_its_limit_for_every_target(tmp_path):
+    # mechkin ik on the xArm gripper (finger_joint limited to 0.5 rad): a target the finger
+    # limit blocks, then one beyond any reach (answered with the previous joints): both name
+    # finger_joint in joints_at_limit (the far one used to name none)
+    load(tmp_path, M.XARM, "xarm.yaml", **{"[0.035465, 0.042039, 0]}, limits: [0, 0.85]":
+                                           "[0.035465, 0.042039, 0]}, limits: [0, 0.5]"})
+    mech = mechkin.load_mechanism(tmp_path / "xarm.yaml")
+    p = mechkin.fk(mech, [[0.7]]).poses["end_effector"][0, :3, 3].tolist()
+    sc = tmp_path / "ik.yaml"
+    sc.write_text("name: xarm_ik\ntask: ik\nmechanism: xarm.yaml\n"
+                  "units: {length: m, angle: rad}\nik:\n  weights: [1, 1, 1, 0, 0, 0]\n"
+                  "  targets:\n"
+                  f"    - {{name: blocked, xyz: [{p[0]!r}, {p[1]!r}, 0.0], "
+                  "euler: {convention: XYZ, angles: [0, 0, 0]}}\n"
+                  "    - {name: far, xyz: [2.0, 2.0, 0.0], euler: {convention: XYZ, "
+                  "angles: [0, 0, 0]}}\n"
+                  "outputs: {plots: false, mcap: false, csv: false}\n")
+    rep = mechkin.run(sc)
+    t = {x["name"]: x for x in rep.summary["targets"]}
+    assert t["blocked"]["status"] == "at a limit" and t["far"]["status"] == "unreachable"
+    for x in t.values():
+        assert "finger_joint" in x["joints_at_limit"], x
+    assert rep.exit_code == 1
+
+
+def test_a_lone_closed_chain_target_within_the_limits_is_not_lost(tmp_path):
+    # the Cassie-like leg with rod limits [-30, 30] deg: every target at a configuration whose
+    # loops close within the limits is solved alone with the defaults (5 of 59 were lost: the
+    # lone solve's restarts jittered about home; now a failed lone target is tried once more as
+    # a one-target batch, whose restarts start from random q_v within the limits)
+    mech, _ = load(tmp_path, M.CASSIE, **{"limits: [-90, 90]": "limits: [-30, 30]"})
+    qv = random_qv(mech, 60, seed=3)
+    fk = mechkin.fk(mech, qv)
+    T = fk.poses["end_effector"]
+    inside = [k for k, s in enumerate(fk.status) if s == "converged"]
+    assert len(inside) >= 50
+    for k in inside:
+        r = mechkin.ik(mech, T[k], weights=W_POS)[0]
+        assert r.status.value == "ok", (k, r.status.value)
+        assert _passive_inside(mech, r.q)[0] and r.position_error <= 1e-9

@@ -183,6 +183,114 @@ def test_a_stopped_worker_fails_fast():
                 worker.wait()
 
 
+def _stop_worker(worker: subprocess.Popen) -> None:
+    import signal
+
+    os.kill(worker.pid, signal.SIGCONT)
+    worker.terminate()
+    try:
+        worker.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        worker.kill()
+        worker.wait()
+
+
+def test_a_worker_stopped_mid_job_fails_fast():
+    """A worker SIGSTOPped while it runs the jobs: no job finishes within MECHKIN_DASK_TIMEOUT
+    (3 s here), the worker does not answer a ping within it either, so the run stops with one
+    line (ClusterLostError, exit 1) instead of waiting for ever (issue 28)."""
+    import signal
+
+    from mechkin.errors import ClusterLostError
+    from mechkin.solvers.workspace.jobs import run_jobs
+
+    with _cluster(0) as cluster:
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        worker = subprocess.Popen([sys.executable, "-c", WORKER, cluster.scheduler_address],
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with distributed.Client(cluster.scheduler_address, set_as_default=False) as c:
+                c.wait_for_workers(1, timeout=60)
+            seen = []
+
+            def progress(done: int, total: int) -> None:
+                seen.append(done)
+                if done == 1:  # the first job is back: stop the worker in the middle
+                    os.kill(worker.pid, signal.SIGSTOP)
+
+            t0 = time.perf_counter()
+            with pytest.raises(ClusterLostError) as exc:
+                run_jobs(time.sleep, [0.2] * 40, address=cluster.scheduler_address,
+                         progress=progress)
+            assert time.perf_counter() - t0 < 60
+            msg = str(exc.value)
+            assert len(msg.splitlines()) == 1 and len(msg) <= 300, msg
+            assert "stopped answering" in msg and "MECHKIN_DASK_TIMEOUT" in msg
+            assert ClusterLostError.exit_code == 1 and 1 in seen and 40 not in seen
+        finally:
+            _stop_worker(worker)
+
+
+def test_the_cli_stops_with_one_line_and_the_folder_unchanged(tmp_path):
+    """The same through ``mechkin workspace --scheduler``: the worker is stopped once it runs
+    a job; exit 1, one line, no output folder (nothing written)."""
+    import signal
+
+    import yaml
+
+    d = yaml.safe_load((ROOT / "scenarios" / "puma560_reachability.yaml").read_text())
+    d["mechanism"] = str(ROOT / "mechanisms" / "puma560.yaml")
+    d["workspace"]["chunk"] = 4
+    d["outputs"] = {"csv": True, "plots": False, "mcap": False}
+    sc = tmp_path / "reach.yaml"
+    sc.write_text(yaml.safe_dump(d))
+    out = tmp_path / "o"
+    with _cluster(0) as cluster:
+        env = dict(os.environ, PYTHONPATH=str(ROOT), MECHKIN_DASK_TIMEOUT="3")
+        worker = subprocess.Popen([sys.executable, "-c", WORKER, cluster.scheduler_address],
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        run = None
+        try:
+            with distributed.Client(cluster.scheduler_address, set_as_default=False) as c:
+                c.wait_for_workers(1, timeout=60)
+                run = subprocess.Popen([sys.executable, "-m", "mechkin", "workspace", str(sc),
+                                        "--out", str(out), "--scheduler",
+                                        cluster.scheduler_address], env=env, text=True,
+                                       stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                t0 = time.perf_counter()
+                while not any(c.processing().values()) and time.perf_counter() - t0 < 120:
+                    time.sleep(0.05)  # until the worker holds a job
+                os.kill(worker.pid, signal.SIGSTOP)
+            _, err = run.communicate(timeout=120)
+            lines = [ln for ln in err.splitlines() if ln.strip()]
+            assert run.returncode == 1, err
+            assert len(lines) == 1 and "stopped answering" in lines[0], lines
+            assert not out.exists() and not list(tmp_path.glob(".*"))
+        finally:
+            if run is not None and run.poll() is None:
+                run.kill()
+                run.wait()
+            _stop_worker(worker)
+
+
+def test_a_busy_worker_is_not_taken_for_a_lost_one(monkeypatch):
+    """Jobs longer than the timeout on a live worker: it answers the ping, the run goes on."""
+    from mechkin.solvers.workspace.jobs import run_jobs
+
+    with _cluster(0) as cluster:
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        worker = subprocess.Popen([sys.executable, "-c", WORKER, cluster.scheduler_address],
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with distributed.Client(cluster.scheduler_address, set_as_default=False) as c:
+                c.wait_for_workers(1, timeout=60)
+            monkeypatch.setenv("MECHKIN_DASK_TIMEOUT", "1")
+            assert run_jobs(time.sleep, [2.5, 0.1], address=cluster.scheduler_address) == [
+                None, None]
+        finally:
+            _stop_worker(worker)
+
+
 @pytest.mark.parametrize("value", ["1e308", "inf", "nan", "-1", "0", "soon"])
 def test_the_timeout_from_the_environment_is_bounded(monkeypatch, value):
     monkeypatch.setenv("MECHKIN_DASK_TIMEOUT", value)

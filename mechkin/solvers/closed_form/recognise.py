@@ -7,7 +7,8 @@ leg, any 6-6 or 3-6 platform; direct-drive: d1 and the link lengths; lee: radii,
 and stroke) and raises :class:`ClosedFormMismatch` (a ModelError) naming the joint, frame or
 dimension that does not fit. :func:`recognise_closed_form` checks the declared form, or, with
 none declared, returns the first form that fits (or None). :func:`closed_form_ik` and
-:func:`closed_form_solutions` solve poses with it.
+:func:`closed_form_solutions` solve poses with it, through the leg decomposition
+(:mod:`mechkin.solvers.ik.analytic.legs`) of which these closed forms are cases.
 
 DESIGN: the Mechanism object does not carry the declaration (mechkin.model builds it from the
 spec); :func:`declared_closed_form` reads it from ``mech.closed_form`` when the model provides
@@ -183,19 +184,31 @@ def recognise_closed_form(mech: Mechanism) -> str | None:
     return None
 
 
-def closed_form_solutions(mech: Mechanism, T_0_E: np.ndarray,
-                          kind: str | None = None, tol: float = 1e-6) -> list[np.ndarray]:
-    """Every closed-form solution (k_i, n_v) of the independent joints, per pose (m, 4, 4).
+def _by_legs(mech: Mechanism, T: np.ndarray, tol: float) -> list[np.ndarray] | None:
+    """Every solution (k_i, n_v) of the independent joints per pose T (m, 4, 4) by the leg
+    decomposition (:func:`mechkin.solvers.ik.analytic.legs.legs_all`: every combination of the
+    legs' branches within the limits, each leg's end within ``tol``), distinct values (1e-9,
+    revolute joints modulo 2 pi) nearest home first; None when a leg does not decompose."""
+    from mechkin.solvers.ik.all_solutions import first_of_clusters
+    from mechkin.solvers.ik.analytic.legs import legs_all, legs_for
 
-    Stewart and lee have one (the leg lengths; lee: none where {E} is not at the centre);
-    the direct-drive arm up to two (every branch of kim1995's appendix that reproduces the
-    pose, :func:`direct_drive_solutions`).
-    """
-    T = np.asarray(T_0_E, dtype=np.float64).reshape(-1, 4, 4)
-    kind = kind or recognise_closed_form(mech)
-    if kind is None:
-        raise ClosedFormMismatch(f"{mech.name}: no closed form fits this mechanism (known: "
-                                 f"{', '.join(CLOSED_FORM_KINDS)})")
+    legs = legs_for(mech)
+    if legs is None:
+        return None
+    iv = mech.independent
+    ref = np.where(np.isfinite(mech.home), mech.home, 0.0)
+    out = []
+    for Ti in T:
+        qv = legs_all(mech, legs, Ti, ref, tol)[:, iv]
+        out.append(qv[first_of_clusters(mech, iv, qv, 1e-9)] if len(qv) else qv)
+    return out
+
+
+def _formula_solutions(mech: Mechanism, T: np.ndarray, kind: str, tol: float
+                       ) -> list[np.ndarray]:
+    """The hand-written formulas (kim1995's appendix, the leg lengths |p + R b_i - a_i|), for a
+    mechanism that fits ``kind`` but whose legs do not decompose (e.g. S-P-S legs: a free spin
+    of each leg about itself)."""
     g = check_closed_form(mech, kind)
     if kind == "direct_drive":
         from mechkin.solvers.closed_form.direct_drive import direct_drive_solutions
@@ -210,20 +223,45 @@ def closed_form_solutions(mech: Mechanism, T_0_E: np.ndarray,
     return [qk[None] for qk in q]
 
 
+def closed_form_solutions(mech: Mechanism, T_0_E: np.ndarray,
+                          kind: str | None = None, tol: float = 1e-6) -> list[np.ndarray]:
+    """Every closed-form solution (k_i, n_v) of the independent joints, per pose (m, 4, 4),
+    within the joint limits (passive joints included).
+
+    The closed forms are cases of the leg decomposition of
+    :mod:`mechkin.solvers.ik.analytic.legs`: ``kind`` (declared or recognised) is checked
+    against the geometry (:func:`check_closed_form`), then the legs solve the pose (Stewart:
+    six U-P-S legs, the leg lengths; lee: the central spherical joint and three U-P-S legs,
+    none where {E} is not at the centre; direct drive: the crank, rod and forearm on the
+    turning shoulder, then the upper arm). A mechanism that fits ``kind`` but whose legs do
+    not decompose keeps the hand-written formulas.
+    """
+    T = np.asarray(T_0_E, dtype=np.float64).reshape(-1, 4, 4)
+    kind = kind or recognise_closed_form(mech)
+    if kind is None:
+        raise ClosedFormMismatch(f"{mech.name}: no closed form fits this mechanism (known: "
+                                 f"{', '.join(CLOSED_FORM_KINDS)})")
+    check_closed_form(mech, kind)
+    sols = _by_legs(mech, T, tol)
+    return sols if sols is not None else _formula_solutions(mech, T, kind, tol)
+
+
 def closed_form_ik(mech: Mechanism, T_0_E: np.ndarray, kind: str | None = None,
                    tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
     """Independent joints (m, n_v) for poses (m, 4, 4) and a flag (m,) that a solution exists.
 
-    The first solution of :func:`closed_form_solutions` (direct drive: kim1995's lower signs
-    first); where none exists, the least-residual branch (direct drive) or the leg lengths
-    (lee, plate centre off P) are returned with the flag False.
+    The first solution of :func:`closed_form_solutions` (the one nearest home); where none
+    exists, the hand-written formula's value (direct drive: the least-residual branch of
+    kim1995's appendix; Stewart and lee: the leg lengths) with the flag False.
     """
     T = np.asarray(T_0_E, dtype=np.float64).reshape(-1, 4, 4)
     kind = kind or recognise_closed_form(mech)
     sols = closed_form_solutions(mech, T, kind, tol)
     ok = np.array([len(s) > 0 for s in sols])
     g = check_closed_form(mech, kind)  # type: ignore[arg-type]
-    if kind == "direct_drive":
+    if ok.all():
+        q_fallback = np.zeros((len(T), len(mech.independent)))
+    elif kind == "direct_drive":
         from mechkin.solvers.closed_form.direct_drive import direct_drive_ik
 
         q_fallback, _ = direct_drive_ik(T, tol=tol, **g.params)

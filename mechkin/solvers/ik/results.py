@@ -202,7 +202,11 @@ def status_of(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, clo
         # outside the workspace of the mechanism (unreachable)
         iv = kern.iv
         on = (q[iv] <= kern.bound_lo + tol_j) | (q[iv] >= kern.bound_hi - tol_j)
-        return (IkStatus.AT_LIMIT if on.any() else IkStatus.UNREACHABLE), pos, ori, at
+        # a passive joint held at its limit blocks it too (issue 24), as in solve_ik_batch
+        iw = mech.dependent
+        on_w = (q[iw] <= mech.lower[iw] + tol_j) | (q[iw] >= mech.upper[iw] - tol_j)
+        blocked = on.any() or on_w.any() or bool(passive_outside(mech, q[None])[0])
+        return (IkStatus.AT_LIMIT if blocked else IkStatus.UNREACHABLE), pos, ori, at
     if not np.isfinite(grad_norm) or grad_norm > 1e6:
         return IkStatus.SINGULAR, pos, ori, at
     return IkStatus.NOT_CONVERGED, pos, ori, at

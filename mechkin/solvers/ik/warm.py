@@ -105,17 +105,18 @@ def kernels_for(mech: Mechanism) -> list[tuple[str, str]]:
                # analytic IK (method auto): type-specialised, warmed on a built-in 6R arm
                ("finish.solve_one_into", "analytic IK, one pose"),
                ("finish.solve_finish", "analytic IK, every branch of many poses"),
-               ("finish.finish_batch", "analytic IK, SCARA and 5R branches")]
+               ("finish.finish_batch", "analytic IK, SCARA and 5R branches"),
+               ("sequence.solve_sequence_into", "analytic IK, a sequence of many poses")]
     return [*lms, ("tree_jit.evaluate_one", "cg-golden point evaluation")]
 
 
 def _dispatcher(name: str):
     from mechkin.solvers.ik import coupled_jit, serial_jit, tree_jit
-    from mechkin.solvers.ik.analytic import finish
+    from mechkin.solvers.ik.analytic import finish, sequence
 
     mod, fn = name.split(".")
     return getattr({"serial_jit": serial_jit, "tree_jit": tree_jit, "finish": finish,
-                    "coupled_jit": coupled_jit}[mod], fn)
+                    "coupled_jit": coupled_jit, "sequence": sequence}[mod], fn)
 
 
 def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
@@ -124,7 +125,7 @@ def _runner(mech: Mechanism, name: str) -> Callable[[], object]:
     from mechkin.solvers.ik import lm
     from mechkin.solvers.ik.results import IkOptions
 
-    if name.startswith("finish."):
+    if name.startswith(("finish.", "sequence.")):
         return _analytic_runner(name)
     kern = kernel_for(mech)
     T = np.ascontiguousarray(frame_poses(mech, mech.home[None], [kern.frame])[:, 0])
@@ -213,6 +214,13 @@ def _analytic_runner(name: str) -> Callable[[], object]:
         return lambda: analytic_ik(mech, chain, T[0], q[0])
     if name == "finish.solve_finish":
         return lambda: analytic_batch(mech, chain, T, q[0])
+    if name == "sequence.solve_sequence_into":  # the call of tasks.ik_analytic
+        from mechkin.solvers.ik.analytic.sequence import solve_sequence_into
+
+        bufs = (np.empty((2, 6)), np.empty((2, 3)), np.zeros(2, dtype=np.int64))
+        return lambda: solve_sequence_into(chain.packed, T, np.ascontiguousarray(q[0]),
+                                           np.zeros(2, dtype=bool), 1e-6, 1e-6, True, 0,
+                                           *bufs)
     out = (np.empty((1, 2, 4)), np.empty((1, 2)), np.empty((1, 2)), np.empty((1, 2)),
            np.empty(1, dtype=np.int64))
     lo, hi = np.full(4, -np.pi), np.full(4, np.pi)

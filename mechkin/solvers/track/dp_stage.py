@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mechkin.solvers.result import stop_point
 from mechkin.solvers.track.dp_limits import (
     _diagnose,
     _joint_names,
@@ -102,6 +103,7 @@ def _run_dp(
 
     st = None if band else stage(x2, x2)
     for i in range(N1 - 1, -1, -1):
+        stop_point()  # between two stages: the caller's --max-time
         if band:
             st = stage(x2[i], x2[i + 1])
         assert st is not None

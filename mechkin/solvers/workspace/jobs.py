@@ -95,6 +95,7 @@ def run_jobs(
     workers: int | None = None,
     address: str | None = None,
     progress: ProgressCallback | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> list[R]:
     """Run ``fn(job)`` for every job and return the results in job order.
 
@@ -112,11 +113,15 @@ def run_jobs(
         (``pip install mechkin[dask]``).
     progress : callable, optional
         ``progress(done, total)``.
+    stop : callable, optional
+        ``stop()`` after every finished job: when True, no further job starts (local
+        processes: the pending ones are cancelled) and the results of the first jobs that
+        finished in a row are returned (a prefix of the list; the caller keeps those rows).
 
     Returns
     -------
     list
-        ``[fn(job) for job in jobs]``, whatever the executor.
+        ``[fn(job) for job in jobs]``, whatever the executor (a prefix of it after a stop).
 
     Raises
     ------
@@ -129,7 +134,7 @@ def run_jobs(
     if total == 0:
         return []
     if address is not None:
-        return _run_dask(fn, jobs, address, progress)
+        return _run_dask(fn, jobs, address, progress, stop)
     n = default_workers(total) if workers is None else max(1, min(int(workers), total))
     if n == 1:
         out: list[R] = []
@@ -137,21 +142,37 @@ def run_jobs(
             out.append(fn(job))
             if progress is not None:
                 progress(i + 1, total)
+            if stop is not None and i + 1 < total and stop():
+                break
         return out
-    results: list[Any] = [None] * total
+    results: list[Any] = [_NOT_RUN] * total
     with ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
                              initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures: dict[Future[R], int] = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
-        _collect(as_completed(futures), futures, results, total, progress)
+        if _collect(as_completed(futures), futures, results, total, progress, stop):
+            pool.shutdown(wait=True, cancel_futures=True)
+            for fut, i in futures.items():  # finished while the others were cancelled
+                if results[i] is _NOT_RUN and fut.done() and not fut.cancelled():
+                    results[i] = fut.result()
+            k = next((i for i, r in enumerate(results) if r is _NOT_RUN), total)
+            return results[:k]
     return results
 
 
+_NOT_RUN: Any = object()
+
+
 def _collect(done_iter: Iterable[Any], index: Mapping[Any, int], results: list[Any], total: int,
-             progress: ProgressCallback | None) -> None:
+             progress: ProgressCallback | None, stop: Callable[[], bool] | None = None
+             ) -> bool:
+    """Gather the results as they finish; True when ``stop()`` asked to stop early."""
     for k, fut in enumerate(done_iter, start=1):
         results[index[fut]] = fut.result()
         if progress is not None:
             progress(k, total)
+        if stop is not None and k < total and stop():
+            return True
+    return False
 
 
 #: Seconds to reach a scheduler and to see a worker (``MECHKIN_DASK_TIMEOUT`` overrides).
@@ -316,24 +337,77 @@ def connect_cluster(address: str) -> Any:
 
 
 def _run_dask(fn: Callable[[T], R], jobs: Sequence[T], address: str,
-              progress: ProgressCallback | None) -> list[R]:
-    from distributed import as_completed as dask_as_completed
+              progress: ProgressCallback | None,
+              stop: Callable[[], bool] | None = None) -> list[R]:
+    """The jobs on a Dask cluster, watched: when no job finishes for ``MECHKIN_DASK_TIMEOUT``
+    seconds, the workers holding the pending jobs must answer a ping within that time, else
+    the run stops (:class:`~mechkin.errors.ClusterLostError`, one line, exit 1): a worker
+    stopped with SIGSTOP, hung or cut off still counts as alive for the scheduler for minutes,
+    and its jobs would be waited for for ever."""
+    import asyncio
+
+    from distributed import wait as dask_wait
 
     from mechkin.errors import ClusterError
 
-    results: list[Any] = [None] * len(jobs)
+    results: list[Any] = [_NOT_RUN] * len(jobs)
+    shown = address if len(address) <= 80 else address[:77] + "..."
+    timeout = _dask_timeout()
     client = connect_cluster(address)
     try:
         futures = [client.submit(fn, job, pure=False) for job in jobs]
         index = {f.key: i for i, f in enumerate(futures)}
-        for k, fut in enumerate(dask_as_completed(futures), start=1):
+        pending = set(futures)
+        k = 0
+        while pending:
             try:
-                results[index[fut.key]] = fut.result()
-            except (ImportError, ModuleNotFoundError, AttributeError) as exc:
-                raise ClusterError(f"--scheduler {address[:80]}: a worker could not run the "
-                                   f"job ({type(exc).__name__}: {str(exc)[:80]})") from None
-            if progress is not None:
-                progress(k, len(jobs))
+                done, pending = dask_wait(pending, timeout=timeout,
+                                          return_when="FIRST_COMPLETED")
+            except (TimeoutError, asyncio.TimeoutError, OSError):
+                _check_alive(client, shown, timeout, len(pending))
+                continue
+            for fut in done:
+                try:
+                    results[index[fut.key]] = fut.result()
+                except (ImportError, ModuleNotFoundError, AttributeError) as exc:
+                    raise ClusterError(f"--scheduler {shown}: a worker could not run the job "
+                                       f"({type(exc).__name__}: {str(exc)[:80]})") from None
+                k += 1
+                if progress is not None:
+                    progress(k, len(jobs))
+            if pending and stop is not None and stop():
+                break
     finally:
-        client.close()
-    return results
+        _close_quietly(client, timeout)
+    first = next((i for i, r in enumerate(results) if r is _NOT_RUN), len(jobs))
+    return results[:first]
+
+
+def _check_alive(client: Any, shown: str, timeout: float, n_pending: int) -> None:
+    """No job finished within ``timeout``: the workers running the pending jobs must answer a
+    ping within ``timeout`` (a busy worker does: its event loop is not the job's thread)."""
+    from mechkin.errors import ClusterLostError
+
+    answered, busy = _run_with_timeout(lambda: client.processing(), timeout)
+    if not answered:
+        raise ClusterLostError(f"--scheduler {shown}: the scheduler stopped answering "
+                               f"(nothing within {timeout:g} s, MECHKIN_DASK_TIMEOUT) with "
+                               f"{n_pending} jobs pending; nothing written")
+    workers = [w for w, keys in (busy or {}).items() if keys] or None
+    answered, pongs = _run_with_timeout(
+        lambda: client.run(int, workers=workers, on_error="return"), timeout)
+    if not answered or not isinstance(pongs, dict):
+        who = (f"worker {workers[0]}" if workers and len(workers) == 1
+               else "a worker running its jobs")
+        raise ClusterLostError(f"--scheduler {shown}: {who} stopped answering (no reply "
+                               f"within {timeout:g} s, MECHKIN_DASK_TIMEOUT: stopped, hung or "
+                               f"cut off?) with {n_pending} jobs pending; nothing written")
+
+
+def _close_quietly(client: Any, timeout: float) -> None:
+    """Close the client without waiting on a lost worker: pending jobs cancelled, at most
+    ``timeout`` s."""
+    import contextlib
+
+    with contextlib.suppress(Exception):
+        _run_with_timeout(lambda: client.close(timeout=timeout), timeout + 1.0)

@@ -329,7 +329,8 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
                 progress: Callable[[int, int], None] | None = None,
                 length: float | None = None,
                 run_jobs: Callable[..., list[Any]] | None = None,
-                n_jobs: int = 8, mechanism: Any = None) -> JointSweepRecord:
+                n_jobs: int = 8, mechanism: Any = None,
+                stop: Callable[[], bool] | None = None) -> JointSweepRecord:
     r"""Positions, reachability and dexterity of ``frame`` at the samples ``q_v``.
 
     For a closed chain the loop closure of every sample starts from a solved neighbour
@@ -393,6 +394,9 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
         Evaluation jobs to aim for with ``run_jobs`` (a quarter as many closure jobs).
     mechanism : MechanismSpec, optional
         What the jobs carry to rebuild ``mech`` on a worker (default: ``mech`` pickled).
+    stop : callable, optional
+        One process: ``stop()`` after every evaluated ``chunk``; when True the record holds
+        the samples evaluated so far (a prefix of ``q_v``).
 
     Returns
     -------
@@ -431,6 +435,10 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
             _evaluate_rows(mech, qv, frame, slice(a, b), closed, two_phase, manipulability,
                            st)
             tick(b - a)
+            if stop is not None and b < m and stop():  # the caller's --max-time
+                st = {k: v[:b] for k, v in st.items()}
+                qv, parent = qv[:b], parent[:b]
+                break
     q, status, pos = st["q"], st["status"], st["pos"]
     w_full, iso_full, iso_pos, J_all = st["w"], st["iso"], st["iso_pos"], st["J"]
     converged = status == ClosureStatus.CONVERGED.value

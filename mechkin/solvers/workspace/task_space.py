@@ -16,7 +16,7 @@ IJRR 4(2).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -143,6 +143,7 @@ def task_space_sweep(
     address: str | None = None,
     progress: ProgressCallback | None = None,
     length: float | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> TaskSpaceRecord:
     """Reachability and dexterity of task-space poses through the batched inverse kinematics.
 
@@ -169,6 +170,9 @@ def task_space_sweep(
         Characteristic length [m] of ``isotropy_normalized``; None: the one that best
         conditions the reached poses
         (:func:`mechkin.solvers.workspace.dexterity.characteristic_length`).
+    stop : callable, optional
+        See :func:`run_jobs`: after a stop the record holds the poses of the finished
+        chunks (a prefix of ``T_P``).
 
     Returns
     -------
@@ -186,7 +190,9 @@ def task_space_sweep(
          "tol_pos": float(tol_pos), "tol_ori": float(tol_ori)}
         for a in range(0, m, max(1, int(chunk)))
     ]
-    parts = run_jobs(_task_job, jobs, workers=workers, address=address, progress=progress)
+    parts = run_jobs(_task_job, jobs, workers=workers, address=address, progress=progress,
+                     stop=stop)
+    T_P = T_P[: sum(len(p["reachable"]) for p in parts)]  # a prefix after a stop
     cat = {k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0)
            for k in (parts[0] if parts else {})}
     if not parts:
