@@ -164,3 +164,24 @@ ik:
         Tt = np.eye(4)
         Tt[:3, :3], Tt[:3, 3] = t["target"]["R"], t["target"]["xyz_m"]
         assert len(qs) >= 1 and np.abs(T_E - Tt).max() < FK_TOL
+
+
+def test_long_sequence_by_method_analytic(tmp_path, arms):
+    """Over 200 targets the task takes its compiled sequence path for closed forms; the search
+    class must not go there (its chain has no packed closed form): every target ok by FK."""
+    mech = arms["two_pairs"]
+    (tmp_path / "arm.yaml").write_text(arm_yaml("two_pairs"))
+    (tmp_path / "sc.yaml").write_text("""name: t_seq
+task: ik
+mechanism: arm.yaml
+units: {length: m, angle: deg}
+ik:
+  method: analytic
+  random_targets: {count: 220, seed: 4}
+""")
+    s = mechkin.run(tmp_path / "sc.yaml").summary
+    assert s["status"] == "ok" and s["methods_used"] == ["analytic"], s["status"]
+    for t in s["targets"][::20]:
+        q = np.array([[t["q"][n] for n in mech.joint_names]])
+        T_E = frame_poses(mech, q, [mech.end_effector])[0, 0]
+        assert np.abs(T_E[:3, 3] - t["target"]["xyz_m"]).max() < FK_TOL
