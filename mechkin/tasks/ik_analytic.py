@@ -175,7 +175,8 @@ def analytic_structure(mech: Mechanism, fixed: dict[str, float] | None = None) -
                 return None
             kinds = sorted({leg.kind for leg in legs})
             return f"{len(legs)} legs solved one by one ({', '.join(kinds)})"
-        chain = held_chain(mech, fixed) if fixed else analytic_chain(mech)
+        chain = held_chain(mech, fixed) if fixed else \
+            (analytic_chain(mech) or analytic_chain(mech, search=True))  # search: analytic only
     except NotDecomposable:
         return None
     return None if chain is None else str(chain.description)

@@ -158,6 +158,7 @@ ik:
     s = mechkin.run(tmp_path / "sc.yaml").summary
     assert s["status"] == "ok" and s["methods_used"] == ["analytic"]
     assert s["solutions"]["complete"] is False
+    assert "1-D search over q4" in s["analytic_structure"]
     for t in s["targets"]:
         qs = np.array([[sol["q"][n] for n in mech.joint_names] for sol in t["solutions"]])
         T_E = frame_poses(mech, qs, [mech.end_effector])[:, 0]
