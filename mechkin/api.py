@@ -77,8 +77,11 @@ def fk(
     FkResult
         All joints ``q`` (m, n), per-row ``status`` (``converged``, ``outside limits`` when a
         passive joint is outside its limits, ``constraint singularity`` when the path from home
-        stops where the assembly folds, ``not converged``), ``within_limits`` (closed chains)
-        and ``residual``, and ``poses[name]`` (m, 4, 4) in the base frame.
+        stops where the assembly folds, ``not converged``), ``within_limits`` (closed chains),
+        ``singularity_crossed`` (closed chains: per row, True when its path from home crossed a
+        constraint singularity, a change point such as a parallelogram folding flat; the row
+        stays ``converged``, on the smooth continuation of its branch) and ``residual``, and
+        ``poses[name]`` (m, 4, 4) in the base frame.
     """
     if not mech.is_closed:  # open chain (no cuts, no couplings): only the frames asked for
         return open_fk(mech, q_v, q_w0, frames)
@@ -97,7 +100,7 @@ def fk(
     if bad_rows.size:
         raise ConfigError(f"q_v: row {int(bad_rows[0])} is not finite: {qv[bad_rows[0]].tolist()}")
     kw = {} if tol_phi is None else {"tol_phi": tol_phi}
-    inside = start = None
+    inside = start = crossed = None
     if mech.is_closed and len(mech.dependent):
         # closed chains: every row reached from home (or the guess) by continuation, passive
         # limits part of the status (mechkin.model.continuation)
@@ -105,6 +108,8 @@ def fk(
 
         res, start = fk_rows(mech, qv, q_w0=q_w0, **kw)
         inside = within_limits(mech, res.q)[1].tolist()
+        crossed = ([False] * len(qv) if res.crossings is None
+                   else (np.asarray(res.crossings) > 0).tolist())
     else:
         qw0 = mech.home[mech.dependent] if q_w0 is None else np.asarray(q_w0, dtype=float)
         qw0 = np.broadcast_to(np.atleast_2d(qw0), (qv.shape[0], len(mech.dependent)))
@@ -114,7 +119,7 @@ def fk(
     return FkResult(q=res.q, status=[s.value for s in res.status], residual=res.residual,
                     iterations=res.iterations, poses={n: T[:, k] for k, n in enumerate(names)},
                     joint_names=list(mech.joint_names), within_limits=inside,
-                    assembly_from=start)
+                    assembly_from=start, singularity_crossed=crossed)
 
 
 def ik(

@@ -53,6 +53,9 @@ class ClosureResult:
     #: some row did not converge or was moved by whole turns; then recompute them).
     T_links: np.ndarray | None = None
     jacobian: np.ndarray | None = None
+    #: reached by continuation (:mod:`mechkin.model.continuation`): per row, the constraint
+    #: singularities (change points) its path crossed (None: no path was followed)
+    crossings: np.ndarray | None = None
 
     @property
     def ok(self) -> np.ndarray:

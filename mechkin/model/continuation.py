@@ -69,16 +69,49 @@ def _size(mech: Mechanism) -> float:
     return characteristic_length(mech)
 
 
-def _scaled_ratio(mech: Mechanism, Jw: np.ndarray) -> np.ndarray:
-    """sigma_min / sigma_max of the nondimensionalised dphi/dq_w (m, n_eq, n_w)."""
+def _scaled_w(mech: Mechanism, Jw: np.ndarray) -> np.ndarray:
+    """The nondimensionalised dphi/dq_w (m, n_eq, n_w)."""
     from mechkin.model.singularity import constraint_scaling
 
     row, col = constraint_scaling(mech, _size(mech))
     if row.size != Jw.shape[1]:  # constraint rows that are not cut rows (couplings): unscaled
         row = np.ones(Jw.shape[1])
-    c = _cond(Jw * row[None, :, None] * col[None, None, :])
+    return Jw * row[None, :, None] * col[None, None, :]
+
+
+def _scaled_ratio(mech: Mechanism, Jw: np.ndarray) -> np.ndarray:
+    """sigma_min / sigma_max of the nondimensionalised dphi/dq_w (m, n_eq, n_w)."""
+    c = _cond(_scaled_w(mech, Jw))
     with np.errstate(divide="ignore"):
         return np.where(np.isfinite(c), 1.0 / c, 0.0)
+
+
+class _Crossings:
+    r"""Constraint singularities crossed along each row's path: the orientation of the
+    nondimensionalised dphi/dq_w, :math:`\det(A_i^T A_k) < 0` between consecutive regular
+    points i < k of the path (sigma_min / sigma_max >= RATIO_SINGULAR), counted per row
+    (Allgower and Georg (2003) §8.1; the fk task's :func:`mechkin.model.singularity.
+    constraint_crossings` along a sampled motion)."""
+
+    def __init__(self, m: int) -> None:
+        self.count = np.zeros(m, dtype=int)
+        self.prev: np.ndarray | None = None
+        self.has = np.zeros(m, dtype=bool)
+
+    def see(self, mech: Mechanism, rows: np.ndarray, Jw: np.ndarray) -> None:
+        A = _scaled_w(mech, Jw)
+        c = _cond(A)
+        regular = np.isfinite(c) & (c <= 1.0 / RATIO_SINGULAR)
+        if self.prev is None:
+            self.prev = np.zeros((self.count.size,) + A.shape[1:])
+        r = rows[regular]
+        A = A[regular]
+        old = self.has[r]
+        if old.any():
+            d = np.linalg.det(np.swapaxes(self.prev[r[old]], 1, 2) @ A[old])
+            self.count[r[old]] += d < 0
+        self.prev[r] = A
+        self.has[r] = True
 
 
 def _tangent(mech: Mechanism, J: np.ndarray, dv: np.ndarray) -> np.ndarray:
@@ -158,6 +191,7 @@ def _continue(mech: Mechanism, q_v: np.ndarray, start: np.ndarray, kw: dict,
     iters = np.zeros(m, dtype=int)
     stuck = refused.copy()
     active = span > 0
+    crossed = _Crossings(m)
     for _ in range(MAX_PATH_STEPS):
         act = np.flatnonzero(active)
         if act.size == 0:
@@ -165,6 +199,7 @@ def _continue(mech: Mechanism, q_v: np.ndarray, start: np.ndarray, kw: dict,
         hs = np.minimum(h[act], 1.0 - t[act])
         kin = forward_kinematics(mech, mech.assemble(v0[act] + t[act, None] * dv[act], qw[act]))
         _, J = closure_jacobian(mech, kin)
+        crossed.see(mech, act, J[:, :, iw])
         tan = _tangent(mech, J, dv[act])
         move = np.max(np.abs(tan) / unit_w, axis=1, initial=0.0)
         hs = np.minimum(hs, np.where(move > 0, MAX_STEP_W / np.maximum(move, 1e-300), hs))
@@ -196,6 +231,10 @@ def _continue(mech: Mechanism, q_v: np.ndarray, start: np.ndarray, kw: dict,
         iters[fin] += pol.iterations
         residual[fin] = pol.residual
         cond[fin] = pol.cond
+        moved = np.flatnonzero(fin & (span > 0))
+        if moved.size:  # the path's end against its last regular point
+            _, Jf = closure_jacobian(mech, forward_kinematics(mech, res_q[moved]))
+            crossed.see(mech, moved, Jf[:, :, iw])
     status[refused] = ClosureStatus.NOT_CONVERGED
     residual[refused] = np.inf
     res_q[np.ix_(refused, iv)] = q_v[refused]  # the requested joints, the start's q_w
@@ -209,7 +248,7 @@ def _continue(mech: Mechanism, q_v: np.ndarray, start: np.ndarray, kw: dict,
         cond[stuck] = _cond(Jw)
         status[stuck] = np.where(ratio < RATIO_SINGULAR, ClosureStatus.CONSTRAINT_SINGULAR,
                                  ClosureStatus.NOT_CONVERGED)
-    return ClosureResult(res_q, status, iters, residual, cond)
+    return ClosureResult(res_q, status, iters, residual, cond, crossings=crossed.count)
 
 
 def _correct(mech: Mechanism, q_v: np.ndarray, pred: np.ndarray, moved: np.ndarray
@@ -319,9 +358,12 @@ def fk_rows(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = None,
     ``q_w0`` None or (n_w,): the assembly at the home q_v closed from it (default home), and
     every row reached from there by continuation. ``q_w0`` (m, n_w): a guess per row, solved by
     Newton from it; rows that do not close from their guess are reached from home by
-    continuation. Then :func:`with_limits`. Returns the result and where the rows started
-    (``"home"``, ``"guess"``). A mechanism whose only constraints are joint couplings has one
-    assembly, in closed form (:class:`mechkin.model.couplings.CouplingMap`): no guess, no path.
+    continuation. Then :func:`with_limits`. ``crossings`` of the result counts, per row, the
+    constraint singularities (change points) its path from home crossed (0 for a row solved
+    from its own guess; None when no path was followed). Returns the result and where the
+    rows started (``"home"``, ``"guess"``). A mechanism whose only constraints are joint
+    couplings has one assembly, in closed form
+    (:class:`mechkin.model.couplings.CouplingMap`): no guess, no path.
     """
     q_v = np.atleast_2d(np.asarray(q_v, dtype=np.float64))
     m = q_v.shape[0]
@@ -345,7 +387,10 @@ def fk_rows(mech: Mechanism, q_v: np.ndarray, *, q_w0: np.ndarray | None = None,
             rs, cd = res.residual.copy(), res.cond.copy()
             q[bad], st[bad], it[bad], rs[bad], cd[bad] = (r2.q, r2.status, r2.iterations,
                                                           r2.residual, r2.cond)
-            res = ClosureResult(q, st, it, rs, cd)
+            cr = np.zeros(m, dtype=int)
+            if r2.crossings is not None:
+                cr[bad] = r2.crossings
+            res = ClosureResult(q, st, it, rs, cd, crossings=cr)
         return with_limits(mech, res), "guess"
     if g is not None:
         g = g.reshape(-1)

@@ -386,6 +386,41 @@ def constraint_crossings(mech: Mechanism, q: np.ndarray, ok: np.ndarray,
     return out
 
 
+def crossings_along(mech: Mechanism, q: np.ndarray, length_scale: float | None = None
+                    ) -> np.ndarray:
+    r"""(m,) bool: a sampled path q (m, n) of assembled configurations crossed a constraint
+    singularity just before sample k, without a singularity report: as
+    :func:`constraint_crossings` with the singular samples those whose nondimensionalised
+    ``Phi_w`` has sigma_min / sigma_max below 1e-3 (the continuation's ``RATIO_SINGULAR``;
+    such samples are skipped, so a crossing exactly on a sample is flagged at the next
+    regular one). Rows that are not finite are skipped."""
+    m = q.shape[0]
+    out = np.zeros(m, dtype=bool)
+    iw = mech.dependent
+    if len(iw) == 0 or not mech.is_closed or m < 2:
+        return out
+    fin = np.flatnonzero(np.isfinite(q).all(axis=1))
+    if fin.size < 2:
+        return out
+    L = resolve_length_scale(mech, length_scale)
+    _, Phi = closure_jacobian(mech, forward_kinematics(mech, q[fin]))
+    row, col = constraint_scaling(mech, L)
+    if row.size != Phi.shape[1]:
+        row = np.ones(Phi.shape[1])
+    A = Phi[:, :, iw] * row[None, :, None] * col[None, None, :]
+    s = np.linalg.svd(A, compute_uv=False)
+    with np.errstate(all="ignore"):
+        regular = s[:, -1] >= 1e-3 * s[:, 0]
+    keep = fin[regular]
+    A = A[regular]
+    if keep.size < 2:
+        return out
+    with np.errstate(all="ignore"):
+        d = np.linalg.det(np.swapaxes(A[:-1], 1, 2) @ A[1:])
+    out[keep[1:][d < 0]] = True
+    return out
+
+
 def mark_crossings(report: SingularityReport, crossed: np.ndarray) -> SingularityReport:
     """The report with the steps ``crossed`` (m,) at the constraint singular level, kind
     ``CONSTRAINT`` (``BOTH`` with an inverse-kinematic singularity) and label

@@ -69,6 +69,12 @@ class FkResult:
     #: closed chains: where the rows were reached from by continuation, ``"home"`` (the home
     #: assembly) or ``"guess"`` (the given ``q_w0``)
     assembly_from: str | None = None
+    #: closed chains: per row, whether the continuation path that reached it (from the home
+    #: assembly, or from the guess) crossed a constraint singularity, a change point where two
+    #: assembly modes meet (the fk task's label ``constraint singularity crossed``); the row
+    #: is on the smooth continuation of the branch it came from, its status stays
+    #: ``converged``. False for a row solved by Newton from its own guess (no path).
+    singularity_crossed: list[bool] | None = None
 
     @property
     def ok(self) -> bool:

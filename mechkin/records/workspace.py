@@ -251,6 +251,10 @@ class JointSweepRecord:
         assembly mode; see :func:`mechkin.solvers.workspace.joint_sweep.joint_sweep`).
     reseeded : ndarray of bool, shape (m,), optional
         The closure failed from the seed sample and was solved from home instead.
+    crossed : ndarray of bool, shape (m,), optional
+        A mode change on one smooth branch: the sign of ``det(dphi/dq_w)`` changed from the
+        seed sample while the dependent joints followed the predictor (a constraint
+        singularity, e.g. a four-bar's change point, lies between the two).
     """
 
     q_v: np.ndarray
@@ -268,6 +272,7 @@ class JointSweepRecord:
     seed: np.ndarray | None = None
     mode_change: np.ndarray | None = None
     reseeded: np.ndarray | None = None
+    crossed: np.ndarray | None = None
 
 
 @dataclass

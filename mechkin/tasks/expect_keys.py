@@ -128,7 +128,7 @@ TRACK = {
              "redundancy": NUM, "max_position_error_m": NUM, "max_orientation_error_rad": NUM,
              "max_rotation_from_start_rad": NUM, "orientations": ANY, "centre_m": V3,
              "radius_m": NUM, "normal": V3, "angle_deg": NUM, "via_r": VEC,
-             "orientation_blend": STR},
+             "orientation_blend": STR, "constraint_singularities_crossed": NUM},
     "reference": {"r0": NUM, "rd_1_s": NUM, "t_f_s": NUM, "rdd_1_s2": NUM},
     "limits_si": {"torque": _LIMITS, "qd": _LIMITS, "qdd": _LIMITS, "jerk": _LIMITS,
                   "q": _LIMITS},
@@ -153,7 +153,8 @@ JOINT_SWEEP = {
                "convex_hull_m3": NUM},
     "sample": ANY, "continuation": {"seed_from": STR, "mode_jump": NUM, "n_roots": NUM,
                                     "n_mode_changes": NUM, "n_closure_failures": NUM,
-                                    "n_reseeded_from_home": NUM},
+                                    "n_reseeded_from_home": NUM,
+                                    "n_constraint_singularities_crossed": NUM},
 }
 TASK_SPACE = {
     **_SWEEP_COMMON, "restarts": NUM, "n_poses": NUM, "status_counts": _IK_STATUSES,

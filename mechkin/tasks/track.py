@@ -310,6 +310,8 @@ def run(scenario: Scenario) -> Report:
                        "task_rank": ik.rank, "redundancy": ik.redundancy}
     if ik.orientation is not None and ik.orientation.varying:
         summary["path"]["orientation_blend"] = ik.orientation.blend
+    if hasattr(ik, "singularities_crossed"):  # a closed chain: change points passed
+        summary["path"]["constraint_singularities_crossed"] = ik.singularities_crossed()
     if res.trajectory is not None:  # the realised plan, verified by forward kinematics
         summary["path"].update(ik.pose_errors(res.trajectory.q, res.trajectory.r))
     if ref is not None:

@@ -264,6 +264,7 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
             "n_mode_changes": int(rec.mode_change.sum()),
             "n_closure_failures": int((~rec.converged).sum()),
             "n_reseeded_from_home": int(rec.reseeded.sum()),
+            "n_constraint_singularities_crossed": int(rec.crossed.sum()),
         },
         "bounding_box": bbox,
         "volume": volume,
@@ -275,7 +276,10 @@ def _run_joint_sweep(sc: Scenario, ex: dict[str, Any]) -> Report:
                             "neighbour (grid step / nearest neighbour, first-order predictor), "
                             "else from home; mode_change: the dependent joints left that "
                             "predictor by more than mode_jump x the step of the independent "
-                            "joints (max norms, SI), i.e. another assembly mode",
+                            "joints (max norms, SI), i.e. another assembly mode, or the "
+                            "sign of det(dphi/dq_w) changed; "
+                            "n_constraint_singularities_crossed: sign changes where the joints "
+                            "followed the predictor (one smooth branch through a change point)",
             "manipulability": "Yoshikawa w = product of the singular values of the frame "
                               "Jacobian (rows omega, v; SI) w.r.t. the independent joints "
                               "(closed chains: J_v + J_w dq_w/dq_v)",

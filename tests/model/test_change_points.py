@@ -232,3 +232,89 @@ def test_chunked_motion_through_change_points_matches_one_run(tmp_path):
     e = err(res.q, parallelogram_ref(th))
     on_point = np.isclose(np.cos(th) ** 2, 1.0, atol=1e-12)
     assert e[~on_point].max() <= 1e-9 and e[on_point].max() <= 1e-5
+
+
+def _multiples_between(a_deg, b_deg, period_deg, first_deg):
+    """Change points (first + k period) strictly between a and b (neither end on one)."""
+    lo, hi = min(a_deg, b_deg), max(a_deg, b_deg)
+    k = np.arange(np.ceil((lo - first_deg) / period_deg), np.floor((hi - first_deg)
+                                                                   / period_deg) + 1)
+    pts = first_deg + k * period_deg
+    return int(np.sum((pts > lo) & (pts < hi)))
+
+
+@pytest.mark.parametrize("text, home, first, period", [(PARALLELOGRAM, 60.0, 0.0, 180.0),
+                                                       (CHANGE_POINT, 90.0, 180.0, 360.0)],
+                         ids=["parallelogram", "change_point"])
+def test_api_fk_flags_rows_reached_across_a_change_point(tmp_path, text, home, first, period):
+    # mechkin.fk reaches each row from home along q_v; a row whose path passes a change point
+    # is converged (on the smooth branch) and flagged singularity_crossed, alone or in a batch
+    mech, _ = load(tmp_path, text)
+    th = np.random.default_rng(5).uniform(-250.0, 350.0, 60)
+    th = th[np.abs((th - first) / period - np.round((th - first) / period)) * period > 1.0]
+    res = mechkin.fk(mech, np.radians(th)[:, None])
+    want = [_multiples_between(home, t, period, first) > 0 for t in th]
+    assert res.status == ["converged"] * len(th)
+    assert 10 <= sum(want) <= len(th) - 10
+    assert res.singularity_crossed == want
+    alone = [mechkin.fk(mech, [np.radians(t)]).singularity_crossed[0] for t in th[:12]]
+    assert alone == want[:12]
+    # a guess per row: Newton from it, no path, no crossing claimed
+    g = mechkin.fk(mech, np.radians(th)[:, None], q_w0=res.q[:, mech.dependent])
+    assert g.singularity_crossed == [False] * len(th)
+
+
+def test_track_path_ik_counts_the_change_point_it_passes(tmp_path):
+    # the parallelogram's coupler end held to y only (mask [y]) along y 0.1 -> -0.1 m: the
+    # crank goes 30 -> -30 deg on the parallelogram branch through the change point at 0
+    from mechkin.solvers.track.closed_path_ik import ClosedHandLineIK
+
+    mech, _ = load(tmp_path, PARALLELOGRAM)
+    f = mech.frame_index("coupler_end")
+    q0 = mechkin.fk(mech, [[np.radians(30.0)]]).q[0]
+    ik = ClosedHandLineIK(mech, f, np.array([0.0, 0.1, 0.0]), np.array([0.0, -0.1, 0.0]), q0,
+                          1e-9, mask=["y"])
+    r = np.linspace(0.0, 1.0, 11)
+    th = np.arcsin(np.linspace(0.1, -0.1, 11) / 0.2)
+    assert err(ik.q(r), parallelogram_ref(th)).max() <= 1e-7
+    assert ik.singularities_crossed() == 1
+    short = ClosedHandLineIK(mech, f, np.array([0.0, 0.1, 0.0]), np.array([0.0, 0.05, 0.0]),
+                             q0, 1e-9, mask=["y"])
+    assert short.singularities_crossed() == 0
+
+
+def test_joint_sweep_labels_change_point_crossings(tmp_path):
+    # a crank grid stepping over the parallelogram's change point (between -4 and 4 deg) and
+    # sampling the change-point four-bar's (180 deg) exactly; the crank-rocker none
+    from pathlib import Path
+
+    from mechkin.solvers.workspace.joint_sweep import joint_sweep
+
+    cases = [(PARALLELOGRAM, np.linspace(-172.0, 172.0, 44), [4.0], parallelogram_ref),
+             (CHANGE_POINT, np.linspace(90.0, 300.0, 43), [180.0], change_point_ref),
+             ((Path(__file__).parents[1] / "data" / "fourbar.yaml").read_text(),
+              np.linspace(60.0, 400.0, 35), [], None)]
+    for i, (text, th_deg, want, ref) in enumerate(cases):
+        mech, _ = load(tmp_path, text, f"m{i}.yaml")
+        th = np.radians(th_deg)
+        f = mech.end_effector
+        rec = joint_sweep(mech, th[:, None], f, grid_shape=(len(th),), manipulability=False)
+        assert rec.converged.all()
+        assert np.degrees(th[rec.crossed]).round(6).tolist() == want
+        assert not (rec.crossed & ~rec.mode_change).any()
+        if ref is not None:  # stayed on the smooth branch (the flag is a crossing, not a jump)
+            assert err(rec.q, ref(th)).max() <= 1e-6
+
+
+def test_workspace_task_counts_change_point_crossings(tmp_path):
+    (tmp_path / "para.yaml").write_text(PARALLELOGRAM)
+    sc = tmp_path / "sweep.yaml"
+    sc.write_text("name: para_sweep\ntask: workspace\nmechanism: para.yaml\n"
+                  "units: {length: m, angle: deg}\nworkspace:\n  kind: joint_sweep\n"
+                  "  method: grid\n  joints:\n    q_crank: {range: [-172, 172], n: 44}\n"
+                  "  manipulability: false\n"
+                  "outputs: {csv: false, plots: false, mcap: false}\n")
+    rep = mechkin.run(sc)
+    c = rep.summary["continuation"]
+    assert c["n_constraint_singularities_crossed"] == 1 and c["n_mode_changes"] == 1
+    assert rep.summary["n_reachable"] == 44

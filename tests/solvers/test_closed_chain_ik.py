@@ -129,3 +129,49 @@ def test_a_lone_closed_chain_target_within_the_limits_is_not_lost(tmp_path):
         r = mechkin.ik(mech, T[k], weights=W_POS)[0]
         assert r.status.value == "ok", (k, r.status.value)
         assert _passive_inside(mech, r.q)[0] and r.position_error <= 1e-9
+
+
+def test_passive_limits_hold_on_every_route_and_the_status_is_the_targets(tmp_path):
+    # the Robotiq-like four-bar with its passive joints limited to [-0.3, 0.3] rad, targets at
+    # configurations beyond those limits: the batch used to return passive joints up to 0.47
+    # rad outside them ("at a limit", a lower f from a restart kept over a feasible answer),
+    # the lone solve up to 0.1 % of the range outside ("not converged") for the same targets
+    mech, _ = load(tmp_path, M.ROBOTIQ,
+                   **{"limits: [-0.872664, 0.872664]": "limits: [-0.3, 0.3]"})
+    iv = mech.independent
+    qv = np.linspace(mech.lower[iv] - 0.3, mech.upper[iv] + 0.3, 12)
+    fk = mechkin.fk(mech, qv)
+    T = fk.poses["end_effector"][[k for k, s in enumerate(fk.status)
+                                  if s in ("converged", "outside limits")]]
+    assert len(T) >= 8 and "outside limits" in fk.status
+    batch = mechkin.ik(mech, T, weights=W_POS, batch=True, restarts=1)
+    alone = [mechkin.ik(mech, Tk, weights=W_POS, restarts=1)[0] for Tk in T]
+    seq = mechkin.ik(mech, T, weights=W_POS, restarts=1, q_v0=mech.home[iv])
+    assert [r.status.value for r in alone] == [r.status.value for r in batch]
+    assert {r.status.value for r in alone} >= {"ok", "at a limit"}
+    j = mech.dependent
+    for r in batch + alone + seq:
+        assert r.status.value != "singular"
+        x = r.q[j]
+        assert np.all(x >= mech.lower[j] - 1e-9) and np.all(x <= mech.upper[j] + 1e-9), r.q
+        if r.status.value == "at a limit":
+            assert r.at_limit  # names the joint (the driver's or a passive one)
+    assert any(set(r.at_limit) & {mech.joint_names[k] for k in j} for r in batch)
+
+
+def test_cg_golden_from_a_start_beyond_a_passive_limit_returns_within_it(tmp_path):
+    # cg-golden (robust) keeps passive limits in its line searches but used to return its start
+    # when no step improved on it: here a start with finger_joint at 0.7 > 0.5 rad, the target
+    # its own pose. The answer is on the limit (0.5), at a limit, never outside
+    from mechkin.solvers.ik import IkOptions, solve_ik
+
+    mech, _ = load(tmp_path, M.XARM, **{"[0.035465, 0.042039, 0]}, limits: [0, 0.85]":
+                                         "[0.035465, 0.042039, 0]}, limits: [0, 0.5]"})
+    fk = mechkin.fk(mech, [[0.7]])
+    assert fk.status == ["outside limits"]
+    iv, j = mech.independent, mech.dependent
+    r = solve_ik(mech, fk.poses["end_effector"][0], q_v0=fk.q[0, iv], q_w0=fk.q[0, j],
+                 weights=W_POS, options=IkOptions(method="cg-golden"))
+    assert r.status.value == "at a limit" and "finger_joint" in r.at_limit
+    assert np.all(r.q[j] <= mech.upper[j] + 1e-9) and np.all(r.q[j] >= mech.lower[j] - 1e-9)
+    assert abs(r.q[mech.joint_index("finger_joint")] - 0.5) <= 1e-9

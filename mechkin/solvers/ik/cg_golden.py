@@ -209,8 +209,15 @@ def cg_golden(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarra
         k = max_iter
     gn = float(np.sqrt(gp @ gp))
     converged = converged or gn < opts.grad_tol
-    return dict(qv=qv, qw=qw, f=f, iters=k, nev=nev, gnorm=gn, closed=True,
-                converged=converged, hist=hist)
+    closed = True
+    if kern.n_cuts and kern.coupling is None and kern.passive_bounded:
+        # a start beyond a passive limit is kept when no step improves on it: brought onto
+        # the limits like every lm answer (mechkin.solvers.ik.passive)
+        from mechkin.solvers.ik.passive import restore_one
+
+        qv, qw, f, closed = restore_one(kern, qv, qw, T_P, w, f, opts.tol_phi)
+    return dict(qv=qv, qw=qw, f=f if closed else np.inf, iters=k, nev=nev, gnorm=gn,
+                closed=closed, converged=converged, hist=hist)
 
 
 def golden_line(fval, qv: np.ndarray, qw: np.ndarray, d: np.ndarray, f0: float, delta: float,

@@ -49,9 +49,9 @@ def _rescue(mech: Mechanism, T_P: np.ndarray, r: IkResult, start: tuple[np.ndarr
             weights: np.ndarray | None, opts: IkOptions, kernel: IkKernel | None) -> IkResult:
     """A closed-chain lm target still failed: once more as a one-target batch
     (:func:`mechkin.solvers.ik.solve.solve_ik_batch`, whose restarts start from the codebook
-    and from seeded random q_v within the limits, not from a jitter about the guess), kept only
-    when that is ok (pose verified, loops closed, passive joints within their limits); else
-    ``r`` as it was. Measured on the Cassie-like leg with rod limits [-30, 30] deg: 5 of 59
+    and from seeded random q_v within the limits, not from a jitter about the guess), kept when
+    it is better (a better status, then a lower f: the answer a batch would give, issue 24);
+    else ``r`` as it was. Measured on the Cassie-like leg with rod limits [-30, 30] deg: 5 of 59
     targets at within-limit configurations lost alone with the defaults, none after."""
     from mechkin.solvers.ik.solve import solve_ik_batch
 
@@ -60,14 +60,14 @@ def _rescue(mech: Mechanism, T_P: np.ndarray, r: IkResult, start: tuple[np.ndarr
     w = None if weights is None else np.asarray(weights, dtype=np.float64)[None]
     b = solve_ik_batch(mech, np.asarray(T_P, dtype=np.float64)[None], q_v0=start[0],
                        q_w0=start[1], weights=w, options=opts,
-                       frame=None if kernel is None else kernel.frame)
-    if b.status[0] is not IkStatus.OK:
+                       frame=None if kernel is None else kernel.frame, lone_restarts=False)
+    if not better({"status": b.status[0], "f": float(b.f[0])}, vars(r)):
         return r
     q = b.q[0]
     at = tuple(mech.joint_names[j] for j in np.flatnonzero((q <= mech.lower + 1e-9)
                                                              | (q >= mech.upper - 1e-9)))
     it = int(b.iterations[0])
-    return IkResult(q_v=b.q_v[0], q_w=b.q_w[0], q=q, status=IkStatus.OK,
+    return IkResult(q_v=b.q_v[0], q_w=b.q_w[0], q=q, status=b.status[0],
                     position_error=float(b.position_error[0]),
                     orientation_error=float(b.orientation_error[0]), f=float(b.f[0]),
                     grad_norm=0.0, iterations=r.iterations + it,

@@ -200,6 +200,33 @@ def passive_limited_steps(A: np.ndarray, g: np.ndarray, step: np.ndarray, qw: np
 def lm_batch(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
               w: np.ndarray, opts: IkOptions, history: bool = False,
               stop_on_first: bool = False):
+    r""":func:`lm_rows`, then on closed chains every answer brought onto its passive joints'
+    limits (:func:`mechkin.solvers.ik.passive.restore_onto_limits`): the trials lm accepts may
+    close up to PASSIVE_BAND of a range beyond a limit; the answers returned never do. A row
+    that cannot be restored is reported not closed (``closed`` False: never an answer)."""
+    r = lm_rows(kern, q_v0, q_w0, T_P, w, opts, history, stop_on_first)
+    if not (kern.n_cuts and kern.iw.size and kern.coupling is None and kern.passive_bounded):
+        return r
+    from mechkin.solvers.ik.passive import restore_onto_limits
+
+    run = np.isfinite(r["f"]) & r["closed"]
+    q, x, inside = restore_onto_limits(kern, r["q"], T_P, run, opts.tol_phi)
+    if x is not None:
+        moved = np.isfinite(x).all(axis=1)
+        r["q"] = q
+        r["qv"], r["qw"] = q[:, kern.iv], q[:, kern.iw]
+        xz = np.nan_to_num(x)
+        r["f"] = np.where(moved, 0.5 * np.einsum("mi,mi->m", xz, w * xz), r["f"])
+    lost = run & ~inside
+    if lost.any():
+        r["closed"] = r["closed"] & ~lost
+        r["f"] = np.where(lost, np.inf, r["f"])
+    return r
+
+
+def lm_rows(kern: IkKernel, q_v0: np.ndarray, q_w0: np.ndarray, T_P: np.ndarray,
+            w: np.ndarray, opts: IkOptions, history: bool = False,
+            stop_on_first: bool = False):
     r"""Levenberg-Marquardt on the reduced Jacobian for m targets at once.
 
     The residual is kim1995's x (Eq. (8)); for open chains its orientation part is written as a

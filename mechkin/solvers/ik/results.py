@@ -183,33 +183,58 @@ def verify(kern: IkKernel, q: np.ndarray, T_P: np.ndarray
 def status_of(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray, closed: bool,
             converged: bool, opts: IkOptions, grad_norm: float = 0.0
             ) -> tuple[IkStatus, float, float, tuple[str, ...]]:
-    T_E = kern.pose_check(q[None])
-    pe, oe, wpe, woe = pose_and_weighted_errors(T_E, T_P[None], w[None])
+    """The status of one answer q (n,): :func:`statuses_of` of one row."""
+    st, pe, oe, at = statuses_of(kern, q[None], T_P[None], w[None], np.array([closed]),
+                                 np.array([converged]), opts, np.array([grad_norm]))
+    return st[0], float(pe[0]), float(oe[0]), at[0]
+
+
+def statuses_of(kern: IkKernel, q: np.ndarray, T_P: np.ndarray, w: np.ndarray,
+                closed: np.ndarray, converged: np.ndarray, opts: IkOptions,
+                grad_norm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+    """Statuses of answers q (m, n) to targets T_P (m, 4, 4), the same rule for a lone target,
+    a sequence and a batch (issue 24): ``singular`` when the loops do not close; ``ok`` when
+    the weighted errors verified by FK are within the tolerances and every passive joint is
+    within its limits; else ``at a limit`` when a passive joint is outside its limits, when the
+    search is stationary with a joint on a limit (an independent one on its bound, a passive
+    one on its limit) or ran out of iterations with a passive joint on its limit; else
+    ``unreachable`` (stationary) or ``not converged`` (``singular`` with a gradient over 1e6).
+    Returns (m,) statuses, the verified position and orientation errors, and per row the
+    joints on a limit."""
     mech = kern.mech
+    T_E = kern.pose_check(q)
+    pe, oe, wpe, woe = pose_and_weighted_errors(T_E, T_P, w)
     tol_j = 1e-9
-    at = tuple(mech.joint_names[j] for j in
-               np.flatnonzero((q <= mech.lower + tol_j) | (q >= mech.upper - tol_j)))
-    pos, ori = float(pe[0]), float(oe[0])
-    if not closed or not np.all(np.isfinite(q)):
-        return IkStatus.SINGULAR, pos, ori, at
-    if wpe[0] <= opts.tol_pos and woe[0] <= opts.tol_ori:
-        out = passive_outside(mech, q[None])[0]
-        if out:  # the loops close outside a passive joint's limits: not an answer (issue 24)
-            return IkStatus.AT_LIMIT, pos, ori, tuple(dict.fromkeys(at + out))
-        return IkStatus.OK, pos, ori, at
-    if converged:
-        # stationary above tolerance: a limit blocks the descent (at a limit) or the target is
-        # outside the workspace of the mechanism (unreachable)
-        iv = kern.iv
-        on = (q[iv] <= kern.bound_lo + tol_j) | (q[iv] >= kern.bound_hi - tol_j)
-        # a passive joint held at its limit blocks it too (issue 24), as in solve_ik_batch
-        iw = mech.dependent
-        on_w = (q[iw] <= mech.lower[iw] + tol_j) | (q[iw] >= mech.upper[iw] - tol_j)
-        blocked = on.any() or on_w.any() or bool(passive_outside(mech, q[None])[0])
-        return (IkStatus.AT_LIMIT if blocked else IkStatus.UNREACHABLE), pos, ori, at
-    if not np.isfinite(grad_norm) or grad_norm > 1e6:
-        return IkStatus.SINGULAR, pos, ori, at
-    return IkStatus.NOT_CONVERGED, pos, ori, at
+    with np.errstate(invalid="ignore"):
+        on = (q <= mech.lower + tol_j) | (q >= mech.upper - tol_j)
+    out = passive_outside(mech, q)
+    iv, iw = kern.iv, mech.dependent
+    with np.errstate(invalid="ignore"):
+        on_v = ((q[:, iv] <= kern.bound_lo + tol_j) | (q[:, iv] >= kern.bound_hi - tol_j)).any(1)
+        on_w = ((q[:, iw] <= mech.lower[iw] + tol_j)
+                | (q[:, iw] >= mech.upper[iw] - tol_j)).any(axis=1)
+    status = np.empty(q.shape[0], dtype=object)
+    at = []
+    for k in range(q.shape[0]):
+        a = tuple(mech.joint_names[j] for j in np.flatnonzero(on[k]))
+        if not closed[k] or not np.all(np.isfinite(q[k])):
+            st = IkStatus.SINGULAR
+        elif out[k]:  # the loops close outside a passive joint's limits: not an answer
+            st = IkStatus.AT_LIMIT
+            a = tuple(dict.fromkeys(a + out[k]))
+        elif wpe[k] <= opts.tol_pos and woe[k] <= opts.tol_ori:
+            st = IkStatus.OK
+        elif converged[k]:  # stationary above tolerance: a limit blocks the descent, or not
+            st = IkStatus.AT_LIMIT if on_v[k] or on_w[k] else IkStatus.UNREACHABLE
+        elif on_w[k]:  # out of iterations crawling along a passive limit
+            st = IkStatus.AT_LIMIT
+        elif not np.isfinite(grad_norm[k]) or grad_norm[k] > 1e6:
+            st = IkStatus.SINGULAR
+        else:
+            st = IkStatus.NOT_CONVERGED
+        status[k] = st
+        at.append(a)
+    return status, pe, oe, at
 
 
 def passive_outside(mech, q: np.ndarray, tol: float = 1e-9) -> list[tuple[str, ...]]:

@@ -32,6 +32,7 @@ import numpy as np
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik import accel
 from mechkin.solvers.ik.cg_golden import cg_golden
+from mechkin.solvers.ik.closed_batch import better_rows, jitter_pass, random_start
 from mechkin.solvers.ik.kernel import IkKernel, kernel_for, pose_errors
 from mechkin.solvers.ik.lm import LM_MU, MAX_ITER_LM, STALL_WINDOW, lm_batch
 from mechkin.solvers.ik.results import (
@@ -43,6 +44,7 @@ from mechkin.solvers.ik.results import (
     finite,
     passive_outside,
     status_of,
+    statuses_of,
     weighted_errors,
 )
 from mechkin.solvers.ik.seeds import SEED_RESTARTS, seed_rows, seed_starts
@@ -331,6 +333,8 @@ class _RestartStarts:
             start = seed_starts(kern, self.T_P[bad], self.w[bad], ranks=(rank,))
             if start is not None:
                 return start[:, 0]
+        if kern.mech.cuts and kern.iw.size:  # closed chains: the rows' restarts alike
+            return np.tile(random_start(kern, self.seed, k), (bad.size, 1))
         if self.rng is None:
             self.rng = np.random.default_rng(self.seed)
             self.lo = np.where(np.isfinite(kern.lower_v), kern.lower_v, -np.pi)
@@ -428,7 +432,7 @@ def _batch_of_one(mech: Mechanism, kern: IkKernel, T: np.ndarray, q_v0, weights,
 def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None = None,
                    q_w0: np.ndarray | None = None, weights: np.ndarray | None = None,
                    options: IkOptions | None = None, frame: int | None = None,
-                   ) -> IkBatchResult:
+                   lone_restarts: bool = True) -> IkBatchResult:
     r"""Levenberg-Marquardt on many targets at once, vectorized across targets.
 
     Parameters
@@ -442,7 +446,9 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
     options : IkOptions, optional
         ``method`` is ignored (always lm); ``restarts`` re-solve the failed targets together,
         from the nearest codebook poses not tried yet (also when ``q_v0`` is given), then from
-        seeded random starts.
+        seeded random starts (closed chains: restart k from the same joints for every row),
+        then, on closed chains, rows still failed from the lone target's restarts
+        (:mod:`mechkin.solvers.ik.closed_batch`) unless ``lone_restarts`` is False.
 
     Returns
     -------
@@ -513,7 +519,12 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         return np.array([not o for o in passive_outside(mech, qq)], dtype=bool)
 
     e0 = errors(q, T_P, w)
-    if e0 is None:
+    closed_chain = bool(nw and mech.cuts)
+    if closed_chain:  # the status rule of a lone target (issue 24): passive limits included
+        gn = r["gnorm"]
+        st = statuses_of(kern, q, T_P, w, closed, conv, opts, gn)[0]
+        ok = st == IkStatus.OK
+    elif e0 is None:
         ok = check(q, T_P, w) & closed
     else:
         ok = (e0[:, 2] <= opts.tol_pos) & (e0[:, 3] <= opts.tol_ori) & closed
@@ -527,11 +538,30 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         start = starts(k, bad)
         r2 = lm_batch(kern, start, qw0[bad], T_P[bad], w[bad], opts)
         iters[bad] += r2["iters"]
-        lower = r2["f"] < f[bad]
+        if closed_chain:  # a better status first, then a lower f (as a lone target's restarts)
+            st2 = statuses_of(kern, r2["q"], T_P[bad], w[bad], r2["closed"], r2["converged"],
+                              opts, r2["gnorm"])[0]
+            lower = better_rows(st2, r2["f"], st[bad], f[bad])
+        else:
+            lower = r2["f"] < f[bad]
         sel = bad[lower]
         q[sel], f[sel] = r2["q"][lower], r2["f"][lower]
         conv[sel], closed[sel] = r2["converged"][lower], r2["closed"][lower]
-        ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
+        if closed_chain:
+            gn[sel], st[sel] = r2["gnorm"][lower], st2[lower]
+            ok[bad] = st[bad] == IkStatus.OK
+        else:
+            ok[bad] = check(q[bad], T_P[bad], w[bad]) & closed[bad]
+    bad = np.flatnonzero(~ok)
+    if closed_chain and lone_restarts and opts.restarts > 0 and bad.size:
+        r3 = jitter_pass(kern, qv0[bad], qw0[bad], T_P[bad], w[bad], opts)
+        iters[bad] += r3["iters"]
+        st3 = statuses_of(kern, r3["q"], T_P[bad], w[bad], r3["closed"], r3["converged"],
+                          opts, r3["gnorm"])[0]
+        lower = better_rows(st3, r3["f"], st[bad], f[bad])
+        sel = bad[lower]
+        q[sel], f[sel], gn[sel] = r3["q"][lower], r3["f"][lower], r3["gnorm"][lower]
+        conv[sel], closed[sel] = r3["converged"][lower], r3["closed"][lower]
     # joints with limits over a full turn come back at the turn nearest the start (or home)
     ref = np.empty((m, nv))
     ref[:] = mech.home[kern.iv] if q_v0 is None else np.asarray(q_v0, float)
@@ -552,9 +582,12 @@ def solve_ik_batch(mech: Mechanism, T_P: np.ndarray, *, q_v0: np.ndarray | None 
         pe, oe = pose_errors(T_E, T_P)
     else:
         pe, oe = e[:, 0].copy(), e[:, 1].copy()
-    codes = np.where(ok, 0, np.where(~closed, 1, np.where(~passive_ok(q) & closed, 4,
-                                                          np.where(conv, 2, 3))))
-    status = np.array(_STATUS_OF_CODE, dtype=object)[codes]
+    if closed_chain:
+        status = statuses_of(kern, q, T_P, w, closed, conv, opts, gn)[0]
+    else:
+        codes = np.where(ok, 0, np.where(~closed, 1, np.where(~passive_ok(q) & closed, 4,
+                                                              np.where(conv, 2, 3))))
+        status = np.array(_STATUS_OF_CODE, dtype=object)[codes]
     return IkBatchResult(q_v=q[:, kern.iv], q_w=q[:, kern.iw], q=q, status=status,
                          position_error=pe, orientation_error=oe, f=f, iterations=iters,
                          time_s=time.perf_counter() - t0)

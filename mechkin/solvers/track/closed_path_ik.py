@@ -42,6 +42,7 @@ from mechkin.model.continuation import continue_closure
 from mechkin.model.kinematics import forward_kinematics
 from mechkin.model.mechanism import Mechanism
 from mechkin.model.reduced import reduced_jacobian
+from mechkin.model.singularity import crossings_along
 from mechkin.solvers.dynamics.closed_chain import closed_motion, sensitivity
 from mechkin.solvers.track.path_geometry import LineGeometry, PathGeometry, SlerpOrientation
 from mechkin.solvers.track.path_ik import (
@@ -149,6 +150,14 @@ class ClosedHandPathIK(HandPathIK):
                     f"{self.r_tab[k]:.3g} ({name} = {self.tab_full[k, j]:.6g} "
                     f"{mech.joint_unit(j)}); change ik.initial_guess to start on that branch",
                     joint=name)
+
+    def singularities_crossed(self) -> int:
+        """Constraint singularities the assembled path crosses on r in [0, 1]: sign changes of
+        the orientation of the nondimensionalised ``dphi/dq_w`` between consecutive regular
+        points of the continuation table (a change point such as a parallelogram folding flat;
+        :func:`mechkin.model.singularity.crossings_along`)."""
+        sel = (self.r_tab >= 0.0) & (self.r_tab <= 1.0)
+        return int(crossings_along(self.closed_mech, self.tab_full[sel]).sum())
 
     # ---- loop closure -------------------------------------------------------------------------
 

@@ -191,7 +191,11 @@ def _close_rows(mech: Any, qv: np.ndarray, parent: np.ndarray, level: np.ndarray
                 err = np.abs(qq[chk][:, dep] - guess[chk]).max(axis=1)
                 ps = pred_step[chk]
                 jump = (ps > 0) & (err > mode_jump * ps)
-                st["mode_change"][ic] = (mode[ic] != mode[pc]) | jump
+                flip = mode[ic] != mode[pc]
+                st["mode_change"][ic] = flip | jump
+                # the orientation flipped while the joints followed the predictor: a constraint
+                # singularity (change point) crossed on one smooth branch
+                st["crossed"][ic] = flip & (ps > 0) & ~jump & (mode[ic] != 0) & (mode[pc] != 0)
             if tick is not None:
                 tick(idx.size)
 
@@ -233,13 +237,14 @@ def _state(mech: Any, m: int, manipulability: bool) -> dict[str, np.ndarray]:
     return {"q": np.empty((m, mech.n)), "status": np.empty(m, dtype=object),
             "ok": np.zeros(m, dtype=bool), "S": np.zeros((m, len(mech.dependent), nv)),
             "mode": np.zeros(m, dtype=np.int8), "mode_change": np.zeros(m, dtype=bool),
-            "reseeded": np.zeros(m, dtype=bool), "pos": np.empty((m, 3)),
+            "crossed": np.zeros(m, dtype=bool), "reseeded": np.zeros(m, dtype=bool),
+            "pos": np.empty((m, 3)),
             "w": np.zeros(m), "iso": np.zeros(m), "iso_pos": np.zeros(m),
             "J": np.zeros((m, 6, nv)) if manipulability else np.zeros((0, 6, nv))}
 
 
 #: Per-row results of a closure job and of an evaluation job.
-_CLOSE_KEYS = ("q", "status", "ok", "S", "mode", "mode_change", "reseeded")
+_CLOSE_KEYS = ("q", "status", "ok", "S", "mode", "mode_change", "crossed", "reseeded")
 _EVAL_KEYS = ("q", "status", "pos", "w", "iso", "iso_pos", "J")
 
 
@@ -347,7 +352,9 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
     the predictor by more than ``mode_jump`` times the predicted change,
     ``||q_w - q_w^pred||_inf > mode_jump ||q_w^pred - q_w^p||_inf`` (on one smooth branch the
     predictor error is O(step^2), below the O(step) predicted change; dependent-joint units on
-    both sides; not tested where the predictor was capped).
+    both sides; not tested where the predictor was capped). A sign change where the joints
+    followed the predictor is also flagged **crossed**: one smooth branch through a constraint
+    singularity (a change point, where two assembly modes meet).
 
     Parameters
     ----------
@@ -459,7 +466,8 @@ def joint_sweep(mech: Any, q_v: np.ndarray, frame: int, *, chunk: int = 2000,
                    "isotropy_normalized": iso_n, "characteristic_length": L}
     return JointSweepRecord(q_v=qv, q=q, position=pos, status=status, converged=converged,
                             within_limits=within, reachable=reach, seed=parent,
-                            mode_change=st["mode_change"], reseeded=st["reseeded"], **dex_out)
+                            mode_change=st["mode_change"], reseeded=st["reseeded"],
+                            crossed=st["crossed"], **dex_out)
 
 
 def _sweep_in_jobs(mech: Any, qv: np.ndarray, frame: int, st: dict[str, np.ndarray],
