@@ -157,16 +157,16 @@ class IkSpec(Spec):
     of a seeded codebook, then seeded random joints (default 50: >= 99.5 % of random reachable
     PUMA 560 / Panda poses verified; 0 turns them off); ``batch`` solve all targets at once
     (lm, independent starts; auto / analytic: one compiled call); ``solutions``: ``one``
-    (default) the solution of ``method``, or ``all``: also every distinct verified solution of
-    each target (the analytic branches where the mechanism decomposes and the method is auto or
-    analytic: complete, ``complete: true``; the closed form where the mechanism has one;
-    else multi-start lm from ``solution_starts`` seeded starts, ``complete: false``; merged
-    with revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad). ``fixed``: independent
-    joints held at the given values (a 7R arm's redundant joint; auto / analytic), the rest
-    solved analytically. ``base_pose`` (a floating base, with target sets or framed targets):
-    ``free`` (default: the six base joints are unknowns) or a known pose ``{xyz, rpy}`` (file
-    units, URDF rpy) the base is held at while the rest is solved; a set's own ``base_pose``
-    overrides it.
+    (default) the solution of ``method``, or ``all``: also every distinct verified solution of each
+    target (the analytic branches where the mechanism decomposes and the method is auto or analytic:
+    complete, ``complete: true``, except IK-Geo's 1-D search (``analytic`` on 6R arms whose h5 meets
+    h6 without a closed form): ``complete: false``; the closed form where the mechanism has one;
+    else multi-start lm from ``solution_starts`` seeded starts, ``complete: false``; merged with
+    revolute joints modulo 2 pi; verified to 0.1 mm and 1 mrad). ``fixed``: independent joints held
+    at the given values (a 7R arm's redundant joint; auto / analytic), the rest solved analytically.
+    ``base_pose`` (a floating base, with target sets or framed targets): ``free`` (default: the six
+    base joints are unknowns) or a known pose ``{xyz, rpy}`` (file units, URDF rpy) the base is held
+    at while the rest is solved; a set's own ``base_pose`` overrides it.
     """
 
     targets: list[TargetSpec] = Field(default_factory=list)

@@ -309,7 +309,7 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
                  "compiled call).",
         "cg_restart": "Restart period of the conjugate gradient (cg-golden; default: n).",
         "solutions": "one: the solution of method; all: every distinct verified solution "
-                     "(complete for analytic and closed forms).",
+                     "(complete for analytic and closed forms; not for the 1-D search).",
         "solution_starts": "Seeded multi-start count for solutions: all.",
         "fixed": f"Independent joints held at these values {_A} (a 7R arm's redundant "
                  "joint); the rest solved analytically (auto / analytic).",

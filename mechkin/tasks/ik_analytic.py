@@ -122,7 +122,10 @@ def analytic_rows(mech: Mechanism, method: str, W: np.ndarray,
 
         chain = held_chain(mech, fixed)
     else:
-        chain = chain_for(mech, "auto", None)
+        try:
+            chain = chain_for(mech, method, None)
+        except NotDecomposable:
+            chain = None
     if chain is None:
         return np.zeros(len(W), dtype=bool)
     return np.all(W > 0, axis=1)
@@ -153,10 +156,11 @@ def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray,
                  fixed: dict[str, float] | None = None) -> list[IkSolutions]:
     """Every solution within the limits of each target T_P (k, 4, 4), ordered from its guess
     refs (k, n_v): the analytic branches, complete (``complete: true``; with ``fixed``
-    joints held: complete for those values)."""
+    joints held: complete for those values), except the 1-D search's (``complete: false``)."""
     from mechkin.solvers.ik.analytic.classify import analytic_chain, held_chain
 
-    chain = held_chain(mech, fixed) if fixed else analytic_chain(mech)
+    chain = held_chain(mech, fixed) if fixed else \
+        (analytic_chain(mech) or analytic_chain(mech, search=True))
     assert chain is not None
     t0 = time.perf_counter()
     b = analytic_batch(mech, chain, T_P, refs)
@@ -170,7 +174,7 @@ def analytic_all(mech: Mechanism, T_P: np.ndarray, refs: np.ndarray,
     OE, D = b.orientation_error.copy(), b.distance.copy()
     return [IkSolutions(q=Q[i, :n], q_v=QV[i, :n], position_error=PE[i, :n],
                         orientation_error=OE[i, :n], distance=D[i, :n], source="analytic",
-                        starts=8, time_s=per, complete=True)
+                        starts=8, time_s=per, complete=chain.complete)
             for i, n in enumerate(b.count.tolist())]
 
 
@@ -192,7 +196,8 @@ def analytic_structure(mech: Mechanism, fixed: dict[str, float] | None = None) -
                 return None
             kinds = sorted({leg.kind for leg in legs})
             return f"{len(legs)} legs solved one by one ({', '.join(kinds)})"
-        chain = held_chain(mech, fixed) if fixed else analytic_chain(mech)
+        chain = held_chain(mech, fixed) if fixed else \
+            (analytic_chain(mech) or analytic_chain(mech, search=True))  # search: analytic only
     except NotDecomposable:
         return None
     return None if chain is None else str(chain.description)
@@ -253,7 +258,7 @@ def solve_sequence_batched(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far:
     from mechkin.solvers.ik.analytic.dispatch import solve_ik_method
     from mechkin.solvers.ik.analytic.finish import solve_one
     from mechkin.solvers.ik.analytic.sequence import solve_sequence_into
-    from mechkin.solvers.ik.analytic.solve6r import KIND_ARM5, KIND_SCARA
+    from mechkin.solvers.ik.analytic.solve6r import KIND_ARM5, KIND_SCARA, KIND_SEARCH
     from mechkin.solvers.ik.results import IkStatus
     from mechkin.tasks.ik_solve import _out_of_reach
 
@@ -262,7 +267,8 @@ def solve_sequence_batched(mech: Mechanism, T_P: np.ndarray, W: np.ndarray, far:
     chain = chain_for(mech, method, W[0])
     if chain is None and mech.cuts:
         return _legs_sequence_batched(mech, T_P, W, far, method, opts, qv0, qw0, warm)
-    if chain is None or chain.kind in (KIND_SCARA, KIND_ARM5) or not chain.identity:
+    if chain is None or chain.kind in (KIND_SCARA, KIND_ARM5, KIND_SEARCH) or \
+            not chain.identity:
         return None
     from mechkin.solvers.ik.accel import announce
 

@@ -12,6 +12,8 @@
 ``scara``      4-DOF SCARA arms (numpy)
 ``arm5r``      5R arms with three parallel axes (numpy)
 ``arm5w``      5R arms whose last two axes meet: the 6R wrist solver with a virtual q6 = 0
+``search1d``   6R arms whose h5 meets h6 (or h1 meets h2) without a closed form: IK-Geo's
+               1-D search over q4 (``method: analytic`` only; ``complete: false``)
 ``dispatch``   ``method: auto | analytic`` for one pose (IkResult), nearest the guess
 ``api_ik``     the route of mechkin.ik (single, batched, held joints, sampled self-motion)
 ``legs``       legs of parallel mechanisms from the platform pose (U-P-S)

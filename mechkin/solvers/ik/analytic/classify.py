@@ -23,14 +23,19 @@ Recognised (IK-Geo §IV; tested on the forward chain, then on the reversed chain
   :mod:`mechkin.solvers.ik.analytic.scara`; ``pos_kind`` is the prismatic joint's place);
 * prismatic joints among the first three, with a spherical wrist: R-R-P with h1 meeting h2
   (a Stanford arm, a U-P-S leg), P-P-P (gantry), R-P-P (cylindrical), P-R-R with h2, h3
-  meeting or parallel.
+  meeting or parallel;
+* only with ``search`` (``method: analytic``): any other 6R whose h5 meets h6 (e.g. two
+  intersecting pairs, h1 meeting h2 and h5 meeting h6), or reversed h1 meets h2: IK-Geo's
+  1-D search (:mod:`mechkin.solvers.ik.analytic.search1d`; ``complete`` False) when it
+  solves four seeded poses (Subproblem 5 degenerates on some axes, e.g. the Kinova Jaco's).
 
 Anything else (an offset wrist such as the Kinova Jaco's, other prismatic joints,
 other joint counts, a closed chain) raises :class:`NotDecomposable` naming the axes that break it.
 
 Design
 ------
-Part of :mod:`mechkin.solvers.ik.analytic`; imports numpy, :mod:`mechkin.model`; no numba.
+Part of :mod:`mechkin.solvers.ik.analytic`; imports numpy, :mod:`mechkin.model`; the 1-D search
+class is accepted only after its compiled search solves four seeded poses.
 """
 
 from __future__ import annotations
@@ -42,10 +47,12 @@ import numpy as np
 from mechkin.errors import ModelError
 from mechkin.model.mechanism import Mechanism
 from mechkin.solvers.ik.analytic.arm5w import WRIST5_BASE, virtual_six
+from mechkin.solvers.ik.analytic.search1d import SEARCH_INT56
 from mechkin.solvers.ik.analytic.solve6r import (
     KIND_ARM5,
     KIND_PAR234,
     KIND_SCARA,
+    KIND_SEARCH,
     KIND_SPHERICAL,
     PAR_GENERAL,
     PAR_MEET56,
@@ -102,6 +109,8 @@ class AnalyticChain:
         The independent joints are every joint of the mechanism, in order (q is q_v).
     fixed_cols, fixed_values : (k,)
         Columns of q_v held (``fixed``) and their values.
+    complete : bool
+        The solver's list is proved to be every solution (False for the 1-D search).
     """
 
     kind: int
@@ -125,6 +134,7 @@ class AnalyticChain:
     all_joints: bool = False
     fixed_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     fixed_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    complete: bool = True
 
 
 def zero_config(mech: Mechanism, frame: int, fixed: dict[int, float] | None = None
@@ -205,6 +215,46 @@ def _try(H: np.ndarray, P: np.ndarray, tol: float) -> tuple[int, int, np.ndarray
     return None
 
 
+def _search_works(H: np.ndarray, P: np.ndarray, M: np.ndarray, o: np.ndarray) -> bool:
+    """Whether the 1-D search finds the generating joints of 4 seeded random poses (Subproblem
+    5 has degenerate geometries, e.g. the Kinova Jaco's axes, where it finds nothing)."""
+    from mechkin.solvers.ik.analytic.search1d import N_SAMPLES, search_int56
+
+    rng = np.random.default_rng(0)
+    out = np.empty((16, 6))
+    for q in rng.uniform(-np.pi, np.pi, (4, 6)):
+        T = np.eye(4)
+        for h, p, t in zip(H, P, q, strict=True):
+            K = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
+            R = np.eye(3) + np.sin(t) * K + (1 - np.cos(t)) * K @ K
+            E = np.eye(4)
+            E[:3, :3], E[:3, 3] = R, p - R @ p
+            T = T @ E
+        T = T @ M
+        n = search_int56(H, P, M, o, T, np.zeros(6), N_SAMPLES, out)
+        d = (out[:n] - q + np.pi) % (2 * np.pi) - np.pi
+        if n == 0 or np.abs(d).max(axis=1).min() > 1e-6:
+            return False
+    return True
+
+
+def _try_search(H: np.ndarray, P: np.ndarray, M: np.ndarray, tol: float
+                ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
+    """h5 meets h6 and no two of h1..h3 parallel (no closed form): IK-Geo's 1-D search over
+    q4 (:mod:`mechkin.solvers.ik.analytic.search1d`), or None."""
+    o56 = _meet(H[4], P[4], H[5], P[5], tol)
+    if o56 is None or _parallel(H[0], H[1]) or _parallel(H[1], H[2]):
+        return None  # Subproblem 5 in (q1, q2, q3) takes no two parallel axes
+    if not _search_works(H, P, M, o56):
+        return None
+    pairs = [f"h{i + 1} meets h{i + 2}" for i in range(3)
+             if _meet(H[i], P[i], H[i + 1], P[i + 1], tol) is not None]
+    what = ("two intersecting pairs, " + pairs[0] + ", h5 meets h6") if pairs else \
+        "h5 meets h6"
+    return (KIND_SEARCH, SEARCH_INT56, o56, o56,
+            what + " (1-D search over q4, IK-Geo IK_2_intersecting; not proved complete)")
+
+
 def _try_prismatic(H: np.ndarray, P: np.ndarray, s3: tuple[int, int, int], tol: float
                    ) -> tuple[int, int, np.ndarray, np.ndarray, str] | None:
     """A chain with prismatic joints among the first three and a spherical wrist (axes 4-6
@@ -256,11 +306,13 @@ def _why(names: list[str], H: np.ndarray, P: np.ndarray) -> str:
 
 
 def classify(mech: Mechanism, frame: int | None = None,
-             fixed: dict[int, float] | None = None, check_independent: bool = True
-             ) -> AnalyticChain:
+             fixed: dict[int, float] | None = None, check_independent: bool = True,
+             search: bool = False) -> AnalyticChain:
     """The subproblem decomposition of ``mech``'s serial path to ``frame`` (default {E}),
     with the ``fixed`` {joint index: value} joints held (e.g. a 7R arm's redundant joint: the
-    remaining 6R is solved; kim1995's q_v minus the fixed joints).
+    remaining 6R is solved; kim1995's q_v minus the fixed joints). ``search``: a 6R chain
+    without a closed form whose h5 meets h6 (or h1 meets h2, reversed) is taken by the 1-D
+    search (``KIND_SEARCH``, ``complete`` False).
 
     Raises
     ------
@@ -317,6 +369,12 @@ def classify(mech: Mechanism, frame: int | None = None,
         found = _try(Hr, Pr, tol)
         if found is not None:
             rev, H, P, M = True, Hr, Pr, Mi
+        if found is None and search:
+            found = _try_search(H, P, M, tol)
+            if found is None:
+                found = _try_search(Hr, Pr, Mi, tol)
+                if found is not None:
+                    rev, H, P, M = True, Hr, Pr, Mi
     if found is None:
         held = "".join(f" ({mech.joint_names[j]} held)" for j in fixed)
         raise NotDecomposable(_why(names, Hf, Pf) + held)
@@ -340,6 +398,7 @@ def classify(mech: Mechanism, frame: int | None = None,
                          fixed_values=np.array([fixed[j] for j in fixed], dtype=float),
                          limits=(mech.lower[iv].copy(), mech.upper[iv].copy()),
                          limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()),
+                         complete=kind != KIND_SEARCH,
                          description=desc + (" (reversed chain: at the base)" if rev else ""))
 
 
@@ -400,16 +459,17 @@ def _arm5(mech: Mechanism, joints: np.ndarray, names: list[str], H: np.ndarray,
                          limits_list=(mech.lower[iv].tolist(), mech.upper[iv].tolist()))
 
 
-def analytic_chain(mech: Mechanism) -> AnalyticChain | None:
+def analytic_chain(mech: Mechanism, search: bool = False) -> AnalyticChain | None:
     """:func:`classify` of {E}'s path, cached on the Mechanism; None when it does not
-    decompose."""
-    cache = mech.__dict__.get("_analytic_chain", ())
+    decompose (``search``: also the 1-D search classes, ``method: analytic`` only)."""
+    key = "_search_chain" if search else "_analytic_chain"
+    cache = mech.__dict__.get(key, ())
     if cache == ():
         try:
-            cache = classify(mech)
+            cache = classify(mech, search=search)
         except NotDecomposable:
             cache = None
-        object.__setattr__(mech, "_analytic_chain", cache)
+        object.__setattr__(mech, key, cache)
     return cache
 
 

@@ -7,10 +7,11 @@ then :func:`mechkin.solvers.ik.analytic.finish.finish_batch` puts revolute joint
 representative nearest the guess within the limits, keeps the branches within
 :data:`TOL_POS` / :data:`TOL_ORI`, orders them from the guess and merges coinciding ones.
 
-For a chain that decomposes the list is complete: every solution of the pose within the
-limits, one per branch (a singular pose has a continuum; its representative keeps the free
-joint at its guess: wrist q5 = 0 keeps q4 and solves the sum q4 + q6, a wrist centre on the
-first axis keeps q1).
+For a chain that decomposes in closed form the list is complete (the 1-D search's,
+:mod:`mechkin.solvers.ik.analytic.search1d`, is not proved so: ``chain.complete``): every
+solution of the pose within the limits, one per branch (a singular pose has a continuum; its
+representative keeps the free joint at its guess: wrist q5 = 0 keeps q4 and solves the sum
+q4 + q6, a wrist centre on the first axis keeps q1).
 
 Design
 ------
@@ -38,9 +39,11 @@ from mechkin.solvers.ik.analytic.finish import (
     solve_one,
 )
 from mechkin.solvers.ik.analytic.scara import scara_branches
+from mechkin.solvers.ik.analytic.search1d import MAX_SOLUTIONS, N_SAMPLES, search_batch
 from mechkin.solvers.ik.analytic.solve6r import (
     KIND_ARM5,
     KIND_SCARA,
+    KIND_SEARCH,
     MAX_BRANCHES,
     solve_batch,
 )
@@ -48,7 +51,7 @@ from mechkin.solvers.ik.analytic.solve6r import (
 
 @dataclass(frozen=True)
 class AnalyticBatch:
-    """Every solution of m targets, padded to 8 per target.
+    """Every solution of m targets, padded to 8 per target (16 for the 1-D search).
 
     q_v : (m, 8, n_v) independent joints (in ``mech.independent`` order), the solutions of
     target i in rows ``[:count[i]]``, nearest the reference first; position_error,
@@ -92,7 +95,7 @@ def analytic_batch(mech: Mechanism, chain: AnalyticChain, Ts: np.ndarray, ref: n
     announce(solve_finish, "analytic IK (finish.solve_finish)")
     if not chain.identity:
         ref = ref[..., chain.order]
-    if chain.kind in (KIND_SCARA, KIND_ARM5):
+    if chain.kind in (KIND_SCARA, KIND_ARM5, KIND_SEARCH):
         return _numpy_batch(chain, Ts, ref, tol_pos, tol_ori, same_tol)
     if m == 1 and ref.ndim == 1 and (tol_pos, tol_ori, same_tol) == (TOL_POS, TOL_ORI,
                                                                       SAME_TOL):
@@ -134,6 +137,13 @@ def _numpy_batch(chain: AnalyticChain, Ts: np.ndarray, ref: np.ndarray, tol_pos:
     ref = np.ascontiguousarray(np.broadcast_to(ref, (m, nv)))
     if chain.kind == KIND_SCARA:
         q_ch, count, err = scara_branches(chain.H, chain.P, chain.M, chain.pos_kind, Ts)
+    elif chain.kind == KIND_SEARCH:
+        q_ch = np.full((m, MAX_SOLUTIONS, 6), np.nan)
+        count = np.zeros(m, dtype=np.int64)
+        err = np.full((m, MAX_SOLUTIONS, 2), np.inf)
+        search_batch(chain.H, chain.P, chain.M, chain.point, chain.Hf, chain.Pf, chain.Mf,
+                     chain.reversed, Ts, np.ascontiguousarray(ref), N_SAMPLES, q_ch, count,
+                     err)
     elif chain.pos_kind >= WRIST5_BASE:
         q_ch, count, err = wrist5_branches(chain.H, chain.P, chain.M, chain.pos_kind,
                                            chain.point, chain.point2, Ts, ref)

@@ -78,6 +78,7 @@ KIND_SPHERICAL = 0
 KIND_PAR234 = 1
 KIND_SCARA = 2  # mechkin.solvers.ik.analytic.scara (numpy)
 KIND_ARM5 = 3  # mechkin.solvers.ik.analytic.arm5r (numpy)
+KIND_SEARCH = 4  # mechkin.solvers.ik.analytic.search1d (1-D search, not proved complete)
 POS_PAR23 = 0
 POS_INT12 = 1
 POS_INT12_P = 2  # h1 meets h2 at o, joint 3 prismatic (a U-P-S leg)
