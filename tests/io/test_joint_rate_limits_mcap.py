@@ -75,4 +75,5 @@ def test_mcap_urdf_carries_the_mechanisms_limits(runs):
         text = strict_check(runs[name][1])["msgs"]["/robot_description"][0][1]["data"]
         got = {j.name: (j.limit.effort, j.limit.velocity)
                for j in load_urdf(text).robot.joints if j.limit is not None}
-        assert [got[q] for q in ("q1", "q2", "q3")] == pytest.approx(want, rel=1e-15), name
+        flat = [v for q in ("q1", "q2", "q3") for v in got[q]]  # (effort, velocity) per joint
+        assert flat == pytest.approx([v for pair in want for v in pair], rel=1e-15), name
