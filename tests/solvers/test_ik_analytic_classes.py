@@ -36,6 +36,7 @@ from mechkin.model.kinematics import frame_poses
 from mechkin.solvers.ik.analytic.classify import classify
 from mechkin.solvers.ik.analytic.solutions import analytic_batch
 from mechkin.solvers.ik.analytic.subproblems56 import quartic_roots_pm1, sp5, sp6
+from tests.dh_arms import dh_arm_yaml
 
 FK_TOL = 1e-10  # [m] and entries of R
 NEAR_SINGULAR = 1e-3  # [rad] |sin q5| below which a pose counts as near the wrist singularity
@@ -76,17 +77,7 @@ DESCRIPTION = {
 
 
 def mech_yaml(name: str, limits: tuple[float, float] = (-180, 180)) -> str:
-    lines = [f"name: {name}", "units: {length: m, angle: deg}", "dh_convention: standard",
-             "links:", "  - name: base"]
-    lines += [f"  - name: l{i + 1}" for i in range(5)]
-    lines += ["  - name: l6", "    frames:", "      - {name: tool, xyz: [0, 0, 0]}", "joints:"]
-    parents = ["base"] + [f"l{i + 1}" for i in range(5)]
-    for i, (a, al, d) in enumerate(NEW[name]):
-        lines.append(f"  - {{name: q{i + 1}, type: revolute, parent: {parents[i]}, "
-                     f"child: l{i + 1}, dh: {{a: {a}, alpha: {al}, d: {d}}}, "
-                     f"limits: [{limits[0]}, {limits[1]}]}}")
-    lines += ["independent: [q1, q2, q3, q4, q5, q6]", "end_effector: tool"]
-    return "\n".join(lines) + "\n"
+    return dh_arm_yaml(name, NEW[name], limits)
 
 
 @pytest.fixture(scope="module")

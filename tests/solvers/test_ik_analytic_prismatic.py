@@ -28,6 +28,7 @@ from mechkin.model.kinematics import frame_poses
 from mechkin.solvers.ik.all_solutions import multistart_all
 from mechkin.solvers.ik.analytic.classify import NotDecomposable, classify
 from mechkin.solvers.ik.analytic.solutions import analytic_batch
+from tests.dh_arms import dh_arm_yaml
 
 FK_TOL = 1e-10
 WRIST = [("R", 0, -90, 0, 0), ("R", 0, 90, 0, 0), ("R", 0, 0, 0.1, 0)]
@@ -52,18 +53,7 @@ DESCRIPTION = {
 
 
 def mech_yaml(name: str) -> str:
-    lines = [f"name: {name}", "units: {length: m, angle: deg}", "dh_convention: standard",
-             "links:", "  - name: base"]
-    lines += [f"  - name: l{i + 1}" for i in range(5)]
-    lines += ["  - name: l6", "    frames:", "      - {name: tool, xyz: [0, 0, 0]}", "joints:"]
-    parents = ["base"] + [f"l{i + 1}" for i in range(5)]
-    for i, (t, a, al, d, th) in enumerate(ARMS[name]):
-        typ, lim = ("revolute", "[-180, 180]") if t == "R" else ("prismatic", "[-0.5, 0.5]")
-        lines.append(f"  - {{name: q{i + 1}, type: {typ}, parent: {parents[i]}, "
-                     f"child: l{i + 1}, dh: {{a: {a}, alpha: {al}, d: {d}, theta: {th}}}, "
-                     f"limits: {lim}}}")
-    lines += ["independent: [q1, q2, q3, q4, q5, q6]", "end_effector: tool"]
-    return "\n".join(lines) + "\n"
+    return dh_arm_yaml(name, ARMS[name])
 
 
 @pytest.fixture(scope="module")
@@ -143,17 +133,7 @@ ARMS5 = {"arm5_par23": [(0, 90, 0.4), (0.4, 0, 0), (0.05, 90, 0), (0, -90, 0.35)
 
 
 def arm5_yaml(name: str) -> str:
-    lines = [f"name: {name}", "units: {length: m, angle: deg}", "dh_convention: standard",
-             "links:", "  - name: base"]
-    lines += [f"  - name: l{i + 1}" for i in range(4)]
-    lines += ["  - name: l5", "    frames:", "      - {name: tool, xyz: [0, 0, 0]}", "joints:"]
-    parents = ["base"] + [f"l{i + 1}" for i in range(4)]
-    for i, (a, al, d) in enumerate(ARMS5[name]):
-        lines.append(f"  - {{name: q{i + 1}, type: revolute, parent: {parents[i]}, "
-                     f"child: l{i + 1}, dh: {{a: {a}, alpha: {al}, d: {d}}}, "
-                     "limits: [-180, 180]}")
-    lines += ["independent: [q1, q2, q3, q4, q5]", "end_effector: tool"]
-    return "\n".join(lines) + "\n"
+    return dh_arm_yaml(name, ARMS5[name])
 
 
 @pytest.mark.parametrize("name", list(ARMS5))

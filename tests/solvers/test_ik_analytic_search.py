@@ -28,6 +28,7 @@ from mechkin.model.kinematics import frame_poses
 from mechkin.solvers.ik.analytic.classify import analytic_chain, classify
 from mechkin.solvers.ik.analytic.solutions import analytic_batch
 from mechkin.solvers.ik.analytic.solve6r import KIND_SEARCH
+from tests.dh_arms import dh_arm_yaml
 
 FK_TOL = 1e-10
 ARMS = {
@@ -39,16 +40,7 @@ ARMS = {
 
 
 def arm_yaml(name: str) -> str:
-    lines = [f"name: {name}", "units: {length: m, angle: deg}", "dh_convention: standard",
-             "links:", "  - name: base"] + [f"  - name: l{i + 1}" for i in range(5)]
-    lines += ["  - name: l6", "    frames:", "      - {name: tool, xyz: [0, 0, 0]}", "joints:"]
-    parents = ["base"] + [f"l{i + 1}" for i in range(5)]
-    for i, (a, al, d) in enumerate(ARMS[name]):
-        lines.append(f"  - {{name: q{i + 1}, type: revolute, parent: {parents[i]}, "
-                     f"child: l{i + 1}, dh: {{a: {a}, alpha: {al}, d: {d}}}, "
-                     "limits: [-180, 180]}")
-    lines += ["independent: [q1, q2, q3, q4, q5, q6]", "end_effector: tool"]
-    return "\n".join(lines) + "\n"
+    return dh_arm_yaml(name, ARMS[name])
 
 
 @pytest.fixture(scope="module")
